@@ -1,0 +1,18 @@
+"""The `crashscene` command: one typer app, one module per command group.
+
+Each module registers its commands on `app`; this file only wires them.
+Modules import their stage lazily inside the command, so `crashscene --help`
+stays fast and an optional backend's import error only hits its own command.
+"""
+from __future__ import annotations
+
+import typer
+
+app = typer.Typer(no_args_is_help=True, add_completion=False, pretty_exceptions_enable=False,
+                  help="Turn crash reports into executable ADS test scenarios, simulate them and check traffic rules.")
+
+from crashscene.cli import dsl_commands  # noqa: E402,F401  (registers validate, schema)
+
+
+def main() -> None:
+    app()

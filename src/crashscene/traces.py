@@ -1,0 +1,113 @@
+"""Trace columns: the contract between simulators (any backend) and the monitor.
+
+A run directory holds, as Parquet (pyarrow):
+- `traces.parquet`: one row per (variation, actor, step), columns TRACE_SCHEMA.
+- `actors.parquet`: one row per (variation, actor), columns ACTOR_SCHEMA.
+- `collisions.parquet`: one row per contact event, columns COLLISION_SCHEMA
+  (the simulator reports contact; the monitor classifies it).
+- `variations.parquet`: one row per variation, columns VARIATION_SCHEMA.
+Units are SI, angles yaw [rad] (0 = +x, counter-clockwise), as in `crashscene.scene`.
+Columns the producing backend cannot know are null (NaN for floats) and the
+monitor treats the rules that need them as not_applicable.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+SIGNAL_STATES = ("none", "green", "yellow", "red")  # state of the signal governing the actor's next stop line
+CONTROLS = ("none", "signal", "stop", "yield")  # control device of the approach the actor is on
+MANEUVERS = ("none", "straight", "left", "right", "u_turn")  # at the current/next junction
+CENTERLINE_MARKERS = ("none", "broken_line", "solid_line", "double_solid_line", "solid_and_broken_line",
+                      "not_mentioned")
+
+TRACE_SCHEMA = pa.schema([
+    ("variation", pa.int32()),
+    ("actor", pa.string()),          # DSL role: ego, npc1, ...
+    ("step", pa.int32()),
+    ("t", pa.float64()),             # [s]
+    ("x", pa.float64()),             # [m] centre
+    ("y", pa.float64()),             # [m]
+    ("yaw", pa.float64()),           # [rad]
+    ("speed", pa.float64()),         # [m/s] >= 0
+    ("accel", pa.float64()),         # [m/s2] longitudinal, negative when braking
+    ("lat_accel", pa.float64()),     # [m/s2] lateral (speed * yaw rate)
+    ("lane_id", pa.string()),        # lane uid under the actor's centre, null off-road
+    ("route_s", pa.float64()),       # [m] station along the actor's planned route
+    ("opposing_lane", pa.bool_()),   # centre is in a lane whose direction opposes the actor's travel
+    ("off_road", pa.bool_()),        # centre is outside every drivable lane
+    ("centerline_marker", pa.string()),   # CENTERLINE_MARKERS of the road the actor is on
+    ("centerline_intrusion", pa.float64()),  # [m] how far the footprint's farthest corner is beyond the centre line (<=0: not beyond)
+    ("in_junction", pa.bool_()),     # centre inside a junction area
+    ("junction_id", pa.string()),    # junction the actor is in or approaching, null if none
+    ("maneuver", pa.string()),       # MANEUVERS: the actor's manoeuvre at that junction
+    ("control", pa.string()),        # CONTROLS of the actor's approach to that junction
+    ("signal", pa.string()),         # SIGNAL_STATES governing the actor's stop line
+    ("stop_line_dist", pa.float64()),  # [m] front bumper to that stop line along the route; >0 before, <0 past; NaN if none
+    ("speed_limit", pa.float64()),   # [m/s] posted limit of the lane, NaN if unknown
+    ("lane_change", pa.bool_()),     # executing a lane change this step
+    ("target_lane_id", pa.string()), # lane being changed into, null otherwise
+    ("lost_control", pa.bool_()),    # the actor is skidding / out of control
+])
+
+ACTOR_SCHEMA = pa.schema([
+    ("variation", pa.int32()),
+    ("actor", pa.string()),
+    ("label", pa.string()),
+    ("type", pa.string()),           # car | truck | motorcycle
+    ("behavior", pa.string()),       # DSL behavior token
+    ("is_ads", pa.bool_()),          # driven by the ADS under test in this run
+    ("length", pa.float64()),        # [m]
+    ("width", pa.float64()),         # [m]
+    ("dispositions", pa.list_(pa.string())),  # oracle codes injected into this actor's driver
+])
+
+COLLISION_SCHEMA = pa.schema([
+    ("variation", pa.int32()),
+    ("t", pa.float64()),             # [s] first contact
+    ("actor_a", pa.string()),
+    ("actor_b", pa.string()),
+    ("speed_a", pa.float64()),       # [m/s]
+    ("speed_b", pa.float64()),
+    ("yaw_a", pa.float64()),         # [rad]
+    ("yaw_b", pa.float64()),
+    ("x", pa.float64()),             # [m] contact point estimate
+    ("y", pa.float64()),
+])
+
+VARIATION_SCHEMA = pa.schema([
+    ("variation", pa.int32()),
+    ("seed", pa.int64()),
+    ("scenario_hash", pa.string()),
+    ("valid", pa.bool_()),
+    ("invalid_reason", pa.string()),  # null when valid
+    ("dt", pa.float64()),            # [s]
+    ("steps", pa.int32()),
+    ("params", pa.string()),         # JSON object of sampled parameters
+])
+
+TABLES = {"traces": TRACE_SCHEMA, "actors": ACTOR_SCHEMA, "collisions": COLLISION_SCHEMA,
+          "variations": VARIATION_SCHEMA}
+
+
+def write_table(run_dir: str | Path, name: str, table: pa.Table) -> Path:
+    """Write one of TABLES to `run_dir/<name>.parquet`, cast to its schema (column order fixed)."""
+    schema = TABLES[name]
+    table = table.select(schema.names).cast(schema)
+    path = Path(run_dir) / f"{name}.parquet"
+    pq.write_table(table, path, compression="zstd")
+    return path
+
+
+def read_table(run_dir: str | Path, name: str) -> pa.Table:
+    """Read `run_dir/<name>.parquet`, checking it carries the contract's columns."""
+    path = Path(run_dir) / f"{name}.parquet"
+    if not path.exists():
+        raise FileNotFoundError(f"{path}: no {name} table in this run directory")
+    table = pq.read_table(path)
+    missing = [col for col in TABLES[name].names if col not in table.column_names]
+    if missing:
+        raise ValueError(f"{path}: missing columns {missing}; expected {TABLES[name].names}")
+    return table.select(TABLES[name].names)
