@@ -1,0 +1,22 @@
+"""Simulate stage: run sampled scenes on a backend (embedded batched numpy by default) and write traces.
+
+Public entry points: `simulate_scenario` (pipeline), the backend interface in
+`crashscene.simulate.backend`.
+"""
+from crashscene.simulate.backend import (
+    BackendUnavailable,
+    BatchResult,
+    SceneResult,
+    SimulationError,
+    SimulationRequest,
+    SimulationSettings,
+    Simulator,
+    backend_names,
+    create_simulator,
+    get_simulator_class,
+    register_backend,
+)
+
+__all__ = ["BackendUnavailable", "BatchResult", "SceneResult", "SimulationError", "SimulationRequest",
+           "SimulationSettings", "Simulator", "backend_names", "create_simulator", "get_simulator_class",
+           "register_backend"]

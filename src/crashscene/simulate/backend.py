@@ -1,0 +1,205 @@
+"""The backend interface of the simulate stage, and the registry of backends by name.
+
+As in Scenic's `Simulator`/`Simulation`: a `Simulator` is long-lived (a
+connection, a compiled road network, a worker pool) and is created once per
+backend and options; `Simulator.simulate(request)` runs one batch of sampled
+scenes and returns an explicit `BatchResult` holding the four tables of
+`crashscene.traces` (traces, actors, collisions, variations).
+
+A backend implements `Simulator.simulate` (or, when it runs scenes one by one,
+`Simulator.simulate_scene` and lets the default `simulate` loop); everything
+else (which actor is the ADS, which dispositions an actor gets, table layout)
+is shared here and in `crashscene.simulate.tables`, so every backend yields
+rows the monitor reads the same way.
+
+Backends are found by name (`get_simulator_class("embedded")`); optional ones
+(`carla`) are imported lazily so a missing extra only fails its own backend,
+with a `BackendUnavailable` error that says what to install.
+"""
+from __future__ import annotations
+
+import importlib
+import time
+from abc import ABC
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import ClassVar, Literal
+
+import pyarrow as pa
+from pydantic import BaseModel, ConfigDict, Field
+
+from crashscene.dsl import Scenario
+from crashscene.scene import SampledScene
+
+Mode = Literal["test", "reproduce"]
+MODES: tuple[str, ...] = ("test", "reproduce")
+
+DEFAULT_DT = 0.1  # [s] 10 Hz
+DEFAULT_HORIZON = 20.0  # [s]
+
+
+class SimulationError(Exception):
+    """Any failure of the simulate stage; the message says what, where and what is allowed."""
+
+
+class BackendUnavailable(SimulationError):
+    """A backend whose optional dependency or server is missing (e.g. `carla`)."""
+
+
+class SimulationSettings(BaseModel):
+    """Options shared by every backend (a backend may ignore those it cannot honour, and says so)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    dt: float = Field(default=DEFAULT_DT, gt=0, le=1.0, description="[s] simulation step")
+    horizon: float = Field(default=DEFAULT_HORIZON, gt=0, le=600.0, description="[s] simulated time per variation")
+    mode: Mode = Field(default="test", description="test: the ego role is the ADS under test; "
+                                                   "reproduce: every actor replays its DSL behaviour")
+    ego_role: str = Field(default="ego", description="DSL role handed to the ADS under test (test mode)")
+    ads: str | None = Field(default=None, description="'package.module:Class' of a user driver for the ADS, "
+                                                      "None = the reference ADS")
+    ads_params: dict[str, float | int | str | bool] = Field(default_factory=dict,
+                                                           description="overrides of the ADS driver's parameters")
+    carla_host: str = Field(default="127.0.0.1", description="CARLA server host (carla backend only)")
+    carla_port: int = Field(default=2000, ge=1, le=65535, description="CARLA server port (carla backend only)")
+
+    @property
+    def steps(self) -> int:
+        """Number of simulated steps after the initial state (the trace has steps + 1 rows per actor)."""
+        return int(round(self.horizon / self.dt))
+
+
+@dataclass(frozen=True)
+class SimulationRequest:
+    """One batch to simulate: the scenario, its rendered program and map, and the sampled scenes.
+
+    `scenes` may be any contiguous chunk [first, first + n) of a campaign; a
+    backend must make variation i depend only on (scenario, seed, i), never on
+    the other scenes of the batch.
+    """
+
+    scenario: Scenario
+    scenes: Sequence[SampledScene]
+    map_file: Path
+    settings: SimulationSettings = field(default_factory=SimulationSettings)
+    program: str | None = None  # Scenic source of the rendered program (newtonian/carla backends)
+    progress: Callable[[int], None] | None = None  # called with the number of variations just finished
+
+
+@dataclass
+class BatchResult:
+    """What one batch produced: the tables of `crashscene.traces`, keyed by table name."""
+
+    backend: str
+    tables: dict[str, pa.Table]
+    seconds: float = 0.0  # [s] wall-clock time of the simulation proper
+    notes: list[str] = field(default_factory=list)  # e.g. "newtonian: no traffic-light states"
+
+
+@dataclass
+class SceneResult:
+    """What a one-scene-at-a-time backend returns for one variation.
+
+    `traces` maps TRACE_SCHEMA column names to equal-length lists or arrays
+    (one entry per actor and step); missing columns are filled with nulls/NaN,
+    so a backend fills what it knows. `variation` is taken from the scene.
+    """
+
+    traces: dict[str, Sequence]
+    collisions: list[dict] = field(default_factory=list)  # COLLISION_SCHEMA rows
+    valid: bool = True
+    invalid_reason: str | None = None
+
+
+class Simulator(ABC):
+    """A long-lived simulator: create once, call `simulate` per batch, `close` at the end.
+
+    Subclasses set `name` and override `simulate` (batched engines), or implement
+    `simulate_scene` for engines that only run one scene at a time. Use
+    `tables.is_ads(role, settings)` and `tables.driver_dispositions(actor, settings)`
+    to decide who is the ADS and which oracle codes an actor's driver carries.
+    """
+
+    name: ClassVar[str] = "abstract"
+
+    def __init__(self, settings: SimulationSettings | None = None):
+        self.settings = settings or SimulationSettings()
+
+    def simulate(self, request: SimulationRequest) -> BatchResult:
+        """Simulate every scene of `request` and return the four tables.
+
+        The default runs `simulate_scene` on each scene in turn; batched backends override it.
+        """
+        from crashscene.simulate.tables import assemble_scene_results
+
+        check_ego_role(request.scenario, self.settings)
+        start = time.perf_counter()
+        results = []
+        for scene in request.scenes:
+            results.append(self.simulate_scene(request, scene))
+            if request.progress is not None:
+                request.progress(1)
+        tables = assemble_scene_results(request.scenes, results, self.settings)
+        return BatchResult(backend=self.name, tables=tables, seconds=time.perf_counter() - start)
+
+    def simulate_scene(self, request: SimulationRequest, scene: SampledScene) -> SceneResult:
+        """Simulate one scene (backends that run scenes one at a time implement this)."""
+        raise NotImplementedError(f"backend {self.name!r} implements neither simulate nor simulate_scene")
+
+    def close(self) -> None:
+        """Release connections, pools, caches."""
+
+    def __enter__(self) -> Simulator:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+# name -> "module:Class"; imported on first use so optional backends cost nothing until chosen.
+_REGISTRY: dict[str, str] = {
+    "embedded": "crashscene.simulate.embedded.simulator:EmbeddedSimulator",
+    "newtonian": "crashscene.simulate.newtonian:NewtonianSimulator",
+    "carla": "crashscene.simulate.carla:CarlaSimulator",
+}
+
+
+def backend_names() -> list[str]:
+    """Names accepted by `--backend`."""
+    return list(_REGISTRY)
+
+
+def register_backend(name: str, target: str | type[Simulator]) -> None:
+    """Register a backend under `name`: a Simulator subclass or a 'module:Class' string."""
+    if isinstance(target, type):
+        target = f"{target.__module__}:{target.__qualname__}"
+    _REGISTRY[name] = target
+
+
+def get_simulator_class(name: str) -> type[Simulator]:
+    """The Simulator class registered as `name`; SimulationError if unknown, BackendUnavailable if not importable."""
+    if name not in _REGISTRY:
+        raise SimulationError(f"unknown backend {name!r}; allowed: {', '.join(_REGISTRY)}")
+    module_name, _, class_name = _REGISTRY[name].partition(":")
+    try:
+        module = importlib.import_module(module_name)
+    except ImportError as exc:
+        raise BackendUnavailable(f"backend {name!r} cannot be loaded ({exc}); "
+                                 f"install its extra or choose one of: {', '.join(_REGISTRY)}") from exc
+    cls = getattr(module, class_name, None)
+    if not (isinstance(cls, type) and issubclass(cls, Simulator)):
+        raise BackendUnavailable(f"backend {name!r}: {_REGISTRY[name]} is not a Simulator class")
+    return cls
+
+
+def create_simulator(name: str, settings: SimulationSettings | None = None) -> Simulator:
+    """Instantiate the backend `name` with `settings`."""
+    return get_simulator_class(name)(settings)
+
+
+def check_ego_role(scenario: Scenario, settings: SimulationSettings) -> None:
+    """Fail clearly when `--ego ROLE` names no actor of the scenario."""
+    if settings.ego_role not in scenario.actors:
+        raise SimulationError(f"--ego {settings.ego_role!r}: no such actor in the scenario; "
+                              f"allowed: {', '.join(scenario.actors)}")
