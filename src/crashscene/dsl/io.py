@@ -74,7 +74,10 @@ def parse_yaml(text: str, source: str | None = None) -> tuple[Any, dict[str, int
         raise DslError([Diagnostic(f"text is larger than {MAX_BYTES} bytes; not a scenario", file=source)])
     if "\x00" in text:
         raise DslError([Diagnostic("contains NUL bytes; binary data, not YAML", file=source)])
-    loader = yaml.SafeLoader(text)
+    try:
+        loader = yaml.SafeLoader(text)
+    except yaml.YAMLError as exc:
+        raise DslError([Diagnostic(f"not valid YAML: {exc}", file=source)]) from None
     try:
         node = loader.get_single_node()
         if node is None:
@@ -219,9 +222,18 @@ _PATH_KEY = re.compile(r"^[A-Za-z_][A-Za-z0-9_.\[\]]*$")
 _YAML_SPECIAL = {"y", "n", "yes", "no", "true", "false", "on", "off", "null", "~"}
 
 
+_UNPRINTABLE = re.compile("[^\t\n\r\x20-\x7e\xa0-\ud7ff\ue000-\ufeff\uff00-\ufffd\U00010000-\U0010ffff]|\ufeff")
+
+
+def _escape(match: re.Match[str]) -> str:
+    code = ord(match.group(0))
+    return f"\\u{code:04x}" if code <= 0xFFFF else f"\\U{code:08x}"
+
+
 def _quoted(text: str) -> str:
-    """A double-quoted YAML scalar (JSON escapes are valid YAML)."""
-    return json.dumps(text, ensure_ascii=False)
+    """A double-quoted YAML scalar: JSON escapes, plus escapes for what YAML may not carry raw
+    (C0/C1 controls, DEL, NEL and the Unicode line separators that YAML would fold)."""
+    return _UNPRINTABLE.sub(_escape, json.dumps(text, ensure_ascii=False))
 
 
 def _word(text: str) -> str:
