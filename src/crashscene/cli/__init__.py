@@ -12,6 +12,7 @@ app = typer.Typer(no_args_is_help=True, add_completion=False, pretty_exceptions_
                   help="Turn crash reports into executable ADS test scenarios, simulate them and check traffic rules.")
 
 from crashscene.cli import dsl_commands  # noqa: E402,F401  (registers validate, schema)
+from crashscene.cli import eval_commands  # noqa: E402,F401  (registers eval)
 
 
 def main() -> None:
