@@ -1,0 +1,258 @@
+"""Sketch facts: read a CIREN crash sketch offline and turn it into short text facts.
+
+rapidocr (ONNX models shipped in its wheel; it reads the boxed V1/V2 labels that
+tesseract misses) finds the text on the sketch; OpenCV measures the drawn lines.
+What is read becomes `SketchFact`s such as "vehicle label V1", "speed limit 35
+mph", "stop sign", "north arrow", "street name: Main St", each with its source
+("sketch:ocr", "sketch:lines"), a confidence and a pixel bounding box, so the
+extractors can ground a field in the sketch and quote it as evidence.
+
+OCR takes 1-3 s per sketch (more on a busy machine), so the raw OCR lines are
+cached by the image's SHA-256 in the user cache dir (`$CRASHSCENE_CACHE_DIR`,
+else `$XDG_CACHE_HOME/crashscene`, else `~/.cache/crashscene`). Facts are
+derived from the cached lines on every call, so improving the fact rules never
+needs a new OCR run.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import logging
+import os
+import re
+import threading
+from pathlib import Path
+
+from pydantic import BaseModel, ConfigDict
+
+from crashscene.extract.errors import SketchError
+
+OCR_CACHE_VERSION = 1  # bump when the raw OCR record format or engine settings change
+MIN_OCR_SCORE = 0.5  # rapidocr's own default text score threshold
+KMH_PER_MPH = 1.609344
+
+_engine = None
+_engine_lock = threading.Lock()
+
+
+class SketchFact(BaseModel):
+    """One short fact read from a sketch, with where it came from."""
+
+    model_config = ConfigDict(frozen=True)
+
+    text: str
+    source: str = "sketch:ocr"
+    confidence: float = 1.0
+    bbox: tuple[int, int, int, int] | None = None  # [px] x0, y0, x1, y1 in the image
+
+    def __str__(self) -> str:
+        return f"{self.text} ({self.source}, {self.confidence:.2f})"
+
+
+class OcrLine(BaseModel):
+    """One raw OCR result: the cached unit."""
+
+    text: str
+    score: float
+    bbox: tuple[int, int, int, int]
+
+
+# ---------------------------------------------------------------- public API
+
+
+def sketch_facts(image: Path | str, use_cache: bool = True) -> list[SketchFact]:
+    """OCR (cached) and line analysis of a sketch image, as short facts in reading order."""
+    image = Path(image)
+    lines = ocr_lines(image, use_cache=use_cache)
+    facts = facts_from_ocr(lines)
+    facts.extend(line_facts(image))
+    return facts
+
+
+def ocr_lines(image: Path, use_cache: bool = True) -> list[OcrLine]:
+    """The text lines rapidocr reads on the image, from the cache when the same image was read before."""
+    try:
+        data = image.read_bytes()
+    except OSError as exc:
+        raise SketchError(f"cannot read sketch image: {exc.strerror or exc}", image) from None
+    digest = hashlib.sha256(data).hexdigest()
+    cache_file = cache_dir() / "ocr" / f"{digest}.v{OCR_CACHE_VERSION}.json"
+    if use_cache and cache_file.is_file():
+        try:
+            return [OcrLine.model_validate(item) for item in json.loads(cache_file.read_text("utf-8"))]
+        except (ValueError, OSError):
+            pass  # a damaged cache entry is simply recomputed
+    lines = _run_ocr(data, image)
+    if use_cache:
+        _write_cache(cache_file, lines)
+    return lines
+
+
+def cache_dir() -> Path:
+    """The user cache directory of crashscene (created on first write, never inside the repo)."""
+    if os.environ.get("CRASHSCENE_CACHE_DIR"):
+        return Path(os.environ["CRASHSCENE_CACHE_DIR"])
+    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(base) / "crashscene"
+
+
+# ---------------------------------------------------------------- OCR
+
+
+def _ocr_engine():
+    global _engine
+    with _engine_lock:
+        if _engine is None:
+            try:
+                from rapidocr import RapidOCR
+            except ImportError as exc:
+                raise SketchError(f"sketch OCR needs rapidocr and onnxruntime (pip install rapidocr "
+                                  f"onnxruntime): {exc}") from None
+            logging.getLogger("RapidOCR").setLevel(logging.ERROR)
+            _engine = RapidOCR(params={"Global.log_level": "error"})
+        return _engine
+
+
+def _run_ocr(data: bytes, image: Path) -> list[OcrLine]:
+    import cv2
+    import numpy as np
+
+    pixels = cv2.imdecode(np.frombuffer(data, dtype=np.uint8), cv2.IMREAD_COLOR)
+    if pixels is None:
+        raise SketchError("not a readable image (JPEG or PNG expected)", image)
+    try:
+        result = _ocr_engine()(pixels)
+    except SketchError:
+        raise
+    except Exception as exc:  # onnxruntime errors are not one type
+        raise SketchError(f"OCR failed: {exc}", image) from None
+    if result.boxes is None or result.txts is None:
+        return []
+    lines = []
+    for box, text, score in zip(result.boxes, result.txts, result.scores):
+        xs = [float(p[0]) for p in box]
+        ys = [float(p[1]) for p in box]
+        lines.append(OcrLine(text=str(text).strip(), score=round(float(score), 4),
+                             bbox=(int(min(xs)), int(min(ys)), int(max(xs)), int(max(ys)))))
+    return [line for line in lines if line.text]
+
+
+def _write_cache(cache_file: Path, lines: list[OcrLine]) -> None:
+    try:
+        cache_file.parent.mkdir(parents=True, exist_ok=True)
+        tmp = cache_file.with_suffix(f".tmp{os.getpid()}")
+        tmp.write_text(json.dumps([line.model_dump(mode="json") for line in lines]), encoding="utf-8")
+        tmp.replace(cache_file)
+    except OSError:
+        pass  # a read-only home still gets its facts, only slower next time
+
+
+# ---------------------------------------------------------------- OCR lines -> facts
+
+_LABEL = re.compile(r"^\s*[\[(|]?\s*(V|Veh|Vehicle)\s*#?\s*([1-9])\s*[\])|]?\s*$", re.I)
+_VEHICLE_LIST = re.compile(r"^\s*(?:V|Veh|Vehicle)\s*#?\s*([1-9])\s*[-:=.,]\s*(.{3,})$", re.I)
+_SPEED = re.compile(r"speed\s*limit", re.I)
+_MPH = re.compile(r"(\d{2,3})\s*(?:mph|m\.p\.h|mi/h)", re.I)
+_KMH = re.compile(r"(\d{2,3})\s*(?:kmph|km/h|km/hr|kph|kmh|km)", re.I)
+_STREET = re.compile(r"\b(street|st|road|rd|avenue|ave|av|boulevard|blvd|highway|hwy|route|drive|dr|lane|ln|"
+                     r"parkway|pkwy|pike|interstate|freeway|expressway|way|court|ct|place|pl|sr|us|i)\b[\s.-]*\d*",
+                     re.I)
+_NORTH = re.compile(r"^\s*[-|^↑]*\s*N\s*[-|^↑]*\s*$")
+
+
+def facts_from_ocr(lines: list[OcrLine]) -> list[SketchFact]:
+    """Turn raw OCR lines into short facts; unrecognised legible text is kept as 'text: ...'."""
+    facts: list[SketchFact] = []
+    for line in sorted(lines, key=lambda item: (item.bbox[1], item.bbox[0])):
+        if line.score < MIN_OCR_SCORE:
+            continue
+        text = " ".join(line.text.split())
+        for fact_text in _classify(text):
+            facts.append(SketchFact(text=fact_text, source="sketch:ocr", confidence=line.score, bbox=line.bbox))
+    return facts
+
+
+def _classify(text: str) -> list[str]:
+    label = _LABEL.match(text)
+    if label:
+        return [f"vehicle label V{label.group(2)}"]
+    if _NORTH.match(text):
+        return ["north arrow"]
+    out: list[str] = []
+    if _SPEED.search(text) or _MPH.search(text):
+        mph = speed_limit_mph(text)
+        if mph is not None and _SPEED.search(text):
+            out.append(f"speed limit {mph} mph")
+        elif mph is not None:
+            out.append(f"speed {mph} mph")
+    listed = _VEHICLE_LIST.match(text)
+    if listed and not out:
+        return [f"vehicle V{listed.group(1)}: {listed.group(2).strip()}"]
+    folded = text.lower().strip(" .")
+    if re.fullmatch(r"(all[\s-]*way\s+)?stop(\s+sign)?|stop\s*\(?\d?\)?", folded):
+        out.append("stop sign")
+    elif re.search(r"\bstop\s+sign", folded):
+        out.append("stop sign")
+    if re.fullmatch(r"yield(\s+sign)?", folded) or re.search(r"\byield\s+sign", folded):
+        out.append("yield sign")
+    if re.search(r"\b(traffic\s+)?signal(s|ized)?\b|\btraffic\s+light", folded):
+        out.append("traffic signal")
+    if re.search(r"\b(flashing|blinking)\s+(red|yellow|amber)", folded):
+        out.append(f"flashing {re.search(r'(red|yellow|amber)', folded).group(1)} signal")
+    if not out and _STREET.search(text) and len(text) <= 40 and not re.search(r"\d{4}", text):
+        out.append(f"street name: {text}")
+    if not out and len(text) >= 2:
+        out.append(f"text: {text}")
+    return out
+
+
+def speed_limit_mph(text: str) -> int | None:
+    """The mph figure of a speed-limit text; km/h alone is converted and rounded to the nearest 5 mph."""
+    mph = _MPH.search(text)
+    if mph:
+        return int(mph.group(1))
+    kmh = _KMH.search(text)
+    if kmh:
+        return int(5 * round(int(kmh.group(1)) / KMH_PER_MPH / 5))
+    return None
+
+
+# ---------------------------------------------------------------- drawn lines (OpenCV)
+
+_MIN_LINE_FRACTION = 0.25  # a lane line runs over at least this share of the image side
+_DOUBLE_GAP = (2, 12)  # [px] two parallel strokes this close are one double line
+
+
+def line_facts(image: Path) -> list[SketchFact]:
+    """Long straight strokes the sketch draws: counts of solid, double and dashed lines per direction."""
+    import cv2
+    import numpy as np
+
+    pixels = cv2.imread(str(image), cv2.IMREAD_GRAYSCALE)
+    if pixels is None:
+        return []
+    height, width = pixels.shape
+    ink = (pixels < 110).astype(np.uint8)
+    facts: list[SketchFact] = []
+    for axis, name in ((0, "north-south"), (1, "east-west")):
+        # axis 0: vertical strokes, ink counted down each column
+        profile = ink.sum(axis=axis)
+        side = height if axis == 0 else width
+        solid = np.flatnonzero(profile >= _MIN_LINE_FRACTION * side * 0.95)
+        runs = _runs(solid)
+        doubles = sum(1 for a, b in zip(runs, runs[1:]) if _DOUBLE_GAP[0] <= b[0] - a[1] <= _DOUBLE_GAP[1])
+        if doubles:
+            facts.append(SketchFact(text=f"double solid line drawn ({name})", source="sketch:lines",
+                                    confidence=0.6))
+    return facts
+
+
+def _runs(indices) -> list[tuple[int, int]]:
+    runs: list[tuple[int, int]] = []
+    for index in indices:
+        index = int(index)
+        if runs and index == runs[-1][1] + 1:
+            runs[-1] = (runs[-1][0], index)
+        else:
+            runs.append((index, index))
+    return runs
