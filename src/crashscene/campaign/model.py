@@ -1,0 +1,96 @@
+"""Typed records a campaign passes around: options, chunk tasks and chunk results.
+
+A chunk is a contiguous range of variation indices of one scenario, seed and
+mode. Variation i depends only on (scenario, seed, mode, i), so any chunking
+(and any engine) yields the same rows.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+import pyarrow as pa
+from pydantic import BaseModel, ConfigDict, Field
+
+Mode = Literal["reproduce", "test"]
+MODES: tuple[str, ...] = ("reproduce", "test")
+Engine = Literal["local", "ray"]
+
+# Rows a worker returns for one chunk; the store adds the key columns (scenario_hash, seed, mode).
+VARIATION_ROWS = pa.schema([
+    ("variation", pa.int32()),
+    ("valid", pa.bool_()),
+    ("invalid_reason", pa.string()),
+    ("verdict", pa.string()),        # violation | collision | pass | invalid
+    ("reproduced", pa.bool_()),      # every oracle entry (and the report's collision) observed
+    ("collided", pa.bool_()),        # any collision in this variation
+    ("params", pa.string()),         # JSON object: sampled parameters and per-actor start values [SI]
+])
+VIOLATION_ROWS = pa.schema([
+    ("variation", pa.int32()),
+    ("actor", pa.string()),
+    ("is_ads", pa.bool_()),
+    ("code", pa.string()),
+    ("violation", pa.string()),
+    ("t_first", pa.float64()),       # [s]
+    ("value", pa.float64()),
+    ("threshold", pa.float64()),
+    ("unit", pa.string()),
+    ("robustness", pa.float64()),
+])
+COLLISION_ROWS = pa.schema([
+    ("variation", pa.int32()),
+    ("t", pa.float64()),             # [s]
+    ("actor_a", pa.string()),
+    ("actor_b", pa.string()),
+    ("collision_class", pa.string()),  # rear_end | head_on | angle | sideswipe
+    ("speed_a", pa.float64()),       # [m/s]
+    ("speed_b", pa.float64()),
+    ("x", pa.float64()),             # [m]
+    ("y", pa.float64()),
+])
+ROW_SCHEMAS = {"variations": VARIATION_ROWS, "violations": VIOLATION_ROWS, "collisions": COLLISION_ROWS}
+
+
+class SimOptions(BaseModel):
+    """How every chunk of a campaign is simulated."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    backend: str = Field(default="embedded", description="simulate backend")
+    ego_role: str = Field(default="ego", description="the DSL role driven by the ADS under test")
+    map_mode: Literal["generated", "carla"] = "generated"
+    carla_maps: str | None = Field(default=None, description="folder of CARLA .xodr towns for map_mode=carla")
+
+
+class ChunkTask(BaseModel):
+    """Everything a worker needs to simulate one chunk, picklable and self-contained (no shared state)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    case_id: str
+    scenario_yaml: str = Field(description="canonical DSL text of the scenario")
+    scenario_hash: str
+    seed: int
+    mode: Mode
+    first: int = Field(ge=0, description="first variation index")
+    count: int = Field(gt=0)
+    options: SimOptions = SimOptions()
+    keep_dir: str | None = Field(default=None, description="write the chunk's run directory here (traces kept)")
+
+    @property
+    def key(self) -> str:
+        return f"{self.case_id}/{self.mode}/{self.first}-{self.first + self.count - 1}"
+
+
+@dataclass
+class ChunkResult:
+    """What a worker returns: rows per table (ROW_SCHEMAS) and its wall time."""
+
+    variations: pa.Table
+    violations: pa.Table
+    collisions: pa.Table
+    seconds: float = 0.0
+
+    def table(self, name: str) -> pa.Table:
+        return getattr(self, name)

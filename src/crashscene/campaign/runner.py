@@ -1,0 +1,202 @@
+"""Run a campaign: prepare cases, plan chunks, run them on an engine, store each chunk atomically.
+
+`run_campaign` is the importable entry point behind `crashscene campaign` (and
+`crashscene run`, which is a one-case campaign that keeps its traces). With
+`resume=True` it reopens the database in `out_dir`, skips every chunk already
+marked done and runs the rest; without it, an `out_dir` holding results is an
+error rather than silently mixed.
+"""
+from __future__ import annotations
+
+import json
+import math
+import shlex
+import sys
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from crashscene.campaign.cases import PreparedCase, discover_cases, prepare_case
+from crashscene.campaign.engines import make_engine
+from crashscene.campaign.errors import CampaignError
+from crashscene.campaign.model import MODES, ChunkResult, ChunkTask, SimOptions
+from crashscene.campaign.progress import CampaignProgress
+from crashscene.campaign.store import Store
+
+DEFAULT_CHUNK = 250  # variations per chunk: big enough to batch well, small enough to lose little on a kill
+
+
+class CampaignConfig(BaseModel):
+    """The options of one campaign invocation."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    n: int = Field(gt=0, description="variations per case and mode")
+    seed: int = 0
+    modes: tuple[str, ...] = MODES
+    engine: str = "local"
+    workers: int | None = Field(default=None, ge=1)
+    address: str | None = None
+    resume: bool = False
+    chunk_size: int = Field(default=DEFAULT_CHUNK, gt=0)
+    keep_traces: bool = Field(default=False, description="keep each chunk's run directory (traces) under OUT")
+    extract_backend: str = "rules"
+    dsl_name: str | None = Field(default=None, description="use CASE/<dsl_name> when present instead of extracting")
+    sim: SimOptions = SimOptions()
+
+
+class RunSummary(BaseModel):
+    case_id: str
+    mode: str
+    scenario_hash: str
+    variations: int
+    valid: int
+    verdicts: dict[str, int]
+    reproduced: int
+    reproduction_rate: float | None
+    violations: dict[str, dict[str, int]]  # code -> actor -> variations
+    collisions: dict[str, int]  # class -> count
+
+
+class CampaignSummary(BaseModel):
+    out_dir: str
+    database: str
+    engine: str
+    workers: int
+    seconds: float
+    chunks_run: int
+    chunks_skipped: int
+    chunks_failed: int
+    variations_run: int
+    throughput: float  # [variations/s] of this invocation
+    cases: list[dict]
+    runs: list[RunSummary]
+    complete: bool
+
+
+def plan_chunks(n: int, chunk_size: int) -> list[tuple[int, int]]:
+    """(first, count) ranges covering [0, n)."""
+    return [(first, min(chunk_size, n - first)) for first in range(0, n, chunk_size)]
+
+
+def run_campaign(cases: str | Path | Sequence[str | Path], out_dir: str | Path, config: CampaignConfig,
+                 worker: Callable[[ChunkTask], ChunkResult] | None = None, live: bool | None = None,
+                 quiet: bool = False) -> CampaignSummary:
+    """Run (or resume) a campaign over `cases` into `out_dir`; returns its summary."""
+    if worker is None:
+        from crashscene.campaign.worker import simulate_chunk as worker
+    bad_modes = [m for m in config.modes if m not in MODES]
+    if bad_modes or not config.modes:
+        raise CampaignError(f"unknown mode(s) {bad_modes}; allowed: {', '.join(MODES)}")
+    out = Path(out_dir)
+    paths = (discover_cases(cases, config.dsl_name) if isinstance(cases, (str, Path))
+             else [Path(c) for c in cases])
+    ids = [p.stem if p.is_file() else p.resolve().name for p in paths]
+    dupes = sorted({i for i in ids if ids.count(i) > 1})
+    if dupes:
+        raise CampaignError(f"several cases share the id(s) {dupes}; case ids are folder or file names")
+    start = time.perf_counter()
+    with Store(out) as store:
+        if store.has_results() and not config.resume:
+            raise CampaignError(f"{out} already holds a campaign ({store.path.name}); add --resume to continue it "
+                                "or choose another --out")
+        engine = make_engine(config.engine, config.workers, config.address)
+        session = store.start_session(shlex.join(sys.argv), engine.name, engine.workers)
+        prepared = [prepare_case(p, out, config.sim, config.extract_backend, config.dsl_name) for p in paths]
+        tasks, skipped = _plan(store, prepared, config, out)
+        for case in prepared:
+            store.put_case(case.case_id, case.case_dir, case.status, case.error, case.scenario_hash,
+                           case.extract_backend, case.warnings, case.seconds)
+        failed = ran = variations = 0
+        total = sum(t.count for t in tasks)
+        try:
+            with CampaignProgress(total, len(tasks), live=live, quiet=quiet) as progress:
+                for case in prepared:
+                    if case.status != "ok":
+                        progress.note(f"case {case.case_id}: skipped, {case.error}")
+                if skipped:
+                    progress.note(f"resuming: {skipped} chunk(s) already done, {len(tasks)} to run")
+                for task, outcome in engine.run(tasks, worker):
+                    if not isinstance(outcome, BaseException):
+                        try:
+                            store.write_chunk(task, outcome, session)
+                        except CampaignError as exc:  # rows that break the contract: this chunk fails
+                            outcome = exc
+                    if isinstance(outcome, BaseException):
+                        failed += 1
+                        message = f"{type(outcome).__name__}: {outcome}"
+                        store.write_chunk_error(task, session, message)
+                        progress.chunk_done(task.key, task.count, 0.0, failed=message)
+                        continue
+                    ran += 1
+                    variations += task.count
+                    progress.chunk_done(task.key, task.count, outcome.seconds)
+        finally:
+            engine.close()
+        seconds = time.perf_counter() - start
+        return CampaignSummary(
+            out_dir=str(out), database=str(store.path), engine=engine.name, workers=engine.workers,
+            seconds=round(seconds, 3), chunks_run=ran, chunks_skipped=skipped, chunks_failed=failed,
+            variations_run=variations, throughput=round(variations / seconds, 2) if seconds else 0.0,
+            cases=[c.model_dump(include={"case_id", "status", "error", "scenario_hash", "extract_backend"})
+                   for c in prepared],
+            runs=summarize_runs(store), complete=failed == 0 and all(c.status == "ok" for c in prepared))
+
+
+def _plan(store: Store, prepared: list[PreparedCase], config: CampaignConfig, out: Path) -> tuple[list[ChunkTask], int]:
+    tasks: list[ChunkTask] = []
+    skipped = 0
+    seen: set[tuple[str, str]] = set()
+    options_json = config.sim.model_dump_json()
+    for case in prepared:
+        if case.status != "ok":
+            continue
+        for mode in config.modes:
+            if (case.scenario_hash, mode) in seen:  # two cases with the same scenario share its rows
+                continue
+            seen.add((case.scenario_hash, mode))
+            store.ensure_run(case.case_id, case.scenario_hash, config.seed, mode, config.n, config.chunk_size,
+                             options_json, case.scenario_yaml)
+            done = store.done_chunks(case.scenario_hash, config.seed, mode)
+            for first, count in plan_chunks(config.n, config.chunk_size):
+                if first in done:
+                    skipped += 1
+                    continue
+                keep = (str(Path(case.work_dir) / "runs" / mode / f"{first:06d}-{first + count - 1:06d}")
+                        if config.keep_traces else None)
+                tasks.append(ChunkTask(case_id=case.case_id, scenario_yaml=case.scenario_yaml,
+                                       scenario_hash=case.scenario_hash, seed=config.seed, mode=mode, first=first,
+                                       count=count, options=config.sim, keep_dir=keep))
+    return tasks, skipped
+
+
+def summarize_runs(store: Store) -> list[RunSummary]:
+    """Per (case, mode): counts of verdicts, reproduction, violations by code and actor, collisions by class."""
+    out = []
+    for run in store.query("SELECT case_id, scenario_hash, seed, mode FROM runs ORDER BY case_id, mode"):
+        key = [run["scenario_hash"], run["seed"], run["mode"]]
+        where = "scenario_hash=? AND seed=? AND mode=?"
+        counts = store.query(f"SELECT count(*) AS n, count(*) FILTER (WHERE valid) AS valid, "
+                             f"count(*) FILTER (WHERE reproduced) AS reproduced FROM variations WHERE {where}", key)[0]
+        verdicts = {r["verdict"]: r["c"] for r in store.query(
+            f"SELECT verdict, count(*) AS c FROM variations WHERE {where} GROUP BY verdict ORDER BY verdict", key)}
+        violations: dict[str, dict[str, int]] = {}
+        for r in store.query(f"SELECT code, actor, count(DISTINCT variation) AS c FROM violations WHERE {where} "
+                             "GROUP BY code, actor ORDER BY code, actor", key):
+            violations.setdefault(r["code"], {})[r["actor"]] = r["c"]
+        collisions = {r["collision_class"]: r["c"] for r in store.query(
+            f"SELECT collision_class, count(*) AS c FROM collisions WHERE {where} GROUP BY collision_class "
+            "ORDER BY collision_class", key)}
+        rate = counts["reproduced"] / counts["valid"] if counts["valid"] else None
+        out.append(RunSummary(case_id=run["case_id"], mode=run["mode"], scenario_hash=run["scenario_hash"],
+                              variations=counts["n"], valid=counts["valid"], verdicts=verdicts,
+                              reproduced=counts["reproduced"],
+                              reproduction_rate=None if rate is None else round(rate, 4),
+                              violations=violations, collisions=collisions))
+    return out
+
+
+def summary_json(summary: CampaignSummary) -> str:
+    return json.dumps(summary.model_dump(mode="json"), indent=2)

@@ -1,0 +1,171 @@
+"""The campaign's DuckDB database: one file in the output folder, one writer (the driver).
+
+Tables (keys: scenario_hash, seed, mode, variation):
+- `cases`: one row per case folder (status, error, scenario hash, extraction backend);
+- `runs`: one row per (scenario_hash, seed, mode) with n, chunk size and the DSL text;
+- `variations`, `violations`, `collisions`: result rows (`model.ROW_SCHEMAS` + keys);
+- `chunks`: one row per finished chunk, written in the SAME transaction as its result
+  rows, so a chunk is either fully stored and marked done or absent (kill -9 included);
+- `chunk_errors`: chunks whose worker failed (retried on resume);
+- `sessions`: one row per invocation (start, engine, workers), for resume bookkeeping.
+"""
+from __future__ import annotations
+
+import json
+from datetime import datetime, timezone
+from pathlib import Path
+
+import duckdb
+import pyarrow as pa
+
+from crashscene.campaign.errors import CampaignError
+from crashscene.campaign.model import ROW_SCHEMAS, ChunkResult, ChunkTask
+
+DB_NAME = "campaign.duckdb"
+KEYS = "scenario_hash VARCHAR NOT NULL, seed BIGINT NOT NULL, mode VARCHAR NOT NULL"
+
+DDL = f"""
+CREATE TABLE IF NOT EXISTS sessions (
+    session INTEGER PRIMARY KEY, started_at TIMESTAMP, command VARCHAR, engine VARCHAR, workers INTEGER);
+CREATE TABLE IF NOT EXISTS cases (
+    case_id VARCHAR PRIMARY KEY, case_dir VARCHAR, status VARCHAR, error VARCHAR, scenario_hash VARCHAR,
+    extract_backend VARCHAR, warnings VARCHAR, seconds DOUBLE);
+CREATE TABLE IF NOT EXISTS runs (
+    {KEYS}, case_id VARCHAR, n INTEGER, chunk_size INTEGER, options VARCHAR, scenario_yaml VARCHAR,
+    created_at TIMESTAMP, PRIMARY KEY (scenario_hash, seed, mode));
+CREATE TABLE IF NOT EXISTS chunks (
+    {KEYS}, first INTEGER NOT NULL, count INTEGER, session INTEGER, seconds DOUBLE, finished_at TIMESTAMP,
+    PRIMARY KEY (scenario_hash, seed, mode, first));
+CREATE TABLE IF NOT EXISTS chunk_errors (
+    {KEYS}, first INTEGER, count INTEGER, session INTEGER, error VARCHAR, failed_at TIMESTAMP);
+CREATE TABLE IF NOT EXISTS variations (
+    {KEYS}, variation INTEGER NOT NULL, valid BOOLEAN, invalid_reason VARCHAR, verdict VARCHAR,
+    reproduced BOOLEAN, collided BOOLEAN, params VARCHAR, PRIMARY KEY (scenario_hash, seed, mode, variation));
+CREATE TABLE IF NOT EXISTS violations (
+    {KEYS}, variation INTEGER NOT NULL, actor VARCHAR, is_ads BOOLEAN, code VARCHAR, violation VARCHAR,
+    t_first DOUBLE, value DOUBLE, threshold DOUBLE, unit VARCHAR, robustness DOUBLE);
+CREATE TABLE IF NOT EXISTS collisions (
+    {KEYS}, variation INTEGER NOT NULL, t DOUBLE, actor_a VARCHAR, actor_b VARCHAR, collision_class VARCHAR,
+    speed_a DOUBLE, speed_b DOUBLE, x DOUBLE, y DOUBLE);
+"""
+
+
+def _now() -> datetime:
+    return datetime.now(timezone.utc).replace(tzinfo=None)
+
+
+class Store:
+    """Read/write access to `DIR/campaign.duckdb`; use as a context manager."""
+
+    def __init__(self, out_dir: str | Path, read_only: bool = False):
+        self.path = Path(out_dir) / DB_NAME
+        if read_only and not self.path.exists():
+            raise CampaignError(f"{self.path}: no campaign database here (run `crashscene run` or "
+                                "`crashscene campaign` with this --out first)")
+        if not read_only:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+        try:
+            self.con = duckdb.connect(str(self.path), read_only=read_only)
+        except duckdb.IOException as exc:
+            raise CampaignError(f"{self.path}: cannot open the campaign database ({exc}); "
+                                "is another campaign writing to it?") from exc
+        if not read_only:
+            self.con.execute(DDL)
+
+    def close(self) -> None:
+        self.con.close()
+
+    def __enter__(self) -> Store:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    # --- sessions and runs -------------------------------------------------------------------------
+    def has_results(self) -> bool:
+        return self.con.execute("SELECT count(*) FROM runs").fetchone()[0] > 0
+
+    def start_session(self, command: str, engine: str, workers: int) -> int:
+        number = self.con.execute("SELECT coalesce(max(session), 0) + 1 FROM sessions").fetchone()[0]
+        self.con.execute("INSERT INTO sessions VALUES (?, ?, ?, ?, ?)", [number, _now(), command, engine, workers])
+        return number
+
+    def put_case(self, case_id: str, case_dir: str, status: str, error: str | None = None,
+                 scenario_hash: str | None = None, extract_backend: str | None = None,
+                 warnings: list[str] | None = None, seconds: float = 0.0) -> None:
+        self.con.execute("INSERT OR REPLACE INTO cases VALUES (?, ?, ?, ?, ?, ?, ?, ?)",
+                         [case_id, case_dir, status, error, scenario_hash, extract_backend,
+                          json.dumps(warnings or []), seconds])
+
+    def ensure_run(self, case_id: str, scenario_hash: str, seed: int, mode: str, n: int, chunk_size: int,
+                   options: str, scenario_yaml: str) -> None:
+        """Register a run, or check that a resumed one was planned with the same n and chunk size."""
+        row = self.con.execute("SELECT n, chunk_size FROM runs WHERE scenario_hash=? AND seed=? AND mode=?",
+                               [scenario_hash, seed, mode]).fetchone()
+        if row is None:
+            self.con.execute("INSERT INTO runs VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                             [scenario_hash, seed, mode, case_id, n, chunk_size, options, scenario_yaml, _now()])
+        elif tuple(row) != (n, chunk_size):
+            raise CampaignError(f"case {case_id} ({mode}, seed {seed}) was started with -n {row[0]} and chunk size "
+                                f"{row[1]}; resume with the same values (got -n {n}, chunk size {chunk_size}) "
+                                "or use a new --out")
+
+    def done_chunks(self, scenario_hash: str, seed: int, mode: str) -> set[int]:
+        rows = self.con.execute("SELECT first FROM chunks WHERE scenario_hash=? AND seed=? AND mode=?",
+                                [scenario_hash, seed, mode]).fetchall()
+        return {r[0] for r in rows}
+
+    # --- results -------------------------------------------------------------------------------------
+    def write_chunk(self, task: ChunkTask, result: ChunkResult, session: int) -> None:
+        """Store one chunk's rows and mark it done, atomically."""
+        keys = [task.scenario_hash, task.seed, task.mode]
+        tables = {name: _conform(name, result.table(name), task) for name in ROW_SCHEMAS}
+        self.con.execute("BEGIN TRANSACTION")
+        try:
+            for name, table in tables.items():
+                if table.num_rows == 0:
+                    continue
+                self.con.register("chunk_rows", table)
+                cols = ", ".join(table.column_names)
+                self.con.execute(f"INSERT INTO {name} SELECT ?, ?, ?, {cols} FROM chunk_rows", keys)
+                self.con.unregister("chunk_rows")
+            self.con.execute("INSERT INTO chunks VALUES (?, ?, ?, ?, ?, ?, ?, ?)",
+                             [*keys, task.first, task.count, session, result.seconds, _now()])
+            self.con.execute("COMMIT")
+        except duckdb.Error as exc:
+            self.con.execute("ROLLBACK")
+            raise CampaignError(f"chunk {task.key}: rows rejected by the database ({exc})") from exc
+        except BaseException:
+            self.con.execute("ROLLBACK")
+            raise
+
+    def write_chunk_error(self, task: ChunkTask, session: int, error: str) -> None:
+        self.con.execute("INSERT INTO chunk_errors VALUES (?, ?, ?, ?, ?, ?, ?, ?)",
+                         [task.scenario_hash, task.seed, task.mode, task.first, task.count, session, error, _now()])
+
+    def query(self, sql: str, params: list | None = None) -> list[dict]:
+        """Rows of a query as dicts (for summaries and the report)."""
+        cur = self.con.execute(sql, params or [])
+        names = [d[0] for d in cur.description]
+        return [dict(zip(names, row)) for row in cur.fetchall()]
+
+    def arrow(self, sql: str, params: list | None = None) -> pa.Table:
+        return self.con.execute(sql, params or []).arrow()
+
+
+def _conform(name: str, table: pa.Table, task: ChunkTask) -> pa.Table:
+    """Check a worker's table against its schema and the chunk's range; cast to the schema."""
+    schema = ROW_SCHEMAS[name]
+    missing = [c for c in schema.names if c not in table.column_names]
+    if missing:
+        raise CampaignError(f"chunk {task.key}: worker's {name} rows lack columns {missing}")
+    table = table.select(schema.names).cast(schema)
+    if table.num_rows:
+        idx = table.column("variation").to_pylist()
+        if min(idx) < task.first or max(idx) >= task.first + task.count:
+            raise CampaignError(f"chunk {task.key}: worker returned {name} rows for variations outside "
+                                f"[{task.first}, {task.first + task.count})")
+    if name == "variations" and table.num_rows != task.count:
+        raise CampaignError(f"chunk {task.key}: worker returned {table.num_rows} variation rows, "
+                            f"expected {task.count}")
+    return table
