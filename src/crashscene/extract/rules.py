@@ -1,0 +1,922 @@
+"""Rule-based extraction: NHTSA narrative language and sketch facts to a DSL scenario.
+
+CIREN/NASS narratives are formulaic ("was traveling east in the eastbound lane
+of a two-lane, two-way roadway", "It was daylight, the sky was cloudy",
+"crossed the centerline", "the front of V2 struck the right side of V1"). This
+module reads those patterns, deterministically, and applies the conventions of
+dsl.md section 5 (actors V1=ego, V2=npc1...; positions from travel directions;
+oracle codes per convention 9). Every decided field records the quote it came
+from in `evidence`. It is the backend every user without an LLM gets, and the
+fallback of the LLM pipeline.
+
+The rules are general language patterns, never case lookups. Flow:
+`_Text` normalises labels ("Vehicle one", "Vehicle #2" -> V1, V2) and splits
+sentences; the environment, road network, actors and oracle are then decided
+in that order, each step seeing the previous ones.
+"""
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+
+from crashscene.dsl import Scenario, from_raw
+from crashscene.dsl.errors import DslError
+from crashscene.extract.errors import RulesError
+from crashscene.extract.report import Report
+from crashscene.extract.sketch import SketchFact
+
+KMH_PER_MPH = 1.609344
+NUMBERS = {"one": 1, "two": 2, "three": 3, "four": 4, "five": 5, "six": 6, "seven": 7, "eight": 8, "nine": 9,
+           "ten": 10, "single": 1, "1": 1, "2": 2, "3": 3, "4": 4, "5": 5, "6": 6, "7": 7, "8": 8, "9": 9}
+_NUM = r"(one|two|three|four|five|six|seven|eight|nine|ten|single|\d)"
+COMPASS = {"north": 0, "east": 90, "south": 180, "west": 270}  # [deg] clockwise from north
+_DIR = r"(north|south|east|west)"
+
+
+# ---------------------------------------------------------------- text handling
+
+
+def _label_sub(match: re.Match) -> str:
+    return f"V{NUMBERS[match.group(1).lower()]}"
+
+
+@dataclass
+class _Text:
+    """The narrative with vehicle labels normalised, split into sentences."""
+
+    raw: str
+    text: str = ""
+    sentences: list[str] = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        text = self.raw.replace("\u2019", "'").replace("\u201c", '"').replace("\u201d", '"')
+        text = re.sub(r"\b(?:Vehicle|Veh\.?|Vehicle\s+number)\s*#?\s*(one|two|three|four|five|[1-9])\b",
+                      _label_sub, text, flags=re.I)
+        text = re.sub(r"\bV-?\s?([1-9])\b", r"V\1", text)
+        text = re.sub(r"\bV([1-9])\s*\(\s*V\1\b[^)]*\)", r"V\1", text)  # "V1 (V1 - case vehicle)"
+        text = re.sub(r"\s+", " ", text)
+        self.text = text
+        # split on sentence ends, not on abbreviations like "approx." followed by a number
+        parts = re.split(r"(?<=[.!?])\s+(?=[A-Z0-9\"(])", text)
+        self.sentences = [p.strip() for p in parts if p.strip()]
+
+    def find(self, pattern: str, flags: int = re.I) -> re.Match | None:
+        return re.search(pattern, self.text, flags)
+
+    def sentence_with(self, pattern: str, flags: int = re.I) -> str | None:
+        for sentence in self.sentences:
+            if re.search(pattern, sentence, flags):
+                return sentence
+        return None
+
+
+def _quote(text: str, limit: int = 220) -> str:
+    text = " ".join(text.split())
+    return text if len(text) <= limit else text[: limit - 3].rstrip() + "..."
+
+
+def _around(text: str, match: re.Match, width: int = 90) -> str:
+    start = max(0, match.start() - width)
+    end = min(len(text), match.end() + width)
+    return _quote(("..." if start else "") + text[start:end] + ("..." if end < len(text) else ""))
+
+
+# ---------------------------------------------------------------- the extraction state
+
+
+@dataclass
+class _Vehicle:
+    label: str  # V1, V2, ...
+    role: str  # ego, npc1, ...
+    direction: str | None = None  # north|south|east|west
+    lane_side: str | None = None  # left|right|middle lane of its direction
+    type: str = "car"
+    behavior: str = "go_forward"
+    behavior_quote: str | None = None
+    pre: str = ""  # the pre-crash text about this vehicle
+    flags: set[str] = field(default_factory=set)
+
+
+@dataclass
+class _State:
+    report: Report
+    facts: list[SketchFact]
+    t: _Text
+    evidence: dict[str, str] = field(default_factory=dict)
+    vehicles: dict[str, _Vehicle] = field(default_factory=dict)
+    pre_crash: str = ""
+    crash_sentence: str = ""
+    junction: str | None = None  # intersection | t_intersection
+    divided: bool = False
+    signs: set[str] = field(default_factory=set)
+    stop_controlled: set[str] = field(default_factory=set)  # labels whose approach has a stop sign
+    yield_controlled: set[str] = field(default_factory=set)
+    no_controls: bool = False
+    marker: str = "not_mentioned"
+
+    def fact_texts(self, prefix: str = "") -> list[str]:
+        return [f.text for f in self.facts if f.text.startswith(prefix)]
+
+    def note(self, path: str, quote: str) -> None:
+        self.evidence.setdefault(path, _quote(quote))
+
+
+def extract_rules(report: Report, facts: list[SketchFact] | None = None) -> Scenario:
+    """Deterministic extraction of one report (and its sketch facts) into a validated `Scenario`."""
+    state = _State(report=report, facts=list(facts or []), t=_Text(report.narrative))
+    _find_vehicles(state)
+    _split_pre_crash(state)
+    environment = _environment(state)
+    road = _road_network(state)
+    _behaviors(state)
+    actors = _actors(state, road)
+    oracle = _oracle(state, road, actors)
+    raw = {
+        "scenario_id": f"CIREN-{report.case_id}",
+        "summary": _summary(state, road, actors),
+        "environment": environment,
+        "road_network": road,
+        "actors": actors,
+        "oracle": oracle,
+        "evidence": dict(sorted(state.evidence.items())),
+    }
+    try:
+        return from_raw(raw, source=f"rules extraction of {report.source}")
+    except DslError as exc:
+        raise RulesError(f"rule-based extraction produced an invalid scenario:\n{exc}", report.source) from None
+
+
+# ---------------------------------------------------------------- vehicles and the crash sequence
+
+
+def _find_vehicles(state: _State) -> None:
+    text = state.t.text
+    labels = sorted({int(n) for n in re.findall(r"\bV([1-9])\b", text)})
+    single = re.search(r"\bsingle[- ]vehicle\b|\bone[- ]vehicle\b", text, re.I)
+    if single or not labels:
+        labels = [1]
+    if 1 not in labels:
+        labels = [1, *labels]
+    for index, number in enumerate(labels):
+        label = f"V{number}"
+        state.vehicles[label] = _Vehicle(label=label, role="ego" if index == 0 else f"npc{index}")
+    for label, vehicle in state.vehicles.items():
+        vehicle.direction, vehicle.lane_side = _direction_of(state, label)
+        vehicle.type = _type_of(state, label)
+
+
+def _subject_sentences(state: _State, label: str) -> list[str]:
+    """Sentences (pre-crash first) whose grammatical subject is the vehicle."""
+    out = []
+    for sentence in state.t.sentences:
+        subject = _subject(sentence)
+        if subject == label:
+            out.append(sentence)
+    return out
+
+
+_OBJECT_BEFORE = re.compile(r"(?:pass|passing|overtak\w*|struck|strike|striking|hit|avoid|avoiding|behind|following|"
+                            r"follow|with|toward|towards|than|into|see|saw|approaching|and|of|front of|rear of|"
+                            r"side of|by)\s+(?:the\s+)?$", re.I)
+
+
+def _subject(sentence: str) -> str | None:
+    """The first vehicle label in the sentence that is not an object ('struck V2', 'behind V1')."""
+    for match in re.finditer(r"\bV([1-9])\b", sentence):
+        before = sentence[max(0, match.start() - 25):match.start()]
+        if re.search(r"driver\s+of\s+(?:the\s+)?$", before, re.I) or not _OBJECT_BEFORE.search(before):
+            return f"V{match.group(1)}"
+    return None
+
+
+def _label_at(text: str, position: int) -> str | None:
+    """The acting vehicle for a phrase at `position`: nearest preceding label that is not an object."""
+    clause_start = max(text.rfind(". ", 0, position), text.rfind("; ", 0, position))
+    best = None
+    for match in re.finditer(r"\bV([1-9])\b", text[:position]):
+        if match.start() < clause_start:
+            continue
+        before = text[max(0, match.start() - 25):match.start()]
+        if re.search(r"driver\s+of\s+(?:the\s+)?$", before, re.I) or not _OBJECT_BEFORE.search(before):
+            best = f"V{match.group(1)}"
+    return best
+
+
+def _direction_of(state: _State, label: str) -> tuple[str | None, str | None]:
+    for sentence in _subject_sentences(state, label):
+        cut = re.split(r"\b(?:struck|strike|striking|impacted|collided)\b", sentence)[0]
+        match = re.search(rf"(?:travel+ing|driven|heading|proceeding|going|traveled|travelled|was)\s+(?:in\s+(?:a|an|the)\s+)?"
+                          rf"{_DIR}(?:bound|ward)?\b", cut, re.I)
+        if not match:
+            match = re.search(rf"\b{_DIR}bound\b", cut, re.I)
+        if match:
+            lane = re.search(r"\b(left|right|middle|center|far[- ]left|far[- ]right|inboard|outboard)\b[^.]{0,30}?"
+                             rf"{_DIR}bound\s+(?:travel\s+)?lane", cut, re.I)
+            side = None
+            if lane:
+                side = "left" if "left" in lane.group(1).lower() or lane.group(1).lower() == "inboard" else \
+                    "right" if "right" in lane.group(1).lower() or lane.group(1).lower() == "outboard" else "middle"
+            state.note(f"actors.{state.vehicles[label].role}.direction", sentence)
+            return match.group(1).lower(), side
+    return None, None
+
+
+_TRUCK = re.compile(r"tractor|semi\b|semi-trailer|\bbus\b|school bus|motorcoach|box truck|dump truck|straight truck|"
+                    r"delivery truck|garbage truck|cement|concrete mixer|tow truck|fire truck|flatbed|"
+                    r"commercial (?:truck|vehicle)|heavy truck|single[- ]unit truck|\bGVWR\b", re.I)
+_MOTORCYCLE = re.compile(r"motorcycle|motorbike|moped|scooter|\bHarley\b", re.I)
+
+
+def _type_of(state: _State, label: str) -> str:
+    texts = []
+    for sentence in state.t.sentences:
+        match = re.search(rf"\b{label}\b", sentence)
+        if match:
+            # the description sits beside the label's first mention: "V2, a 2002 Ford F150 ..." or "... minivan (V2)"
+            texts.append(sentence[max(0, match.start() - 120):match.end() + 120])
+            break
+    texts += [t for t in state.fact_texts(f"vehicle {label}:")]
+    for text in texts:
+        descriptor = re.split(r"\b(?:was|is|were)\b", text)[0] if text.startswith(label) else text
+        if _MOTORCYCLE.search(descriptor):
+            return "motorcycle"
+        if _TRUCK.search(descriptor):
+            state.note(f"actors.{state.vehicles[label].role}.type", descriptor)
+            return "truck"
+    return "car"
+
+
+_IMPACT = re.compile(r"\b(?:struck|strikes?|striking|impacted|collided|hit)\b", re.I)
+_SUMMARY_SENTENCE = re.compile(r"\b(?:crash|collision|case|investigation)\s+(?:involves|involved|occurred|focused)|"
+                               r"primarily involved|sustained (?:a )?(?:frontal|side|moderate|serious)", re.I)
+
+
+def _split_pre_crash(state: _State) -> None:
+    """Text before the first harmful event, without the summary lead and avoidance manoeuvres."""
+    kept = []
+    for sentence in state.t.sentences:
+        if _SUMMARY_SENTENCE.search(sentence) and not re.search(r"\bV[1-9]\b.*\b(?:travel|driv|turn)", sentence):
+            continue
+        impact = _IMPACT.search(sentence)
+        if impact:
+            head = sentence[: impact.start()]
+            kept.append(head)
+            state.crash_sentence = sentence
+            break
+        kept.append(sentence)
+    pre = " ".join(kept)
+    pre = re.sub(r"(?:in an? )?(?:attempt(?:ed|ing)?|tried|trying)\s+to\s+avoid[^.;]*", " ", pre, flags=re.I)
+    pre = re.sub(r"\bto avoid (?:a )?(?:collision|the crash|impact)[^.;]*", " ", pre, flags=re.I)
+    state.pre_crash = pre
+
+
+# ---------------------------------------------------------------- environment
+
+
+_ENV_SENTENCE = r"weather|sky|skies|daylight|dark|dawn|dusk|night|rain|snow|sleet|fog|cloudy|overcast|conditions|" \
+                r"surface|road was (?:dry|wet|icy)|roads were"
+
+
+def _environment(state: _State) -> dict:
+    sentences = [s for s in state.t.sentences if re.search(_ENV_SENTENCE, s, re.I)]
+    sketch_env = [f for f in state.fact_texts("text: ") if re.search(r"daylight|dark|dusk|dawn|clear|rain|dry|wet",
+                                                                       f, re.I) and ("/" in f or "," in f)]
+    env_text = " ".join(sentences + sketch_env)
+    weather = "not_mentioned"
+    for pattern, token in ((r"\bsleet|\bsnow(?:ing|fall)?\b(?! (?:and ice )?covered)|\bblizzard", "snowy"),
+                           (r"\brain(?:ing|y)?\b|\bdrizzl|\bshowers\b", "rainy"),
+                           (r"\bfog(?:gy)?\b|\bmist\b", "foggy"),
+                           (r"\bovercast\b", "overcast"),
+                           (r"\bcloudy\b|\bclouds\b", "cloudy"),
+                           (r"\bwindy\b|\bhigh winds?\b", "windy"),
+                           (r"\bclear\b|no adverse|\bsunny\b|\bfair\b", "clear")):
+        match = re.search(pattern, env_text, re.I)
+        if match:
+            weather = token
+            state.note("environment.weather", _around(env_text, match))
+            break
+    time_of_day = "not_mentioned"
+    for pattern, token in ((r"\bpre-?dawn\b", "nighttime"), (r"\bdawn\b", "dawn"), (r"\bdusk\b", "dusk"),
+                           (r"\bdark\b|\bnight(?:time)?\b|\bevening hours \(dark", "nighttime"),
+                           (r"\bdaylight\b|\bday ?time\b|\bdaylight hours\b|\bafternoon\b|\bmorning hours\b",
+                            "daytime")):
+        match = re.search(pattern, env_text, re.I)
+        if match:
+            time_of_day = token
+            state.note("environment.time_of_day", _around(env_text, match))
+            break
+    surface = "not_mentioned"
+    for pattern, token in ((r"\bic(?:y|e)\b|snow and ice|ice[- ]covered|snow[- ]covered", "icy"),
+                           (r"\bsnow[- ]covered\b", "snowy"),
+                           (r"\bwet\b", "wet"), (r"\bdry\b", "dry")):
+        match = re.search(pattern, env_text, re.I)
+        if match:
+            surface = token
+            state.note("environment.road_surface", _around(env_text, match))
+            break
+    return {"weather": weather, "time_of_day": time_of_day, "road_surface": surface}
+
+
+# ---------------------------------------------------------------- road network
+
+
+def _road_network(state: _State) -> dict:
+    t = state.t
+    road_sentences = [s for s in t.sentences if re.search(r"\b(?:road|roadway|highway|freeway|interstate|street|"
+                                                          r"trafficway|lanes?|route|avenue|ramp)\b", s, re.I)]
+    road_text = " ".join(road_sentences)
+    state.divided = bool(re.search(r"\bdivided\b(?! by (?:a )?(?:double|painted|yellow))|\bmedian\b|"
+                                   r"\b(?:concrete|jersey|cable|median) barrier|interstate|\bfreeway\b",
+                                   road_text, re.I)) and not re.search(r"\bnon-?divided|\bundivided|"
+                                                                       r"not divided", road_text, re.I)
+    _traffic_controls(state)
+    road_type, curve_direction = _road_type(state)
+    ways = _ways(state, road_text)
+    lanes = _lanes(state, road_text, ways)
+    speed = _speed_limit(state)
+    marker = _marker(state, road_text, ways)
+    signs = set(state.signs)
+    if speed is not None:
+        signs.add("speed_limit_sign")
+    road: dict = {"road_type": road_type, "number_of_ways": ways, "number_of_lanes": lanes, "road_marker": marker,
+                  "traffic_signs": sorted(signs)}
+    if speed is not None:
+        road["speed_limit_mph"] = speed
+    if curve_direction and road_type == "curve":
+        road["curve_direction"] = curve_direction
+    return road
+
+
+def _traffic_controls(state: _State) -> None:
+    text = state.t.text
+    state.no_controls = bool(re.search(r"\b(?:without|no|not controlled by any) (?:any )?traffic control|"
+                                       r"\buncontrolled\b|no traffic control devices|no controls", text, re.I))
+    signal = re.search(r"traffic (?:signal|light|control signal)s?|\bsignali[sz]ed\b|tri-colou?red|"
+                       r"\b(?:red|green|amber|yellow) (?:light|signal|arrow)\b|signal[- ]controlled|"
+                       r"controlled by (?:overhead|traffic) signals?|\bsignals?\b(?= (?:at|for|controlling))", text, re.I)
+    flashing = re.search(r"flashing (red|yellow|amber)", text, re.I)
+    if signal and not (flashing and signal.start() >= flashing.start() - 5):
+        state.signs.add("traffic_light")
+        state.note("road_network.traffic_signs", _around(text, signal))
+    if flashing and flashing.group(1).lower() == "red":
+        state.signs.add("stop_sign")
+        state.note("road_network.traffic_signs", _around(text, flashing))
+    for match in re.finditer(r"\bstop[- ]sign|\bstop[- ]controlled|\bstop(?:ped)? (?:bar|line)|all[- ]way stop|"
+                             r"\b(?:two|four|2|4)[- ]way stop", text, re.I):
+        state.signs.add("stop_sign")
+        state.note("road_network.traffic_signs", _around(text, match))
+        label = _label_at(text, match.start()) or _label_near_after(text, match.end())
+        if label:
+            state.stop_controlled.add(label)
+    for match in re.finditer(r"\byield(?:[- ]sign| controlled)|\byield\b(?= to)", text, re.I):
+        if re.search(r"\byield[- ]sign|yield controlled", match.group(0), re.I):
+            state.signs.add("yield_sign")
+            state.note("road_network.traffic_signs", _around(text, match))
+            label = _label_at(text, match.start())
+            if label:
+                state.yield_controlled.add(label)
+
+
+def _label_near_after(text: str, position: int) -> str | None:
+    match = re.match(r"[^.]{0,60}?\b(V[1-9])\b", text[position:])
+    return match.group(1) if match else None
+
+
+def _road_type(state: _State) -> tuple[str, str | None]:
+    t = state.t
+    text = t.text
+    pre = state.pre_crash + " " + state.crash_sentence
+    legs = None
+    four = re.search(r"\b(?:4|four)[- ]leg(?:ged)?\b|\bfour[- ]way intersection|\bcross(?:roads| intersection)", text, re.I)
+    three = re.search(r"\b(?:3|three)[- ]leg(?:ged)?\b|\bT[- ]intersection|\bT-type intersection|\bTee\b|"
+                      r"\bT[- ]junction|driveway|business (?:access|entrance|exit)|parking lot (?:exit|entrance)|"
+                      r"private (?:drive|road)\b", text, re.I)
+    mentions_junction = re.search(r"\bintersection\b|\bjunction\b|\bintersecting\b", pre, re.I)
+    plays_part = bool(
+        re.search(r"\bturn(?:ed|ing|s)?\b|left[- ]turn|right[- ]turn|\bintersection\b|\bjunction\b|"
+                  r"\bintersecting\b|entered|pulled (?:out|into)|stop sign|signal", pre, re.I) and mentions_junction
+    ) or bool(state.signs - {"speed_limit_sign"}) and bool(mentions_junction)
+    driveway_part = three and re.search(r"driveway|business|parking lot|private drive", three.group(0), re.I) and \
+        re.search(r"(?:from|out of|exit(?:ed|ing)?|leaving|into|entering)\s+(?:a |the |an )?(?:private |commercial |"
+                  r"residential )?(?:driveway|business|parking lot|private drive)", pre, re.I)
+    if plays_part or driveway_part:
+        if driveway_part or (three and not four and not re.search(r"driveway|business|parking|private", three.group(0),
+                                                                  re.I)):
+            legs = 3
+            state.note("road_network.road_type", _around(text, three))
+        else:
+            legs = 4
+            state.note("road_network.road_type", _around(text, four) if four else _around(pre, mentions_junction))
+    curve = None
+    curve_match = re.search(r"\bcurv(?:e|es|ed|ing)\b", pre, re.I)
+    direction = None
+    if curve_match:
+        window = pre[max(0, curve_match.start() - 60):curve_match.end() + 40]
+        side = re.search(r"\b(left|right)(?:-hand)?\s+curve|curve[sd]?\s+(?:to\s+the\s+)?(left|right)|"
+                         r"curved\s+(?:to\s+the\s+)?(left|right)", window, re.I)
+        if side:
+            direction = next(g for g in side.groups() if g).lower()
+        if not re.search(r"\bstraight\b[^.]{0,40}\bcurv|no curve", window, re.I):
+            curve = "curve"
+            state.note("road_network.road_type", _around(pre, curve_match))
+    if legs is not None:
+        state.junction = "intersection" if legs == 4 else "t_intersection"
+        return state.junction, direction
+    if curve:
+        # the curve must be V1's: a curve named only for another vehicle still puts the crash on it
+        return "curve", direction
+    match = re.search(r"\bstraight\b", text, re.I)
+    state.note("road_network.road_type", _around(text, match) if match else "no junction or curve in the crash sequence")
+    return "straight", None
+
+
+def _ways(state: _State, road_text: str) -> int:
+    one_way = re.search(r"\bone[- ]way\b", road_text, re.I)
+    if one_way:
+        state.note("road_network.number_of_ways", _around(road_text, one_way))
+        return 1
+    if state.divided and not _crosses_opposing(state):
+        match = re.search(r"divided|median|barrier|interstate|freeway", road_text, re.I)
+        state.note("road_network.number_of_ways", "divided roadway: V1's carriageway only; " + _around(road_text, match))
+        return 1
+    return 2
+
+
+def _crosses_opposing(state: _State) -> bool:
+    """Whether the crash sequence uses the opposing carriageway (a turn across the median, a crossover)."""
+    pre = state.pre_crash
+    return bool(re.search(r"left[- ]turn|turn(?:ed|ing)? left|u[- ]turn|cross(?:ed|ing)? (?:over )?the median|"
+                          r"across the median|crossover", pre, re.I))
+
+
+def _count(word: str) -> int:
+    return NUMBERS.get(word.lower(), 0)
+
+
+def _lanes(state: _State, road_text: str, ways: int) -> int:
+    ego = state.vehicles["V1"]
+    # "two lanes northbound, ... two lanes southbound" / "three northbound lanes and four southbound lanes"
+    per_direction: dict[str, int] = {}
+    for match in re.finditer(rf"\b{_NUM}\s+(?:straight\s+)?(?:through\s+)?(?:travel\s+)?(?:lanes?\s+)?{_DIR}bound"
+                             rf"(?:\s+(?:through\s+|travel\s+)?lanes?)?|\b{_NUM}\s+(?:travel\s+)?lanes?\s+{_DIR}bound",
+                             road_text, re.I):
+        groups = [g for g in match.groups() if g]
+        number, direction = _count(groups[0]), groups[1].lower()
+        if number and direction not in per_direction:
+            per_direction[direction] = number
+    for match in re.finditer(rf"{_DIR}bound\s+(?:roadway|lanes)\s+(?:consist(?:s|ed)? of|(?:are|were) composed of|"
+                             rf"ha(?:s|d))\s+{_NUM}\s+(?:straight\s+)?(?:through\s+|travel\s+)*lanes", road_text, re.I):
+        per_direction[match.group(1).lower()] = _count(match.group(2))
+    # explicit through-lane breakdowns override totals that include turn lanes
+    for match in re.finditer(rf"{_DIR}bound lanes (?:are|were) composed of ([^.]*)", road_text, re.I):
+        through = re.search(rf"{_NUM}\s+(?:straight\s+)?through", match.group(2), re.I)
+        if through:
+            per_direction[match.group(1).lower()] = _count(through.group(1))
+    if re.search(r"one (?:travel )?lane in each direction|single lane in each direction", road_text, re.I):
+        per_direction = {"a": 1, "b": 1}
+    total = None
+    match = re.search(rf"\b{_NUM}[- ]lane\b", road_text, re.I)
+    if match:
+        total = _count(match.group(1))
+    turn_lanes = len(re.findall(r"(?:center|centre|middle)\s+(?:two-way\s+)?(?:left[- ])?turn(?:ing)?[- ]lane|"
+                                r"two-way left[- ]turn lane|\bTWLTL\b", road_text, re.I))
+    if per_direction:
+        if ways == 1:
+            mine = per_direction.get(ego.direction or "", None)
+            lanes = mine if mine else max(per_direction.values())
+        else:
+            lanes = sum(per_direction.values()) if len(per_direction) > 1 else 2 * next(iter(per_direction.values()))
+        state.note("road_network.number_of_lanes", _around(road_text, re.search(rf"{_DIR}bound", road_text, re.I)))
+        return max(1, lanes)
+    if total:
+        lanes = max(1, total - min(turn_lanes, 1)) if ways == 2 else total
+        if ways == 1 and state.divided and total >= 2 and not re.search(r"one[- ]way", road_text, re.I):
+            lanes = max(1, total // 2)
+        state.note("road_network.number_of_lanes", _around(road_text, match))
+        return lanes
+    return 2 if ways == 2 else 1
+
+
+def _speed_limit(state: _State) -> int | None:
+    text = state.t.text
+    match = re.search(r"(?:speed\s+limit|posted\s+(?:speed|limit))[^.]{0,80}?(\d{2,3})\s*(?:mph|mi/h|miles per hour)",
+                      text, re.I)
+    if match:
+        state.note("road_network.speed_limit_mph", _around(text, match))
+        return int(match.group(1))
+    match = re.search(r"(?:speed\s+limit|posted)[^.]{0,60}?(\d{2,3})\s*(?:km/h|kmph|km/hr|kph)", text, re.I)
+    if match:
+        state.note("road_network.speed_limit_mph", _around(text, match))
+        return int(5 * round(int(match.group(1)) / KMH_PER_MPH / 5))
+    match = re.search(r"(\d{2,3})\s*(?:mph|mi/h)\s+(?:speed limit|zone|posted)", text, re.I)
+    if match:
+        state.note("road_network.speed_limit_mph", _around(text, match))
+        return int(match.group(1))
+    for prefix in ("speed limit ", "speed "):
+        for fact in state.facts:
+            found = re.fullmatch(rf"{prefix}(\d+) mph", fact.text)
+            if found:
+                state.note("road_network.speed_limit_mph", f"sketch: {fact.text}")
+                return int(found.group(1))
+    return None
+
+
+def _marker(state: _State, road_text: str, ways: int) -> str:
+    text = state.t.text
+    sketch_text = " ".join(state.fact_texts("text: "))
+    for pattern, token in (
+        (r"double (?:solid )?(?:yellow )?(?:cent(?:er|re) ?)?lines?|solid double|double[- ]yellow|"
+         r"(?:two|2) solid (?:yellow )?lines", "double_solid_line"),
+        (r"two-way (?:center |centre )?left[- ]turn lane|center (?:two-way )?turn lane|\bTWLTL\b|"
+         r"solid (?:and|with) (?:a )?broken|broken (?:and|with) (?:a )?solid|passing zone", "solid_and_broken_line"),
+        (r"(?:broken|dashed|skip) (?:yellow |white )?(?:cent(?:er|re) ?)?lines?", "broken_line"),
+        (r"no (?:cent(?:er|re) ?line|pavement|lane) markings?|unmarked|unpaved|gravel road|dirt road", "none"),
+        (r"single solid (?:yellow )?(?:cent(?:er|re) ?)?line|solid (?:yellow )?cent(?:er|re) ?line", "solid_line"),
+    ):
+        match = re.search(pattern, text, re.I) or re.search(pattern, sketch_text, re.I)
+        if match:
+            source = text if re.search(pattern, text, re.I) else sketch_text
+            state.note("road_network.road_marker", _around(source, match) if source is text else f"sketch: {match.group(0)}")
+            return token
+    if ways == 1 and state.divided:
+        state.note("road_network.road_marker", "divided roadway: no centre line on V1's carriageway")
+        return "none"
+    if state.divided and re.search(r"median", road_text, re.I):
+        return "none"
+    drawn = [f for f in state.fact_texts("double solid line drawn")]
+    if drawn and ways == 2:
+        state.note("road_network.road_marker", f"sketch: {drawn[0]}")
+        return "double_solid_line"
+    return "not_mentioned"
+
+
+# ---------------------------------------------------------------- behaviours
+
+
+_LOSE = r"\blost control|\bloss of control|\blose control|\bbegan (?:to )?(?:rotat|yaw|skid|spin|fishtail)|" \
+        r"\bbegan a (?:\w+ )?(?:rotation|yaw|skid|spin)|\b(?:skidded|spun|yawed|fishtailed|hydroplaned)\b"
+_CROSS = r"cross(?:ed|ing|es)?\s+(?:over\s+)?the\s+(?:double\s+(?:yellow\s+)?|solid\s+|painted\s+)*(?:cent(?:er|re)[- ]?lines?|" \
+         r"cent(?:er|re) lane lines|double (?:yellow )?lines?|yellow lines?)|" \
+         r"left[- ]of[- ]cent(?:er|re)|into the (?:opposing|oncoming) (?:traffic )?(?:travel )?lane|wrong[- ]way|" \
+         r"drift(?:ed|ing)? (?:across|over) the cent|into (?:the )?(?:path of )?oncoming traffic"
+_LEAVE = r"(?:depart(?:ed|ing|s)?|exit(?:ed|ing|s)?|ran|run|running|drove|went|veered|travel(?:ed|led)?)\s+(?:off\s+)?" \
+         r"(?:of\s+)?the\s+(?:left|right|north|south|east|west)?\s*(?:side|edge)\s+of\s+the\s+(?:road|roadway|travel lane|" \
+         r"highway|lane)|ran off the road|off the roadway|(?:depart(?:ed|ing)?|exit(?:ed|ing)?|left) the (?:road|roadway)\b" \
+         r"(?! onto the (?:single |one |\w+ )?(?:lane )?(?:exit |entrance )?ramp)|onto the (?:left |right )?(?:shoulder|roadside)"
+_OVERTAKE = r"attempt(?:ed|ing)? to pass\b|\bpass(?:ed|ing)? (?:a |the )?(?:slower|V[1-9])|\bovertak\w+|to pass V[1-9]"
+_LANE_CHANGE = r"(?:veer(?:ed|ing)?|mov(?:ed|ing)|chang(?:ed|ing) lanes|steer(?:ed|ing)|swerv(?:ed|ing)|merg(?:ed|ing)|" \
+               r"drift(?:ed|ing))\s+(?:\w+\s+){0,3}?(?:to\s+the\s+)?(left|right)?[^.]{0,40}?into the (left|right|adjacent|" \
+               r"middle|center|inside|outside|passing|(?:north|south|east|west)bound)\s*((?:north|south|east|west)bound)?"
+_TURN_LEFT = r"turn(?:ed|ing|s)?\s+left|left[- ]turn(?:ing)?(?! lane)|make a left|making a left|initiat\w+ a left"
+_TURN_RIGHT = r"turn(?:ed|ing|s)?\s+right|right[- ]turn(?:ing)?(?! lane)|make a right|making a right"
+_U_TURN = r"\bu[- ]turn(?:ing|ed)?\b(?! lane)"
+_STOPPED = r"\b(?:was|were|had|been|came to a|come to a) (?:stopped|stationary|stopping|slowing to a stop)|\bstopped in (?:the )?" \
+           r"(?:travel )?lane|\bwaiting (?:to|for)\b|\bstopped (?:in|for|at|behind) (?:traffic|the|a)\b|\bstopped\b"
+_PARKED = r"\bparked\b|\bdisabled\b|\bunoccupied\b|\babandoned\b"
+_DECEL = r"\bslow(?:ed|ing)(?: down)?\b|\bbrak(?:ed|ing)\b|\bdecelerat\w+"
+_PROCEED = r"\b(?:then |and )?(?:proceeded|pulled (?:out|into|forward)|entered|accelerated|began to (?:cross|proceed|move))"
+
+
+def _behaviors(state: _State) -> None:
+    pre = state.pre_crash
+    spans: dict[str, list[tuple[int, str, re.Match]]] = {label: [] for label in state.vehicles}
+
+    def collect(pattern: str, token: str) -> None:
+        for match in re.finditer(pattern, pre, re.I):
+            label = _label_at(pre, match.start())
+            if label is None and len(state.vehicles) == 1:
+                label = "V1"
+            if label is None:
+                # "The driver failed to negotiate ..." in a report whose first vehicle is the subject
+                label = _last_subject_before(state, pre, match.start())
+            if label in spans:
+                spans[label].append((match.start(), token, match))
+
+    collect(_LOSE, "lose_control")
+    collect(_CROSS, "cross_centerline")
+    collect(_LEAVE, "leave_road")
+    collect(_OVERTAKE, "overtake")
+    collect(_LANE_CHANGE, "lane_change")
+    collect(_TURN_LEFT, "turn_left")
+    collect(_TURN_RIGHT, "turn_right")
+    collect(_U_TURN, "u_turn")
+    collect(_STOPPED, "stop")
+    collect(_PARKED, "static")
+    collect(_DECEL, "decelerate")
+    collect(r"across the (?:north|south|east|west)bound (?:travel )?lanes?|into the (?:north|south|east|west)bound "
+            r"(?:travel )?lanes?", "into_lane")
+    for label, vehicle in state.vehicles.items():
+        found = sorted(spans[label], key=lambda item: item[0])
+        vehicle.behavior, quote = _resolve(state, vehicle, found)
+        if quote:
+            vehicle.behavior_quote = quote
+            state.note(f"actors.{vehicle.role}.behavior", quote)
+        vehicle.flags = {token for _, token, _ in found}
+        if any(token == "into_lane" and _opposing_lane(vehicle, match.group(0)) for _, token, match in found):
+            vehicle.flags.add("cross_centerline")
+
+
+def _last_subject_before(state: _State, text: str, position: int) -> str | None:
+    labels = re.findall(r"\bV([1-9])\b", text[:position])
+    if labels:
+        return f"V{labels[-1]}"
+    return None
+
+
+def _opposing_lane(vehicle: _Vehicle, phrase: str) -> bool:
+    match = re.search(_DIR + "bound", phrase, re.I)
+    if not match or vehicle.direction is None:
+        return False
+    return (COMPASS[match.group(1).lower()] - COMPASS[vehicle.direction]) % 360 == 180
+
+
+def _resolve(state: _State, vehicle: _Vehicle, found: list[tuple[int, str, re.Match]]) -> tuple[str, str | None]:
+    pre = state.pre_crash
+
+    def quote(match: re.Match) -> str:
+        return _around(pre, match, 80)
+
+    if any(token == "static" for _, token, _ in found):
+        match = next(m for _, token, m in found if token == "static")
+        return "static", quote(match)
+    first_event = None
+    for position, token, match in found:
+        if token in ("lose_control", "cross_centerline", "leave_road", "overtake"):
+            first_event = (token, match)
+            break
+        if token == "lane_change":
+            target = (match.group(2) or "").lower()
+            bound = (match.group(3) or match.group(2) or "").lower()
+            if bound.endswith("bound") and vehicle.direction and \
+                    (COMPASS[bound[:-5]] - COMPASS[vehicle.direction]) % 360 == 180:
+                first_event = ("cross_centerline", match)
+                break
+            side = (match.group(1) or (target if target in ("left", "right") else "") or "").lower()
+            if side in ("left", "right"):
+                first_event = (f"change_lane_{side}", match)
+                break
+        if token == "into_lane" and _opposing_lane(vehicle, match.group(0)):
+            first_event = ("cross_centerline", match)
+            break
+    if first_event:
+        return first_event[0], quote(first_event[1])
+    for token in ("u_turn", "turn_left", "turn_right"):
+        match = next((m for _, t, m in found if t == token), None)
+        if match:
+            return token, quote(match)
+    stop = next((m for _, t, m in found if t == "stop"), None)
+    if stop:
+        after = pre[stop.end(): stop.end() + 200]
+        if re.search(_PROCEED, after, re.I):
+            return "go_forward", quote(stop)
+        return "stop", quote(stop)
+    decel = next((m for _, t, m in found if t == "decelerate"), None)
+    if decel and vehicle.role != "ego" or decel and not re.search(r"avoid", pre[decel.start() - 60: decel.end()], re.I):
+        if decel:
+            return "decelerate", quote(decel)
+    return "go_forward", None
+
+
+# ---------------------------------------------------------------- actors and positions
+
+
+def _relative_heading(ego: _Vehicle, other: _Vehicle) -> str | None:
+    if ego.direction is None or other.direction is None:
+        return None
+    delta = (COMPASS[other.direction] - COMPASS[ego.direction]) % 360
+    if delta == 0:
+        return "same_direction"
+    if delta == 180:
+        return "opposite_direction"
+    origin = (COMPASS[other.direction] + 180 - COMPASS[ego.direction]) % 360  # where it comes from
+    return "from_right" if origin == 90 else "from_left"
+
+
+def _actors(state: _State, road: dict) -> dict:
+    ego = state.vehicles["V1"]
+    at_junction = road["road_type"] in ("intersection", "t_intersection")
+    devices = set(road["traffic_signs"]) - {"speed_limit_sign"}
+    actors: dict = {}
+    crash = state.crash_sentence + " " + " ".join(state.t.sentences)
+    for label, vehicle in state.vehicles.items():
+        if vehicle.role == "ego":
+            reference, relation = _ego_reference(state, road, devices, at_junction)
+            position = {"reference": reference, "relation": relation}
+        else:
+            position = _npc_position(state, ego, vehicle, devices, at_junction, crash)
+        actors[vehicle.role] = {"label": label, "type": vehicle.type, "behavior": vehicle.behavior,
+                                "position": position}
+    return actors
+
+
+def _ego_reference(state: _State, road: dict, devices: set[str], at_junction: bool) -> tuple[str, str]:
+    ego = state.vehicles["V1"]
+    if at_junction:
+        if "traffic_light" in devices:
+            return "traffic_light", "behind"
+        if "stop_sign" in devices and ("V1" in state.stop_controlled or not (state.stop_controlled or
+                                                                            _has_cross_traffic(state))):
+            return "stop_sign", "behind"
+        if "yield_sign" in devices and "V1" in state.yield_controlled:
+            return "yield_sign", "behind"
+        leaving = ego.behavior in ("turn_left", "turn_right") and re.search(
+            r"\b(?:exit(?:ed|ing)?|leaving|left|pulled out of|out of)\s+(?:a |the )?(?:private |commercial )?"
+            r"(?:driveway|parking lot|business)", state.pre_crash, re.I)
+        return "intersection", "front" if leaving else "behind"
+    if road["road_type"] == "curve":
+        return "curve", "behind"
+    return "road", "behind"
+
+
+def _has_cross_traffic(state: _State) -> bool:
+    ego = state.vehicles["V1"]
+    return any(_relative_heading(ego, v) in ("from_left", "from_right") for v in state.vehicles.values() if v is not ego)
+
+
+def _npc_position(state: _State, ego: _Vehicle, npc: _Vehicle, devices: set[str], at_junction: bool,
+                  text: str) -> dict:
+    heading = _relative_heading(ego, npc)
+    label = npc.label
+    if heading is None:
+        if npc.behavior in ("cross_centerline", "overtake") or ego.behavior == "cross_centerline":
+            heading = "opposite_direction"
+        elif re.search(rf"(?:rear|back)(?: plane| end)? of {label}|{label}\b[^.]{{0,80}}\b(?:rear|back)[- ]end|"
+                       rf"front of {label} struck the (?:rear|back)|{label}\b[^.]{{0,40}}\bbehind", text, re.I) or \
+                npc.behavior in ("stop", "decelerate", "static"):
+            heading = "same_direction"
+        elif at_junction:
+            heading = "from_left"
+        else:
+            heading = "opposite_direction"
+    if heading in ("from_left", "from_right"):
+        side = "left" if heading == "from_left" else "right"
+        if "traffic_light" in devices:
+            reference = "traffic_light"
+        elif "stop_sign" in devices and (label in state.stop_controlled or "V1" not in state.stop_controlled):
+            reference = "stop_sign"
+        elif "yield_sign" in devices and (label in state.yield_controlled or "V1" not in state.yield_controlled):
+            reference = "yield_sign"
+        else:
+            reference = "intersection"
+        return {"reference": reference, "relation": side, "heading": heading}
+    if heading == "opposite_direction":
+        return {"reference": "ego", "relation": "front", "heading": heading}
+    relation = _same_direction_relation(state, ego, npc, text)
+    return {"reference": "ego", "relation": relation, "heading": heading}
+
+
+def _same_direction_relation(state: _State, ego: _Vehicle, npc: _Vehicle, text: str) -> str:
+    label = npc.label
+    if ego.lane_side and npc.lane_side and ego.lane_side != npc.lane_side and "middle" not in (ego.lane_side,
+                                                                                               npc.lane_side):
+        if not re.search(rf"{label}\b[^.]{{0,60}}\bbehind|behind V1|following V1", text, re.I) or \
+                ego.behavior.startswith("change_lane") or npc.behavior.startswith("change_lane"):
+            return npc.lane_side
+    behind = re.search(rf"\b{label}\b[^.]{{0,80}}\b(?:behind|following)\b[^.]{{0,20}}V1|"
+                       rf"\bfront (?:plane )?of {label}\b[^.]{{0,40}}\b(?:struck|impacted|contacted)\b[^.]{{0,20}}"
+                       rf"(?:rear|back)|(?:rear|back)(?: plane)? of V1\b[^.]{{0,40}}(?:struck|impacted) by[^.]{{0,30}}{label}|"
+                       rf"\b{label}\b (?:struck|rear-ended|impacted) (?:the )?(?:rear|back) of V1|"
+                       rf"\b{label}\b[^.]{{0,40}}slightly behind", text, re.I)
+    if behind:
+        return "behind"
+    return "front"
+
+
+# ---------------------------------------------------------------- oracle
+
+
+def _oracle(state: _State, road: dict, actors: dict) -> list[dict]:
+    entries: list[dict] = []
+    marker = road["road_marker"]
+    text = state.t.text
+    pre = state.pre_crash
+
+    def add(code: str, violation: str, role: str, description: str, quote: str | None = None) -> None:
+        if any(e["code"] == code and e["actor"] == role for e in entries):
+            return
+        entries.append({"code": code, "violation": violation, "actor": role, "description": _quote(description, 300)})
+        if quote:
+            state.note(f"oracle[{len(entries) - 1}]", quote)
+
+    for label, vehicle in state.vehicles.items():
+        role, behavior, flags = vehicle.role, vehicle.behavior, vehicle.flags
+        quote = vehicle.behavior_quote
+        if behavior == "lose_control" or re.search(
+                rf"\b{label}\b[^.]{{0,80}}(?:too fast for|excessive speed|unsafe speed|speed too great)", text, re.I):
+            add("CVC_22350", "unsafe_speed", role, f"{label} lost control or was driven too fast for the conditions.",
+                quote)
+        crossed = behavior in ("cross_centerline", "overtake") or (behavior == "lose_control" and "cross_centerline"
+                                                                  in flags)
+        if crossed and road["number_of_ways"] == 2:
+            add("CVC_21650", "wrong_side", role, f"{label} entered the opposing lanes of the two-way roadway.", quote)
+            if marker == "double_solid_line" and behavior != "overtake":
+                add("CVC_21460", "double_line_crossing", role, f"{label} crossed the double solid centre line.", quote)
+        if behavior.startswith("change_lane"):
+            add("CVC_22107", "unsafe_lane_change", role, f"{label} changed lanes into the path of another vehicle.",
+                quote)
+        speeding = re.search(rf"\b{label}\b[^.]{{0,80}}(?:speeding|exceed(?:ed|ing) the (?:posted )?speed limit|"
+                             rf"above the (?:posted )?speed limit)", text, re.I)
+        if speeding:
+            add("CVC_22349", "speed_limit", role, f"{label} exceeded the posted speed limit.", _around(text, speeding))
+        red = re.search(rf"\b{label}\b[^.]{{0,100}}(?:red (?:light|signal|indication)|against (?:the|a) red|ran the red)",
+                        text, re.I)
+        if red:
+            add("CVC_21453", "red_light", role, f"{label} entered the intersection against a red signal.",
+                _around(text, red))
+    _junction_oracle(state, road, actors, add)
+    _rear_end_oracle(state, actors, add)
+    return entries
+
+
+def _junction_oracle(state: _State, road: dict, actors: dict, add) -> None:
+    if road["road_type"] not in ("intersection", "t_intersection"):
+        return
+    text = state.t.text
+    devices = set(road["traffic_signs"]) - {"speed_limit_sign"}
+    ego = state.vehicles["V1"]
+    for label, vehicle in state.vehicles.items():
+        role = vehicle.role
+        others = [v for v in state.vehicles.values() if v is not vehicle]
+        heading_to = {o.label: _relative_heading(vehicle, o) for o in others}
+        # left turn across oncoming traffic
+        if vehicle.behavior == "turn_left" and any(h == "opposite_direction" for h in heading_to.values()) and not \
+                re.search(r"(?:green|protected) (?:left[- ]turn )?arrow", text, re.I):
+            add("CVC_21801", "left_turn_yield", role, f"{label} turned left across the path of oncoming traffic.",
+                vehicle.behavior_quote)
+        if not any(h in ("from_left", "from_right") for h in heading_to.values()):
+            continue
+        ran_stop = re.search(rf"\b{label}\b[^.]{{0,80}}(?:fail(?:ed|ing) to stop|did not stop|ran the stop|"
+                             rf"without stopping|disregarded the stop)", text, re.I)
+        if "stop_sign" in devices and label in _stop_approaches(state):
+            if ran_stop:
+                add("CVC_22450", "stop_sign", role, f"{label} did not stop at its stop sign.", _around(text, ran_stop))
+            else:
+                add("CVC_21802", "stop_sign_yield", role,
+                    f"{label} left its stop-controlled approach into the path of cross traffic.", vehicle.behavior_quote)
+        elif "yield_sign" in devices and label in _yield_approaches(state):
+            add("CVC_21803", "yield_sign", role, f"{label} did not yield at its yield sign to cross traffic.",
+                vehicle.behavior_quote)
+        elif not devices and not re.search(r"driveway|parking lot|business", text, re.I):
+            # uncontrolled junction: the vehicle with the other on its right must yield
+            if any(h == "from_right" for h in heading_to.values()):
+                add("CVC_21800", "intersection_right_of_way", role,
+                    f"{label} entered the uncontrolled intersection without yielding to the vehicle on its right.",
+                    vehicle.behavior_quote)
+        if re.search(r"(?:out of|exit(?:ed|ing)?|leaving|from) (?:a |the )?(?:private |commercial |residential )?"
+                     r"(?:driveway|parking lot|business)", state.pre_crash, re.I) and \
+                _label_at(state.pre_crash, state.pre_crash.lower().find("driveway")) == label:
+            add("CVC_21804", "driveway_yield", role, f"{label} left a driveway into the path of traffic.",
+                vehicle.behavior_quote)
+
+
+def _stop_approaches(state: _State) -> set[str]:
+    if state.stop_controlled:
+        return state.stop_controlled
+    ego = state.vehicles["V1"]
+    cross = {v.label for v in state.vehicles.values() if v is not ego and _relative_heading(ego, v) in
+             ("from_left", "from_right")}
+    return cross
+
+
+def _yield_approaches(state: _State) -> set[str]:
+    if state.yield_controlled:
+        return state.yield_controlled
+    ego = state.vehicles["V1"]
+    return {v.label for v in state.vehicles.values() if v is not ego and _relative_heading(ego, v) in
+            ("from_left", "from_right")}
+
+
+def _rear_end_oracle(state: _State, actors: dict, add) -> None:
+    text = state.crash_sentence or ""
+    for label, vehicle in state.vehicles.items():
+        match = re.search(rf"(?:front(?: plane)? of {label}\b[^.]{{0,30}}(?:struck|impacted|hit|contacted)\s+(?:the\s+)?"
+                          rf"(?:rear|back)(?: plane)? of (V[1-9])|\b{label}\b[^.]{{0,60}}(?:struck|impacted|rear-ended|hit)\s+"
+                          rf"(?:the\s+)?(?:rear|back)(?: plane)? of (V[1-9]))", text, re.I)
+        if not match:
+            continue
+        struck_label = match.group(1) or match.group(2)
+        struck = state.vehicles.get(struck_label)
+        if struck is None:
+            continue
+        if struck.behavior in ("stop", "static") or re.search(rf"{struck_label}\b[^.]{{0,60}}stopped|stopped {struck_label}",
+                                                              state.t.text, re.I):
+            add("CVC_22350", "unsafe_speed", vehicle.role,
+                f"{label} struck the stopped {struck_label} from behind: too fast for the traffic ahead.",
+                _around(text, match))
+        else:
+            add("CVC_21703", "following_too_closely", vehicle.role, f"{label} struck the moving {struck_label} from behind.",
+                _around(text, match))
+
+
+# ---------------------------------------------------------------- summary
+
+
+def _summary(state: _State, road: dict, actors: dict) -> str:
+    parts = []
+    for role, actor in actors.items():
+        vehicle = state.vehicles[actor["label"]]
+        direction = f"{vehicle.direction}bound " if vehicle.direction else ""
+        parts.append(f"{direction}{actor['label']} ({actor['behavior'].replace('_', ' ')})")
+    where = {"intersection": "at a 4-leg intersection", "t_intersection": "at a 3-leg junction",
+             "curve": "on a curve", "straight": "on a straight road"}[road["road_type"]]
+    return _quote(f"Rule-based extraction: {', '.join(parts)} {where}.", 300)
