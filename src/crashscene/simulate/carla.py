@@ -1,0 +1,290 @@
+"""The `carla` backend: run the rendered Scenic program in CARLA through Scenic's CARLA interface.
+
+Needs the `carla` Python client (`pip install carla==0.9.16`, a Python 3.11
+wheel) and a running CARLA server (0.9.15/0.9.16) at `--carla-host/--carla-port`.
+Both are checked before anything else, and either missing gives a
+`BackendUnavailable` error saying what to install or start; no test here needs
+a server. The import is guarded as in Scenic's `simulators/carla/__init__.py`,
+so this module imports fine without `carla`.
+
+Runs mirror the newtonian backend: the Scenic scene of each variation, its
+objects placed at the sampled scene's poses (CARLA cannot spawn a moving actor:
+the sampled speed is given as a target velocity right after spawning), traces
+recorded every tick by `scenic_trace.StateRecorder`, footprint contacts as
+collisions (CARLA's own physics handles the crash itself).
+
+World: a map file named after a CARLA town (`Town04.xodr`) loads that town;
+any other OpenDRIVE file is loaded with `generate_opendrive_world` (road
+meshes generated from the file, no buildings).
+
+External ADS stack (test mode, `--ads package.module:Class`): the class is a
+`CarlaAgent` (below). It is instantiated with `--ads` parameters as keyword
+arguments, given the CARLA world and the ego vehicle at the start of each run,
+and asked for a `carla.VehicleControl` every tick; the ego's own Scenic
+behaviour is then ignored. The ego is spawned with `role_name = "hero"`, the
+name CARLA's ROS bridge and Autoware's CARLA interface attach to: for such a
+stack, `run_step` returns None (the stack applies its controls through the
+bridge) and may block until the stack has processed the tick.
+"""
+from __future__ import annotations
+
+import importlib
+import math
+import re
+import socket
+from pathlib import Path
+from typing import Any, Protocol, runtime_checkable
+
+from crashscene.scene import SampledActor, SampledScene
+from crashscene.simulate import scenic_trace
+from crashscene.simulate.backend import (
+    BackendUnavailable,
+    BatchResult,
+    SceneResult,
+    SimulationError,
+    SimulationRequest,
+    SimulationSettings,
+    Simulator,
+    check_ego_role,
+)
+from crashscene.simulate.newtonian import (
+    PIN_TOLERANCE,
+    compile_program,
+    generate_scenic_scene,
+    quiet_scenic,
+    seeded_globals,
+)
+
+CARLA_MODEL = "scenic.simulators.carla.model"
+CARLA_CLIENT_PIN = "carla==0.9.16"
+EGO_ROLE_NAME = "hero"  # the role_name CARLA's ROS bridge and Autoware's CARLA interface look for
+CONNECT_TIMEOUT = 3.0  # [s] TCP probe of the server
+CLIENT_TIMEOUT = 10.0  # [s] CARLA client RPC timeout
+TOWN_NAME = re.compile(r"^Town\d{2}(_Opt|HD(_Opt)?)?$")
+
+
+@runtime_checkable
+class CarlaAgent(Protocol):
+    """An external ADS driving the ego in CARLA (`--ads package.module:Class` with `--backend carla`).
+
+    Lifecycle per variation: `setup` once after the actors are spawned, `run_step`
+    before every tick, `teardown` when the run ends (also after errors).
+    """
+
+    def setup(self, world: Any, ego: Any, actor: SampledActor, map_file: Path, dt: float) -> None:
+        """`world`: carla.World; `ego`: the carla.Vehicle to drive; `actor`: its sampled start and route intent."""
+
+    def run_step(self, t: float) -> Any:
+        """Return a carla.VehicleControl for the ego, or None when the stack applies its own controls."""
+
+    def teardown(self) -> None:
+        """Release whatever `setup` acquired."""
+
+
+def import_carla():
+    """The `carla` module, or BackendUnavailable saying how to install it."""
+    try:
+        import carla
+    except ImportError as exc:
+        raise BackendUnavailable(
+            f"the carla backend needs the CARLA Python client, which is not installed ({exc}); "
+            f"install it with `pip install {CARLA_CLIENT_PIN}` (Python 3.11 wheel) and start a CARLA server, "
+            f"or choose --backend embedded|newtonian") from exc
+    return carla
+
+
+def check_server(host: str, port: int, timeout: float = CONNECT_TIMEOUT) -> None:
+    """BackendUnavailable unless something accepts TCP connections at host:port (a CARLA server)."""
+    try:
+        with socket.create_connection((host, port), timeout=timeout):
+            pass
+    except OSError as exc:
+        raise BackendUnavailable(
+            f"no CARLA server reachable at {host}:{port} ({exc.strerror or exc}); start one "
+            f"(e.g. ./CarlaUE4.sh -RenderOffScreen -carla-rpc-port={port}) or pass --carla-host/--carla-port") from exc
+
+
+def load_agent(spec: str, params: dict[str, Any] | None = None) -> CarlaAgent:
+    """Instantiate the external ADS `package.module:Class` with `params` as keyword arguments."""
+    module_name, sep, class_name = spec.partition(":")
+    if not sep or not module_name or not class_name:
+        raise SimulationError(f"--ads {spec!r}: expected 'package.module:Class'")
+    try:
+        module = importlib.import_module(module_name)
+    except ImportError as exc:
+        raise SimulationError(f"--ads {spec!r}: cannot import module {module_name!r} ({exc})") from exc
+    cls = getattr(module, class_name, None)
+    if not isinstance(cls, type):
+        raise SimulationError(f"--ads {spec!r}: module {module_name!r} has no class {class_name!r}")
+    try:
+        agent = cls(**(params or {}))
+    except TypeError as exc:
+        raise SimulationError(f"--ads {spec!r}: cannot create it with parameters {params or {}} ({exc})") from exc
+    if not isinstance(agent, CarlaAgent):
+        raise SimulationError(f"--ads {spec!r}: a CARLA agent needs methods setup, run_step and teardown "
+                              f"(see crashscene.simulate.carla.CarlaAgent)")
+    return agent
+
+
+def carla_town(map_file: Path) -> str | None:
+    """The CARLA town to load for `map_file` (`Town04.xodr` -> 'Town04'), None to generate the world from it."""
+    stem = Path(map_file).stem
+    return stem if TOWN_NAME.match(stem) else None
+
+
+def _tracing_classes(carla):
+    """Scenic CARLA Simulator/Simulation subclasses that pin, record and host an external agent."""
+    from scenic.core.vectors import Vector
+    from scenic.simulators.carla.simulator import CarlaSimulation
+    from scenic.simulators.carla.simulator import CarlaSimulator as ScenicCarlaSimulator
+
+    class PinnedCarlaSimulation(scenic_trace.StateRecorder, CarlaSimulation):
+        def __init__(self, scene, *args, pins, agent_index, agent, agent_setup, **kwargs):
+            self._pins, self._agent_index, self._agent, self._agent_setup = pins, agent_index, agent, agent_setup
+            self._target_speeds: list[float] = []
+            super().__init__(scene, *args, **kwargs)
+
+        def createObjectInSimulator(self, obj):  # noqa: N802 (Scenic hook)
+            index = len(self.objects) - 1
+            x, y, heading, speed = self._pins[index]
+            obj.position, obj.heading = Vector(x, y, 0), heading
+            if index == self._agent_index and self._agent is not None:
+                obj.rolename = EGO_ROLE_NAME
+            actor = super().createObjectInSimulator(obj)
+            # CARLA cannot spawn a moving actor: start it through a target velocity
+            # (CARLA's y axis points the other way round, hence the sign).
+            vx, vy = -speed * math.sin(heading), speed * math.cos(heading)
+            actor.set_target_velocity(carla.Vector3D(vx, -vy, 0.0))
+            obj.velocity, obj.speed = Vector(0, 0), 0.0
+            return actor
+
+        def setup(self):
+            super().setup()
+            if self._agent is not None:
+                self._agent_setup(self.world, self.objects[self._agent_index].carlaActor)
+
+        def executeActions(self, allActions):  # noqa: N802 (Scenic hook)
+            if self._agent is not None:
+                ego = self.objects[self._agent_index]
+                if ego in allActions:
+                    allActions[ego] = ()  # the external stack drives the ego, not its Scenic behaviour
+            super().executeActions(allActions)
+            if self._agent is not None:
+                control = self._agent.run_step(self.currentTime * self.timestep)
+                if control is not None:
+                    self.objects[self._agent_index].carlaActor.apply_control(control)
+
+    class PinnedCarlaSimulator(ScenicCarlaSimulator):
+        def __init__(self, *args, pins=None, agent_index=None, agent=None, agent_setup=None, **kwargs):
+            super().__init__(*args, **kwargs)
+            self.pins, self.agent_index, self.agent, self.agent_setup = pins, agent_index, agent, agent_setup
+
+        def createSimulation(self, scene, *, timestep, **kwargs):  # noqa: N802 (Scenic hook)
+            self.scenario_number += 1
+            return PinnedCarlaSimulation(scene, self.client, self.tm, self.render, self.record,
+                                         self.scenario_number, timestep=self.timestep, pins=self.pins,
+                                         agent_index=self.agent_index, agent=self.agent,
+                                         agent_setup=self.agent_setup, **kwargs)
+
+    return PinnedCarlaSimulator
+
+
+class CarlaSimulator(Simulator):
+    """Runs rendered Scenic programs in CARLA, one scene at a time, in synchronous mode at `dt`.
+
+    Checks for the client and the server when a batch starts, not at import,
+    so `--backend carla` fails fast and clearly where CARLA is absent.
+    """
+
+    name = "carla"
+
+    def __init__(self, settings: SimulationSettings | None = None):
+        super().__init__(settings)
+        self._compiled: dict[tuple[str, str], object] = {}
+        self._carla = None
+
+    def check_available(self) -> None:
+        """BackendUnavailable unless `import carla` works and a server answers at the configured host:port."""
+        self._carla = import_carla()
+        check_server(self.settings.carla_host, self.settings.carla_port)
+
+    def simulate(self, request: SimulationRequest) -> BatchResult:
+        check_ego_role(request.scenario, self.settings)
+        if not request.program:
+            raise SimulationError("the carla backend needs the rendered Scenic program "
+                                  "(SimulationRequest.program is empty)")
+        if self.settings.ads is not None:
+            if self.settings.mode != "test":
+                raise SimulationError(f"--ads {self.settings.ads!r} drives the ADS role in test mode only; "
+                                      f"got --mode {self.settings.mode}")
+            load_agent(self.settings.ads, self.settings.ads_params)  # fail before connecting, not mid-batch
+        self.check_available()
+        result = super().simulate(request)
+        if self.settings.mode == "test" and self.settings.ads is None:
+            result.notes.append(f"carla: no --ads given, the ADS role {self.settings.ego_role!r} runs the "
+                                f"program's Scenic behaviour")
+        return result
+
+    def compiled(self, program: str, map_file: Path):
+        key = (program, str(Path(map_file).resolve()))
+        if key not in self._compiled:
+            params = {"render": 0, "address": self.settings.carla_host, "port": self.settings.carla_port,
+                      "timestep": self.settings.dt, "carla_map": carla_town(map_file), "timeout": CLIENT_TIMEOUT}
+            self._compiled[key] = compile_program(program, map_file, model=CARLA_MODEL, extra_params=params)
+        return self._compiled[key]
+
+    def simulate_scene(self, request: SimulationRequest, scene: SampledScene) -> SceneResult:
+        carla = self._carla or import_carla()
+        settings = self.settings
+        scenario = self.compiled(request.program or "", request.map_file)
+        with quiet_scenic():
+            scenic_scene = generate_scenic_scene(scenario, scene.seed, scene.index)
+        roles = scenic_trace.object_roles(scenic_scene.objects, scene)
+        by_role = {actor.role: actor for actor in scene.actors}
+        pins, drift = [], 0.0
+        for obj, role in zip(scenic_scene.objects, roles):
+            actor = by_role[role]
+            pins.append((actor.x, actor.y, actor.yaw - scenic_trace.SCENIC_TO_YAW, actor.speed))
+            drift = max(drift, math.hypot(float(obj.position[0]) - actor.x, float(obj.position[1]) - actor.y))
+        agent, agent_index = None, None
+        if settings.ads is not None and settings.mode == "test":
+            agent = load_agent(settings.ads, settings.ads_params)
+            agent_index = roles.index(settings.ego_role)
+        ego_actor = by_role[settings.ego_role]
+
+        def agent_setup(world, vehicle):
+            agent.setup(world, vehicle, ego_actor, Path(request.map_file), settings.dt)
+
+        try:
+            simulator = _tracing_classes(carla)(
+                carla_town(request.map_file), str(request.map_file), address=settings.carla_host,
+                port=settings.carla_port, timeout=CLIENT_TIMEOUT, render=False, timestep=settings.dt,
+                pins=pins, agent_index=agent_index, agent=agent, agent_setup=agent_setup)
+        except RuntimeError as exc:
+            raise BackendUnavailable(f"CARLA at {settings.carla_host}:{settings.carla_port} refused the world for "
+                                     f"{request.map_file}: {exc}") from exc
+        try:
+            with seeded_globals(scene.seed, scene.index):
+                simulation = simulator.simulate(scenic_scene, maxSteps=settings.steps, verbosity=0)
+        except Exception as exc:
+            tracks = {a.role: scenic_trace.still_track(a, settings.steps + 1) for a in scene.actors}
+            result = scenic_trace.scene_result(scene, tracks, settings.dt, None)
+            result.valid, result.invalid_reason = False, f"carla run failed: {type(exc).__name__}: {exc}"
+            return result
+        finally:
+            if agent is not None:
+                agent.teardown()
+            simulator.destroy()
+        if simulation is None:
+            tracks = {a.role: scenic_trace.still_track(a, settings.steps + 1) for a in scene.actors}
+            result = scenic_trace.scene_result(scene, tracks, settings.dt, None)
+            result.valid, result.invalid_reason = False, "scenic rejected the simulation (a requirement was violated)"
+            return result
+        tracks = scenic_trace.tracks_from_trajectory(simulation.result.trajectory, roles)
+        tracks = scenic_trace.pad_tracks(tracks, settings.steps + 1)
+        result = scenic_trace.scene_result(scene, tracks, settings.dt, request.map_file)
+        if drift > PIN_TOLERANCE and result.valid:
+            result.valid = False
+            result.invalid_reason = (f"scenic placed an actor {drift:.2f} m from the sampled scene "
+                                     f"(tolerance {PIN_TOLERANCE} m): program and scenes disagree")
+        return result

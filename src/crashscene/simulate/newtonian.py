@@ -1,0 +1,278 @@
+"""The `newtonian` backend: run the rendered Scenic program in Scenic's Newtonian simulator.
+
+Faithful to the Scenic program (its own behaviours drive every actor) but slow
+(one scene at a time, about 3 runs/s here) and physically thin: Scenic's
+Newtonian simulator has no traffic-light states, no collision handling, and
+`FollowLaneBehavior` cannot brake. It is the cross-check of the embedded
+backend and the fallback for hand-written Scenic programs.
+
+What this backend adds around Scenic:
+- placement: each Scenic scene is the one Scenic samples for the variation
+  (reseeded from (seed, variation) as `crashscene.sample` does), and every
+  object is then pinned to the sampled scene's position, yaw and speed, so the
+  run starts exactly where the embedded backend's does;
+- contact: footprints (oriented rectangles) are checked every step; vehicles
+  that touch come to rest at the contact (no crash dynamics), and the first
+  contact of each pair is a collision row;
+- traces: per step x, y, yaw, speed through `scenic_trace.StateRecorder`, the
+  map columns through the embedded backend's road lookups;
+- determinism: Scenic's behaviours draw from Python's `random` and numpy's
+  global generator; both are seeded from (seed, variation) for the run and
+  restored afterwards, so nothing leaks between runs or into the caller.
+"""
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import math
+import random
+import time
+import warnings
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+
+from crashscene.scene import SampledScene
+from crashscene.simulate.backend import (
+    BatchResult,
+    SceneResult,
+    SimulationError,
+    SimulationRequest,
+    SimulationSettings,
+    Simulator,
+    check_ego_role,
+)
+from crashscene.simulate import scenic_trace
+
+NEWTONIAN_MODEL = "scenic.simulators.newtonian.driving_model"
+PIN_TOLERANCE = 0.5  # [m] a Scenic scene farther than this from the sampled one means the program changed
+
+NOTES = (
+    "newtonian: no traffic-light states in Scenic's Newtonian simulator (actors do not react to signals)",
+    "newtonian: vehicles come to rest at first contact (no crash dynamics)",
+)
+
+
+@contextlib.contextmanager
+def seeded_globals(seed: int, index: int) -> Iterator[None]:
+    """Seed Python's `random` and numpy's global generator from (seed, index); restore both afterwards."""
+    py_state, np_state = random.getstate(), np.random.get_state()
+    words = np.random.SeedSequence([seed & 0xFFFFFFFFFFFFFFFF, index, 0x4E4557]).generate_state(2)
+    random.seed(int(words[0]))
+    np.random.seed(int(words[1]))
+    try:
+        yield
+    finally:
+        random.setstate(py_state)
+        np.random.set_state(np_state)
+
+
+@contextlib.contextmanager
+def quiet_scenic() -> Iterator[None]:
+    """Silence Scenic's map-parsing warnings (OpenDRIVE shoulders etc.) that would flood a batch run."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        yield
+
+
+def compile_program(program: str, map_file: Path, model: str = NEWTONIAN_MODEL, extra_params: dict | None = None):
+    """Compile a Scenic program in 2D mode against `map_file` under `model` (no window, no server).
+
+    `extra_params` are further global parameters (the CARLA model's address, port...).
+    """
+    import scenic
+
+    map_file = Path(map_file)
+    if not map_file.is_file():
+        raise SimulationError(f"{map_file}: map not found (the OpenDRIVE file the program runs on)")
+    try:
+        with quiet_scenic():
+            params = {"render": False, "map": str(map_file), **(extra_params or {})}
+            return scenic.scenarioFromString(program, params=params, mode2D=True, model=model)
+    except Exception as exc:  # Scenic raises many types (ScenicSyntaxError, InvalidScenarioError, ...)
+        raise SimulationError(f"the Scenic program does not compile under {model} with map {map_file}: "
+                              f"{type(exc).__name__}: {exc}") from exc
+
+
+def generate_scenic_scene(scenario, seed: int, index: int, max_iterations: int = 2000):
+    """The Scenic scene of variation `index`: the sample module's per-scene reseeding when it has one."""
+    try:
+        from crashscene import sample as sample_module
+    except ImportError:
+        sample_module = None
+    generate = getattr(sample_module, "generate_scene", None) if sample_module else None
+    if generate is not None:
+        return generate(scenario, seed, index)
+    with seeded_globals(seed, index):
+        scene, _ = scenario.generate(maxIterations=max_iterations, verbosity=0)
+    return scene
+
+
+def _tracing_classes():
+    """Newtonian Simulator/Simulation subclasses that pin, record and stop at contact (built lazily: pygame import)."""
+    from scenic.core.vectors import Vector
+    from scenic.simulators.newtonian.simulator import NewtonianSimulation
+    from scenic.simulators.newtonian.simulator import NewtonianSimulator as ScenicNewtonianSimulator
+
+    class PinnedNewtonianSimulation(scenic_trace.StateRecorder, NewtonianSimulation):
+        """A Newtonian run whose objects start at pinned states and halt at first contact."""
+
+        def __init__(self, scene, network, render, export_gif, debug_render, *, pins, sizes, **kwargs):
+            self._pins = pins  # per scene object: (x, y, scenic heading, speed) or None
+            self._sizes = sizes  # per scene object: (length, width) [m]
+            self._halted: set[int] = set()
+            super().__init__(scene, network, render, export_gif, debug_render, **kwargs)
+
+        def createObjectInSimulator(self, obj):  # noqa: N802 (Scenic hook)
+            index = len(self.objects) - 1  # Scenic appends obj before calling this hook
+            pin = self._pins[index]
+            if pin is not None:
+                x, y, heading, speed = pin
+                obj.position = Vector(x, y, 0)
+                obj.heading = heading
+                obj.velocity = Vector(0, speed).rotatedBy(heading)
+            super().createObjectInSimulator(obj)
+
+        def executeActions(self, allActions):  # noqa: N802 (Scenic hook)
+            for index, obj in enumerate(self.objects):
+                if index in self._halted and obj in allActions:
+                    allActions[obj] = ()  # a vehicle at rest after a contact takes no further action
+            super().executeActions(allActions)
+
+        def step(self):
+            # Halting happens at the start of the step after the contact, so the trace's
+            # contact step still shows the impact speeds.
+            for index in self._halted:
+                self._halt(self.objects[index])
+            super().step()
+            self._detect_contacts()
+
+        def _detect_contacts(self):
+            objects = self.objects
+            states = [(float(o.position[0]), float(o.position[1]), float(scenic_trace.yaw_from_heading(o.heading)))
+                      for o in objects]
+            for i in range(len(objects)):
+                for j in range(i + 1, len(objects)):
+                    if i in self._halted and j in self._halted:
+                        continue
+                    if scenic_trace.footprints_overlap(states[i], self._sizes[i], states[j], self._sizes[j]):
+                        self._halted.update((i, j))
+
+        @staticmethod
+        def _halt(obj):
+            obj.velocity = Vector(0, 0)
+            obj.speed = 0.0
+            obj.angularSpeed = 0.0
+            if getattr(obj, "isCar", False):
+                obj.throttle, obj.steer, obj.brake = 0.0, 0.0, 1.0
+
+    class PinnedNewtonianSimulator(ScenicNewtonianSimulator):
+        """Scenic's Newtonian simulator, headless, creating `PinnedNewtonianSimulation`s."""
+
+        def __init__(self, pins, sizes):
+            super().__init__(network=None, render=False)
+            self.pins, self.sizes = pins, sizes
+
+        def createSimulation(self, scene, **kwargs):  # noqa: N802 (Scenic hook)
+            return PinnedNewtonianSimulation(scene, self.network, False, False, False,
+                                             pins=self.pins, sizes=self.sizes, **kwargs)
+
+    return PinnedNewtonianSimulator
+
+
+class NewtonianSimulator(Simulator):
+    """Runs rendered Scenic programs in Scenic's Newtonian simulator, one scene at a time.
+
+    Compiles each (program, map) once per simulator and reuses it for every scene.
+    In `test` mode the ego still runs the program's Scenic behaviour: a user ADS
+    (`--ads`) cannot be plugged into Scenic behaviours, so asking for one is an error.
+    """
+
+    name = "newtonian"
+
+    def __init__(self, settings: SimulationSettings | None = None):
+        super().__init__(settings)
+        self._compiled: dict[str, object] = {}
+
+    def simulate(self, request: SimulationRequest) -> BatchResult:
+        if self.settings.ads is not None:
+            raise SimulationError(f"--ads {self.settings.ads!r}: the newtonian backend runs the program's Scenic "
+                                  f"behaviours and cannot host a user driver; use --backend embedded "
+                                  f"(or carla for an external stack)")
+        if not request.program:
+            raise SimulationError("the newtonian backend needs the rendered Scenic program "
+                                  "(SimulationRequest.program is empty)")
+        result = super().simulate(request)
+        result.notes.extend(NOTES)
+        if self.settings.mode == "test":
+            result.notes.append(f"newtonian: the ADS role {self.settings.ego_role!r} runs the program's "
+                                f"Scenic behaviour, not the reference ADS")
+        return result
+
+    def compiled(self, program: str, map_file: Path):
+        """The compiled Scenic scenario of (program, map), compiled on first use."""
+        key = hashlib.sha256(program.encode() + b"\0" + str(Path(map_file).resolve()).encode()).hexdigest()
+        if key not in self._compiled:
+            self._compiled[key] = compile_program(program, map_file)
+        return self._compiled[key]
+
+    def simulate_scene(self, request: SimulationRequest, scene: SampledScene) -> SceneResult:
+        check_ego_role(request.scenario, self.settings)
+        scenario = self.compiled(request.program or "", request.map_file)
+        settings = self.settings
+        with quiet_scenic():
+            try:
+                scenic_scene = generate_scenic_scene(scenario, scene.seed, scene.index)
+            except Exception as exc:  # RejectionException when no scene satisfies the requirements
+                return _invalid(scene, settings, f"scenic could not place the scene: {type(exc).__name__}: {exc}")
+            roles = scenic_trace.object_roles(scenic_scene.objects, scene)
+            by_role = {actor.role: actor for actor in scene.actors}
+            pins, sizes, drift = [], [], 0.0
+            for obj, role in zip(scenic_scene.objects, roles):
+                actor = by_role[role]
+                heading = actor.yaw - scenic_trace.SCENIC_TO_YAW
+                pins.append((actor.x, actor.y, heading, actor.speed))
+                sizes.append((actor.length, actor.width))
+                drift = max(drift, math.hypot(float(obj.position[0]) - actor.x, float(obj.position[1]) - actor.y))
+            simulator = _tracing_classes()(pins, sizes)
+            try:
+                with seeded_globals(scene.seed, scene.index):
+                    simulation = simulator.simulate(scenic_scene, maxSteps=settings.steps, timestep=settings.dt,
+                                                    verbosity=0)
+            except Exception as exc:  # a behaviour failing at run time invalidates this variation only
+                return _invalid(scene, settings, f"newtonian run failed: {type(exc).__name__}: {exc}")
+            finally:
+                simulator.destroy()
+        if simulation is None:
+            return _invalid(scene, settings, "scenic rejected the simulation (a requirement was violated)")
+        tracks = scenic_trace.tracks_from_trajectory(simulation.result.trajectory, roles)
+        tracks = scenic_trace.pad_tracks(tracks, settings.steps + 1)
+        result = scenic_trace.scene_result(scene, tracks, settings.dt, request.map_file)
+        if drift > PIN_TOLERANCE and result.valid:
+            result.valid = False
+            result.invalid_reason = (f"scenic placed an actor {drift:.2f} m from the sampled scene "
+                                     f"(tolerance {PIN_TOLERANCE} m): program and scenes disagree")
+        return result
+
+
+def _invalid(scene: SampledScene, settings: SimulationSettings, reason: str) -> SceneResult:
+    """An invalid variation: the actors held at their sampled poses for every step, flagged with `reason`."""
+    tracks = {actor.role: scenic_trace.still_track(actor, settings.steps + 1) for actor in scene.actors}
+    result = scenic_trace.scene_result(scene, tracks, settings.dt, None)
+    result.valid, result.invalid_reason, result.collisions = False, reason, []
+    return result
+
+
+def time_newtonian_runs(request: SimulationRequest, k: int | None = None) -> float:
+    """Benchmark input: seconds to run the first `k` scenes of `request` on the newtonian backend.
+
+    Includes the one-off compile, as a user would pay it; `benchmarks/bench_simulate.py`
+    extrapolates to 2,000 variations from this.
+    """
+    scenes = list(request.scenes)[:k] if k is not None else list(request.scenes)
+    start = time.perf_counter()
+    with NewtonianSimulator(request.settings) as simulator:
+        simulator.simulate(SimulationRequest(scenario=request.scenario, scenes=scenes, map_file=request.map_file,
+                                             settings=request.settings, program=request.program))
+    return time.perf_counter() - start

@@ -1,0 +1,156 @@
+"""The `carla` backend's error paths and helpers (crashscene.simulate.carla); no CARLA server is needed.
+
+Where a test needs `import carla` to succeed it installs a stand-in module in
+`sys.modules`; nothing here connects to a real server.
+"""
+from __future__ import annotations
+
+import socket
+import sys
+import types
+from pathlib import Path
+
+import pytest
+
+from crashscene.dsl import load_file
+from crashscene.simulate import carla as carla_backend
+from crashscene.simulate.backend import (
+    BackendUnavailable,
+    SimulationError,
+    SimulationRequest,
+    SimulationSettings,
+    create_simulator,
+)
+
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples" / "ciren"
+CASE = EXAMPLES / "100343" / "golden.yaml"
+PROGRAM = "ego = new Car at (0, 0)\n"
+
+
+@pytest.fixture
+def scenario():
+    return load_file(CASE)
+
+
+@pytest.fixture
+def closed_port() -> int:
+    """A local TCP port nobody listens on."""
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        return sock.getsockname()[1]
+
+
+@pytest.fixture
+def no_carla(monkeypatch):
+    monkeypatch.setitem(sys.modules, "carla", None)  # `import carla` raises ImportError
+
+
+@pytest.fixture
+def fake_carla(monkeypatch):
+    monkeypatch.setitem(sys.modules, "carla", types.ModuleType("carla"))
+
+
+def request(scenario, tmp_path, program=PROGRAM):
+    return SimulationRequest(scenario=scenario, scenes=[], map_file=tmp_path / "map.xodr", program=program)
+
+
+def test_registered_under_its_name():
+    assert isinstance(create_simulator("carla"), carla_backend.CarlaSimulator)
+
+
+def test_without_the_client_says_what_to_install(no_carla, scenario, tmp_path):
+    with pytest.raises(BackendUnavailable, match=r"pip install carla==0\.9\.16.*--backend embedded\|newtonian"):
+        create_simulator("carla").simulate(request(scenario, tmp_path))
+
+
+def test_without_a_server_names_host_and_port(fake_carla, scenario, tmp_path, closed_port):
+    settings = SimulationSettings(carla_host="127.0.0.1", carla_port=closed_port)
+    with pytest.raises(BackendUnavailable, match=rf"no CARLA server reachable at 127\.0\.0\.1:{closed_port}"):
+        create_simulator("carla", settings).simulate(request(scenario, tmp_path))
+
+
+def test_a_listening_port_passes_the_server_probe(closed_port):
+    with socket.socket() as server:
+        server.bind(("127.0.0.1", 0))
+        server.listen(1)
+        carla_backend.check_server("127.0.0.1", server.getsockname()[1])  # no error
+
+
+def test_missing_program_is_a_clear_error(scenario, tmp_path):
+    with pytest.raises(SimulationError, match="needs the rendered Scenic program"):
+        create_simulator("carla").simulate(request(scenario, tmp_path, program=None))
+
+
+def test_unknown_ego_role_is_refused_before_connecting(no_carla, scenario, tmp_path):
+    with pytest.raises(SimulationError, match="--ego 'npc7': no such actor"):
+        create_simulator("carla", SimulationSettings(ego_role="npc7")).simulate(request(scenario, tmp_path))
+
+
+def test_ads_only_in_test_mode(scenario, tmp_path):
+    settings = SimulationSettings(mode="reproduce", ads=f"{__name__}:GoodAgent")
+    with pytest.raises(SimulationError, match="test mode only"):
+        create_simulator("carla", settings).simulate(request(scenario, tmp_path))
+
+
+def test_bad_ads_is_refused_before_connecting(no_carla, scenario, tmp_path):
+    settings = SimulationSettings(ads="no_such_package.stack:Agent")
+    with pytest.raises(SimulationError, match="cannot import module 'no_such_package.stack'"):
+        create_simulator("carla", settings).simulate(request(scenario, tmp_path))
+
+
+class GoodAgent:
+    def __init__(self, gain: float = 1.0):
+        self.gain = gain
+
+    def setup(self, world, ego, actor, map_file, dt):
+        pass
+
+    def run_step(self, t):
+        return None
+
+    def teardown(self):
+        pass
+
+
+class NotAnAgent:
+    def run_step(self, t):
+        return None
+
+
+@pytest.mark.parametrize("spec, message", [
+    ("nocolon", "expected 'package.module:Class'"),
+    (f"{__name__}:Missing", "has no class 'Missing'"),
+    (f"{__name__}:NotAnAgent", "needs methods setup, run_step and teardown"),
+])
+def test_load_agent_errors(spec, message):
+    with pytest.raises(SimulationError, match=message):
+        carla_backend.load_agent(spec)
+
+
+def test_load_agent_passes_parameters():
+    agent = carla_backend.load_agent(f"{__name__}:GoodAgent", {"gain": 2.5})
+    assert isinstance(agent, GoodAgent) and agent.gain == 2.5
+    with pytest.raises(SimulationError, match="cannot create it with parameters"):
+        carla_backend.load_agent(f"{__name__}:GoodAgent", {"nope": 1})
+
+
+@pytest.mark.parametrize("name, town", [
+    ("Town04.xodr", "Town04"), ("Town10HD.xodr", "Town10HD"), ("Town10HD_Opt.xodr", "Town10HD_Opt"),
+    ("map.xodr", None), ("town04.xodr", None), ("Town4.xodr", None),
+])
+def test_carla_town_from_map_name(name, town):
+    assert carla_backend.carla_town(Path("/x") / name) == town
+
+
+@pytest.mark.slow
+def test_program_compiles_under_the_carla_model_without_a_client(no_carla, tmp_path):
+    # Scenic's CARLA model compiles and samples without `carla`: only the run needs it.
+    from crashscene.simulate.newtonian import compile_program
+
+    town02 = tmp_path / "Town02.xodr"  # a copy, so Scenic's .snet cache lands in tmp_path
+    town02.write_bytes((Path(__file__).resolve().parents[1] / "data" / "maps" / "carla" / "Town02.xodr").read_bytes())
+    program = "model scenic.domains.driving.model\nego = new Car on road\n"
+    scenario = compile_program(program, town02, model=carla_backend.CARLA_MODEL,
+                               extra_params={"render": 0, "carla_map": None})
+    scene, _ = scenario.generate(maxIterations=100)
+    assert len(scene.objects) == 1

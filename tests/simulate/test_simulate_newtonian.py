@@ -1,0 +1,253 @@
+"""The `newtonian` backend (crashscene.simulate.newtonian) and the Scenic trace helpers (scenic_trace).
+
+Fast tests check the geometry and the error paths; `slow` ones run Scenic's
+Newtonian simulator on a hand-written program over a generated straight road.
+"""
+from __future__ import annotations
+
+import math
+import random
+from pathlib import Path
+
+import numpy as np
+import pyarrow as pa
+import pytest
+import shapely
+
+from crashscene.dsl import load_file
+from crashscene.scene import SampledActor, SampledScene
+from crashscene.simulate import scenic_trace
+from crashscene.simulate.backend import (
+    SimulationError,
+    SimulationRequest,
+    SimulationSettings,
+    create_simulator,
+)
+from crashscene.simulate.newtonian import (
+    NewtonianSimulator,
+    compile_program,
+    generate_scenic_scene,
+    seeded_globals,
+    time_newtonian_runs,
+)
+from crashscene.traces import TABLES
+
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples" / "ciren"
+STRAIGHT_CASE = EXAMPLES / "100343" / "golden.yaml"  # ego + npc1, both labelled; roles are all we need here
+
+# Two cars in the right lane of a straight two-lane road; npc1 ahead and slower, so ego runs into it.
+REAR_END_PROGRAM = """
+param map = localPath('straight.xodr')
+model scenic.simulators.newtonian.driving_model
+lane = Uniform(*network.lanes)
+ego = new Car on lane.centerline, with speed Range(9, 11), with role 'ego',
+    with behavior FollowLaneBehavior(target_speed=10)
+npc1 = new Car following roadDirection from ego for Range(20, 30), with speed 4, with role 'npc1',
+    with behavior FollowLaneBehavior(target_speed=4)
+require (distance from ego to npc1) < 60
+"""
+
+
+def make_straight_map(path: Path, length: float = 500.0) -> Path:
+    """A straight two-way road, one 3.5 m lane per direction, along +x from the origin."""
+    from scenariogeneration import xodr
+
+    road = xodr.create_road(xodr.Line(length), id=1, left_lanes=1, right_lanes=1, lane_width=3.5)
+    odr = xodr.OpenDrive("straight")
+    odr.add_road(road)
+    odr.adjust_roads_and_lanes()
+    odr.write_xml(str(path))
+    return path
+
+
+def scenes_from_program(program: str, map_file: Path, seed: int, indices: range) -> list[SampledScene]:
+    """SampledScenes read off the Scenic scenes the backend itself will generate (a stand-in for sample)."""
+    scenario = compile_program(program, map_file)
+    scenes = []
+    for i in indices:
+        scene = generate_scenic_scene(scenario, seed, i)
+        actors = [SampledActor(role=obj.role, type="car", blueprint="vehicle.lincoln.mkz_2017",
+                               behavior="go_forward", x=float(obj.position[0]), y=float(obj.position[1]),
+                               yaw=float(scenic_trace.yaw_from_heading(obj.heading)), speed=float(obj.speed),
+                               length=float(obj.length), width=float(obj.width), lane_id=obj.lane.uid,
+                               route_intent="straight", reference="road", relation="behind")
+                  for obj in scene.objects]
+        scenes.append(SampledScene(index=i, seed=seed, scenario_hash="test", map_file=str(map_file), actors=actors))
+    return scenes
+
+
+def table_bytes(table: pa.Table) -> bytes:
+    """Arrow IPC serialisation of a table, to compare tables byte for byte."""
+    sink = pa.BufferOutputStream()
+    with pa.ipc.new_stream(sink, table.schema) as writer:
+        writer.write_table(table.combine_chunks())
+    return sink.getvalue().to_pybytes()
+
+
+@pytest.fixture(scope="module")
+def straight_map(tmp_path_factory) -> Path:
+    return make_straight_map(tmp_path_factory.mktemp("maps") / "straight.xodr")
+
+
+@pytest.fixture(scope="module")
+def scenario():
+    return load_file(STRAIGHT_CASE)
+
+
+# ------------------------------------------------------------------ fast: geometry, conventions, errors
+
+def test_yaw_from_heading_turns_scenic_heading_into_opendrive_yaw():
+    # Scenic 0 = +y (north) is yaw pi/2; Scenic -pi/2 (east) is yaw 0; results wrapped to (-pi, pi]
+    assert scenic_trace.yaw_from_heading(0.0) == pytest.approx(math.pi / 2)
+    assert scenic_trace.yaw_from_heading(-math.pi / 2) == pytest.approx(0.0)
+    assert scenic_trace.yaw_from_heading(math.pi / 2) == pytest.approx(math.pi)
+    assert scenic_trace.yaw_from_heading(3 * math.pi / 4) == pytest.approx(-3 * math.pi / 4)
+
+
+def test_footprint_overlap_agrees_with_shapely_on_random_rectangles():
+    rng = np.random.default_rng(5)
+    n = 2000
+    xa, ya, xb, yb = rng.uniform(-6, 6, (4, n))
+    ta, tb = rng.uniform(-math.pi, math.pi, (2, n))
+    size_a, size_b = (4.5, 2.0), (7.0, 2.5)
+    got = scenic_trace.footprints_overlap((xa, ya, ta), size_a, (xb, yb, tb), size_b)
+    corners_a = scenic_trace.footprint_corners(xa, ya, ta, *size_a)
+    corners_b = scenic_trace.footprint_corners(xb, yb, tb, *size_b)
+    want = np.array([shapely.Polygon(a).intersects(shapely.Polygon(b)) for a, b in zip(corners_a, corners_b)])
+    assert got.shape == (n,)
+    assert want.any() and not want.all()
+    assert np.array_equal(got, want)
+
+
+def test_footprint_corners_follow_yaw():
+    corners = scenic_trace.footprint_corners(10.0, 5.0, math.pi / 2, 4.0, 2.0)
+    # facing +y: the front corners are at y = 7, the left ones at x = 9
+    assert corners[0] == pytest.approx([9.0, 7.0])
+    assert corners[3] == pytest.approx([11.0, 7.0])
+
+
+def test_kinematic_columns_from_speed_and_yaw():
+    speed = np.array([10.0, 9.0, 8.0, 8.0])
+    assert scenic_trace.longitudinal_accel(speed, 0.1) == pytest.approx([-10.0, -10.0, 0.0, 0.0])
+    yaw = np.array([math.pi - 0.01, -math.pi + 0.01, -math.pi + 0.03, -math.pi + 0.05])  # across the wrap
+    assert scenic_trace.lateral_accel(speed, yaw, 0.1) == pytest.approx([2.0, 1.8, 1.6, 1.6])
+
+
+def test_seeded_globals_is_reproducible_and_restores_global_state():
+    random.seed(123)
+    np.random.seed(123)
+    before = (random.random(), np.random.random())
+    random.seed(123)
+    np.random.seed(123)
+    with seeded_globals(7, 3):
+        first = (random.random(), np.random.random())
+    after = (random.random(), np.random.random())
+    with seeded_globals(7, 3):
+        again = (random.random(), np.random.random())
+    with seeded_globals(7, 4):
+        other = (random.random(), np.random.random())
+    assert first == again != other
+    assert after == before  # the caller's streams continue as if nothing happened
+
+
+def test_registered_under_its_name():
+    assert isinstance(create_simulator("newtonian"), NewtonianSimulator)
+
+
+def test_missing_program_is_a_clear_error(scenario, tmp_path):
+    request = SimulationRequest(scenario=scenario, scenes=[], map_file=tmp_path / "map.xodr", program=None)
+    with pytest.raises(SimulationError, match="needs the rendered Scenic program"):
+        NewtonianSimulator().simulate(request)
+
+
+def test_user_ads_is_refused_with_the_alternatives(scenario, tmp_path):
+    request = SimulationRequest(scenario=scenario, scenes=[], map_file=tmp_path / "map.xodr", program="x = 1")
+    with pytest.raises(SimulationError, match="--backend embedded"):
+        NewtonianSimulator(SimulationSettings(ads="mypkg.driver:Driver")).simulate(request)
+
+
+def test_missing_map_names_the_file(tmp_path):
+    with pytest.raises(SimulationError, match="nowhere.xodr: map not found"):
+        compile_program(REAR_END_PROGRAM, tmp_path / "nowhere.xodr")
+
+
+@pytest.mark.slow
+def test_bad_program_names_the_model_and_the_error(straight_map):
+    with pytest.raises(SimulationError, match="does not compile under scenic.simulators.newtonian"):
+        compile_program("ego = new Car at (0, 0) with behavior NoSuchBehavior()\n", straight_map)
+
+
+# ------------------------------------------------------------------ slow: real Newtonian runs
+
+@pytest.fixture(scope="module")
+def rear_end_run(straight_map, scenario):
+    scenes = scenes_from_program(REAR_END_PROGRAM, straight_map, seed=11, indices=range(4))
+    settings = SimulationSettings(mode="reproduce", horizon=8.0)
+    with NewtonianSimulator(settings) as simulator:
+        result = simulator.simulate(SimulationRequest(scenario=scenario, scenes=scenes, map_file=straight_map,
+                                                      program=REAR_END_PROGRAM))
+    return scenes, settings, result
+
+
+@pytest.mark.slow
+def test_run_yields_the_contract_tables(rear_end_run):
+    scenes, settings, result = rear_end_run
+    assert result.backend == "newtonian"
+    for name, schema in TABLES.items():
+        assert result.tables[name].schema.equals(schema), name
+    traces = result.tables["traces"]
+    assert traces.num_rows == len(scenes) * 2 * (settings.steps + 1)
+    assert result.tables["variations"].column("valid").to_pylist() == [True] * len(scenes)
+    assert any("traffic-light" in note for note in result.notes)
+
+
+@pytest.mark.slow
+def test_traces_start_at_the_sampled_poses(rear_end_run):
+    scenes, _, result = rear_end_run
+    rows = result.tables["traces"].filter(pa.compute.equal(result.tables["traces"]["step"], 0)).to_pylist()
+    for scene in scenes:
+        for actor in scene.actors:
+            row = next(r for r in rows if r["variation"] == scene.index and r["actor"] == actor.role)
+            assert (row["x"], row["y"], row["speed"]) == pytest.approx((actor.x, actor.y, actor.speed))
+            assert row["yaw"] == pytest.approx(actor.yaw, abs=1e-9)
+
+
+@pytest.mark.slow
+def test_rear_end_contact_is_detected_and_both_cars_come_to_rest(rear_end_run):
+    scenes, settings, result = rear_end_run
+    collisions = result.tables["collisions"].to_pylist()
+    assert sorted(c["variation"] for c in collisions) == [s.index for s in scenes]
+    traces = result.tables["traces"].to_pylist()
+    for hit in collisions:
+        assert (hit["actor_a"], hit["actor_b"]) == ("ego", "npc1")
+        assert hit["speed_a"] > hit["speed_b"] == pytest.approx(4.0, abs=0.2)  # ego from behind, at speed
+        assert abs(abs(hit["y"]) - 1.75) < 0.5  # on a lane centre line
+        step = round(hit["t"] / settings.dt)
+        ego = [r for r in traces if r["variation"] == hit["variation"] and r["actor"] == "ego"]
+        npc = [r for r in traces if r["variation"] == hit["variation"] and r["actor"] == "npc1"]
+        length = scenes[hit["variation"]].actors[0].length
+        gap = [math.hypot(npc[k]["x"] - ego[k]["x"], npc[k]["y"] - ego[k]["y"]) for k in (step - 1, step)]
+        assert gap[0] > length >= gap[1]  # aligned cars touch when their centres are one length apart
+        assert all(r["speed"] == 0.0 for r in ego[step + 1:] + npc[step + 1:])
+        assert ego[-1]["x"] == ego[step + 1]["x"]
+
+
+@pytest.mark.slow
+def test_same_scenes_give_identical_tables_whatever_the_chunking(rear_end_run, straight_map, scenario):
+    scenes, settings, result = rear_end_run
+    with NewtonianSimulator(settings) as simulator:
+        chunk = simulator.simulate(SimulationRequest(scenario=scenario, scenes=scenes[2:], map_file=straight_map,
+                                                     program=REAR_END_PROGRAM))
+    whole = result.tables["traces"].filter(pa.compute.greater_equal(result.tables["traces"]["variation"], 2))
+    assert table_bytes(chunk.tables["traces"]) == table_bytes(whole)  # byte for byte (NaN == NaN here)
+    assert chunk.tables["collisions"].to_pylist() == [
+        row for row in result.tables["collisions"].to_pylist() if row["variation"] >= 2]
+
+
+@pytest.mark.slow
+def test_benchmark_hook_times_k_runs(rear_end_run, straight_map, scenario):
+    scenes, settings, _ = rear_end_run
+    request = SimulationRequest(scenario=scenario, scenes=scenes, map_file=straight_map,
+                                settings=settings, program=REAR_END_PROGRAM)
+    seconds = time_newtonian_runs(request, k=2)
+    assert 0 < seconds < 60
