@@ -13,6 +13,10 @@ app = typer.Typer(no_args_is_help=True, add_completion=False, pretty_exceptions_
 
 from crashscene.cli import dsl_commands  # noqa: E402,F401  (registers validate, schema)
 from crashscene.cli import eval_commands  # noqa: E402,F401  (registers eval)
+from crashscene.cli import extract_commands  # noqa: E402,F401  (registers extract)
+from crashscene.cli import run_commands  # noqa: E402,F401  (registers run)
+from crashscene.cli import campaign_commands  # noqa: E402,F401  (registers campaign)
+from crashscene.cli import report_commands  # noqa: E402,F401  (registers report)
 
 
 def main() -> None:

@@ -1,0 +1,307 @@
+"""The validation pass: ask until valid, review every field against the report, revise.
+
+Two loops, both bounded:
+
+- `ask_until_valid` sends the conversation, converts the reply to a `Scenario`
+  and runs `crashscene.dsl.validate`; a reply that does not fit the schema or
+  fails validation is fed back to the model with the exact diagnostics, at most
+  `max_reasks` times, then the case fails with an `LlmOutputError`.
+- `review` checks a valid draft field by field against the report text and the
+  sketch facts (evidence quotes that are not in the report, a weather or time
+  of day the report never mentions, a speed limit that differs from the stated
+  one, a lane count that contradicts the sketch, a behaviour with no support in
+  the text, an oracle that does not follow the behaviour); `revise` sends the
+  draft and the findings back once for a corrected scenario, which must again
+  pass validation. A revision is kept only when it leaves no more findings than
+  the draft; findings that remain become warnings of the case.
+
+The review is deterministic (regular expressions over the narrative), so the
+same reply always gets the same findings.
+"""
+from __future__ import annotations
+
+import json
+import re
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+from crashscene.dsl import DslError, Scenario, validate
+from crashscene.dsl.errors import Severity
+from crashscene.dsl.tokens import Behavior, RoadMarker, RoadType, TimeOfDay, Weather
+from crashscene.dsl.validate import check
+from crashscene.extract.errors import ExtractError
+from crashscene.extract.llm_schema import from_scenario, to_scenario
+from crashscene.extract.openai_backend import ChatBackend, Usage
+
+DEFAULT_MAX_REASKS = 2
+KMH_PER_MPH = 1.609344
+
+
+class LlmOutputError(ExtractError):
+    """The model gave no valid scenario within the re-ask budget."""
+
+
+@dataclass(frozen=True)
+class Finding:
+    """One reviewer remark: the field path and what is wrong with it."""
+
+    path: str
+    message: str
+    revise: bool = True  # False: a note for the warnings, not worth a model call on its own
+
+    def __str__(self) -> str:
+        return f"{self.path}: {self.message}"
+
+
+# ---------------------------------------------------------------- re-ask loop
+
+
+def ask_until_valid(backend: ChatBackend, messages: list[dict[str, Any]], usage: Usage,
+                    scenario_id: str | None = None, max_reasks: int = DEFAULT_MAX_REASKS,
+                    source: str | None = None) -> Scenario:
+    """A scenario that passes `validate`, re-asking with the diagnostics at most `max_reasks` times."""
+    conversation = list(messages)
+    problem = ""
+    for _ in range(max_reasks + 1):
+        completion = backend.complete(conversation)
+        usage.add(completion.usage)
+        if completion.parsed is not None:
+            try:
+                scenario = to_scenario(completion.parsed, scenario_id)
+                validate(scenario)
+                return scenario
+            except DslError as exc:
+                errors = [d for d in exc.diagnostics if d.severity == Severity.ERROR] or exc.diagnostics
+                problem = "\n".join(f"- {_plain(d)}" for d in errors)
+        else:
+            problem = f"- {completion.invalid}"
+        conversation += [
+            {"role": "assistant", "content": completion.content or "(no JSON reply)"},
+            {"role": "user", "content": "That reply is not a valid scenario:\n" + problem +
+             "\nFix exactly these problems and return the complete corrected scenario."},
+        ]
+    raise LlmOutputError(f"{backend.name} backend (model {backend.model!r}) gave no valid scenario in "
+                         f"{max_reasks + 1} replies; last problems: {problem.replace(chr(10), ' ')}", source)
+
+
+def _plain(diagnostic: Any) -> str:
+    """A diagnostic without the file prefix (the model has no file)."""
+    text = diagnostic.message
+    if diagnostic.path:
+        text = f"{diagnostic.path}: {text}"
+    if diagnostic.value is not None:
+        text += f" (got {diagnostic.value!r})"
+    if diagnostic.allowed:
+        text += f"; allowed: {', '.join(map(str, diagnostic.allowed))}"
+    return text
+
+
+# ---------------------------------------------------------------- review
+
+
+_WEATHER_WORDS = {
+    Weather.CLEAR: r"\bclear\b|no adverse|sunny|\bfair\b",
+    Weather.CLOUDY: r"cloud",
+    Weather.OVERCAST: r"overcast",
+    Weather.RAINY: r"\brain|drizzl|shower",
+    Weather.SNOWY: r"\bsnow|sleet",
+    Weather.FOGGY: r"\bfog|\bmist|haz[ey]",
+    Weather.WINDY: r"\bwind",
+}
+_TIME_WORDS = {
+    TimeOfDay.DAYTIME: r"daylight|\bday\b|daytime|morning|afternoon|mid-?day|noon",
+    TimeOfDay.NIGHTTIME: r"\bdark|night|midnight|pre-?dawn|evening",
+    TimeOfDay.DAWN: r"\bdawn",
+    TimeOfDay.DUSK: r"\bdusk|twilight",
+}
+_BEHAVIOR_WORDS = {
+    Behavior.CROSS_CENTERLINE: r"cent(er|re) ?line|left of cent|across the|opposing|oncoming|bound (travel )?lane|"
+                               r"wrong (side|way|direction)|crossed|drift|to the left|into the path|head-on",
+    Behavior.TURN_LEFT: r"left turn|turn(ed|ing)? left|turn to the left|left-turn",
+    Behavior.TURN_RIGHT: r"right turn|turn(ed|ing)? right|turn to the right|right-turn",
+    Behavior.U_TURN: r"u-?turn",
+    Behavior.STATIC: r"park|stationary|disabled|non-?occupied|unoccupied|stopped",
+    Behavior.LOSE_CONTROL: r"lost control|loss of control|lose control|yaw|rotat|skid|spun|spin|fishtail",
+    Behavior.LEAVE_ROAD: r"off the (road|roadway)|depart|exit(ed|ing)? the (road|roadway|travel lane)|ran off|"
+                         r"shoulder|edge|embankment|ditch|left the road",
+    Behavior.OVERTAKE: r"pass|overtak",
+    Behavior.STOP: r"stop|queue|wait",
+    Behavior.DECELERATE: r"slow|brak|decelerat|congest",
+}
+_NUMBER_WORDS = {"one": 1, "two": 2, "three": 3, "four": 4, "five": 5, "six": 6, "seven": 7, "eight": 8}
+
+
+def review(scenario: Scenario, narrative: str, facts: Sequence[str] = ()) -> list[Finding]:
+    """Deterministic findings for a valid scenario, field by field; [] when nothing is suspicious."""
+    text = narrative.lower()
+    sketch = "\n".join(facts).lower()
+    found: list[Finding] = []
+    found += _evidence_findings(scenario, text)
+    found += _environment_findings(scenario, text, sketch)
+    found += _road_findings(scenario, text, sketch)
+    found += _actor_findings(scenario, text, sketch)
+    found += _oracle_findings(scenario)
+    found += [Finding(d.path, d.message) for d in check(scenario) if d.severity == Severity.WARNING
+              and "evidence" not in d.path]
+    return found
+
+
+def _evidence_findings(s: Scenario, text: str) -> list[Finding]:
+    known = _shingles(_squash(text))
+    found = []
+    for path, quote in s.evidence.items():
+        head = re.split(r"\(?sketch\b", quote, maxsplit=1, flags=re.IGNORECASE)[0]  # the rest is a sketch note
+        shingles = _shingles(_squash(head))
+        if len(shingles) >= 4 and len(shingles & known) < 0.6 * len(shingles):
+            found.append(Finding(f"evidence.{path}", f"the quote is not in the report: {head.strip()[:100]!r}; "
+                                 "quote the report's exact words or a sketch fact", revise=False))
+    return found
+
+
+def _shingles(words: str, size: int = 3) -> set[tuple[str, ...]]:
+    tokens = words.split()
+    return {tuple(tokens[i:i + size]) for i in range(len(tokens) - size + 1)}
+
+
+def _environment_findings(s: Scenario, text: str, sketch: str) -> list[Finding]:
+    found = []
+    env = s.environment
+    both = text + "\n" + sketch
+    if env.weather != Weather.NOT_MENTIONED and not re.search(_WEATHER_WORDS[env.weather], both):
+        found.append(Finding("environment.weather", f"{env.weather.value} is not mentioned in the report; use the "
+                             "stated weather, or not_mentioned"))
+    if env.weather == Weather.NOT_MENTIONED:
+        stated = [w.value for w, pattern in _WEATHER_WORDS.items() if re.search(pattern, text)]
+        if stated:
+            found.append(Finding("environment.weather", f"not_mentioned, but the report mentions {stated[0]}"))
+    if env.time_of_day != TimeOfDay.NOT_MENTIONED and not re.search(_TIME_WORDS[env.time_of_day], both):
+        found.append(Finding("environment.time_of_day", f"{env.time_of_day.value} is not mentioned in the report"))
+    if env.time_of_day == TimeOfDay.NOT_MENTIONED:
+        stated = [t.value for t, pattern in _TIME_WORDS.items() if re.search(pattern, text)]
+        if stated:
+            found.append(Finding("environment.time_of_day", f"not_mentioned, but the report mentions {stated[0]}"))
+    return found
+
+
+def stated_speed_limits(text: str) -> list[int]:
+    """Posted limits [mph] stated in text: '55 mph', '89 km/h (55 mph)', '72 kmph'; near 'speed limit' words."""
+    limits = []
+    for match in re.finditer(r"(speed limit|posted)[^.]{0,60}", text.lower()):
+        window = match.group(0)
+        mph = re.search(r"(\d{2,3})\s*(mph|miles per hour)", window)
+        kmh = re.search(r"(\d{2,3})\s*(km/h|km/hr|kmph|kph|km per hour)", window)
+        if mph:
+            limits.append(int(mph.group(1)))
+        elif kmh:
+            limits.append(int(5 * round(int(kmh.group(1)) / KMH_PER_MPH / 5)))
+    return limits
+
+
+def _road_findings(s: Scenario, text: str, sketch: str) -> list[Finding]:
+    found = []
+    road = s.road_network
+    text_limits, sketch_limits = stated_speed_limits(text), stated_speed_limits(sketch)
+    stated = text_limits or sketch_limits
+    if road.speed_limit_mph is not None and stated and road.speed_limit_mph not in stated:
+        found.append(Finding("road_network.speed_limit_mph", f"{road.speed_limit_mph} mph, but the "
+                             f"{'report' if text_limits else 'sketch'} states {stated[0]} mph"))
+    if road.speed_limit_mph is None and stated:
+        found.append(Finding("road_network.speed_limit_mph", f"null, but the {'report' if text_limits else 'sketch'} "
+                             f"states a posted limit of {stated[0]} mph"))
+    if road.speed_limit_mph is not None and not stated and not re.search(r"speed limit|posted", text + sketch):
+        found.append(Finding("road_network.speed_limit_mph", "no posted limit is stated in the report or sketch "
+                             "facts; use null unless the sketch shows one", revise=False))
+    lane_counts = _lane_counts(text)
+    divided = re.search(r"divided|median|barrier|one-way", text)
+    if lane_counts and not divided and road.number_of_lanes not in lane_counts:
+        found.append(Finding("road_network.number_of_lanes", f"{road.number_of_lanes}, but the report speaks of "
+                             f"{'/'.join(str(n) for n in sorted(lane_counts))}-lane roads; count V1's through lanes"))
+    sketch_lanes = [int(m.group(1)) for m in re.finditer(r"(\d+) (?:travel |through )?lanes?\b", sketch)]
+    if sketch_lanes and not lane_counts and road.number_of_lanes not in sketch_lanes:
+        found.append(Finding("road_network.number_of_lanes", f"{road.number_of_lanes}, but the sketch shows "
+                             f"{sketch_lanes[0]} lanes"))
+    if road.road_marker == RoadMarker.DOUBLE_SOLID_LINE and not re.search(r"double|two (parallel )?solid",
+                                                                          text + sketch):
+        found.append(Finding("road_network.road_marker", "double_solid_line, but neither the report nor the sketch "
+                             "mentions a double line; use not_mentioned unless it is stated or drawn", revise=False))
+    junction = re.search(r"intersection|junction|driveway|\bleg\b|-leg|access|ramp|cross ?road|t-type", text)
+    if road.road_type in (RoadType.INTERSECTION, RoadType.T_INTERSECTION) and not junction:
+        found.append(Finding("road_network.road_type", f"{road.road_type.value}, but the report mentions no junction"))
+    if road.road_type == RoadType.CURVE and not re.search(r"curv|bend", text + sketch):
+        found.append(Finding("road_network.road_type", "curve, but the report mentions no curve"))
+    return found
+
+
+def _actor_findings(s: Scenario, text: str, sketch: str) -> list[Finding]:
+    found = []
+    for name, actor in s.actors.items():
+        pattern = _BEHAVIOR_WORDS.get(actor.behavior)
+        if pattern and not re.search(pattern, text):
+            found.append(Finding(f"actors.{name}.behavior", f"{actor.behavior.value} has no support in the report"))
+    labels = {int(m.group(1)) for m in re.finditer(r"\bv(?:ehicle)? ?#?([1-9])\b", text + "\n" + sketch)}
+    if labels and len(s.actors) > max(labels) + 1:
+        found.append(Finding("actors", f"{len(s.actors)} actors, but the report and sketch label only "
+                             f"{max(labels)} vehicles"))
+    return found
+
+
+def _oracle_findings(s: Scenario) -> list[Finding]:
+    found = []
+    codes = {(entry.code, entry.actor) for entry in s.oracle}
+    double = s.road_network.road_marker == RoadMarker.DOUBLE_SOLID_LINE
+    for name, actor in s.actors.items():
+        if actor.behavior == Behavior.CROSS_CENTERLINE and ("CVC_21650", name) not in codes:
+            found.append(Finding("oracle", f"{name} crosses the centre line: CVC_21650 wrong_side is missing"))
+        if actor.behavior == Behavior.LOSE_CONTROL and ("CVC_22350", name) not in codes:
+            found.append(Finding("oracle", f"{name} loses control: CVC_22350 unsafe_speed is missing"))
+        if double and ("CVC_21650", name) in codes and ("CVC_21460", name) not in codes:
+            found.append(Finding("oracle", f"{name} enters the opposing lanes over a double solid line: "
+                                 "CVC_21460 double_line_crossing is missing"))
+    for index, entry in enumerate(s.oracle):
+        if entry.code == "CVC_21460" and not double:
+            found.append(Finding(f"oracle[{index}].code", "CVC_21460 needs road_marker double_solid_line"))
+    return found
+
+
+def _lane_counts(text: str) -> set[int]:
+    """Lane counts the narrative states: 'two-lane', '4-lane', 'one-lane'."""
+    counts = set()
+    for match in re.finditer(r"\b(\w+)[- ]lane\b", text):
+        word = match.group(1)
+        count = int(word) if word.isdigit() else _NUMBER_WORDS.get(word, 0)
+        if 0 < count <= 16:
+            counts.add(count)
+    return counts
+
+
+def _squash(text: str) -> str:
+    return " ".join(re.sub(r"[^a-z0-9]+", " ", text.lower()).split())
+
+
+# ---------------------------------------------------------------- revision
+
+
+def revise(backend: ChatBackend, messages: list[dict[str, Any]], draft: Scenario, findings: list[Finding],
+           narrative: str, facts: Sequence[str], usage: Usage, max_reasks: int = DEFAULT_MAX_REASKS,
+           source: str | None = None) -> tuple[Scenario, list[Finding]]:
+    """Send the draft and the findings back once; keep the revision only if it is valid and no worse."""
+    if not any(finding.revise for finding in findings):
+        return draft, findings
+    draft_json = json.dumps(from_scenario(draft).model_dump(mode="json"), ensure_ascii=False, separators=(",", ":"))
+    remarks = "\n".join(f"- {finding}" for finding in findings if finding.revise)
+    conversation = list(messages) + [
+        {"role": "assistant", "content": draft_json},
+        {"role": "user", "content": "A reviewer checked every field of that scenario against the report, the "
+         "sketch facts and the conventions, and found:\n" + remarks + "\nFor each remark, re-read the report: "
+         "correct the field if the remark is right, keep it if the report supports it. Keep every other field. "
+         "Return the complete scenario."},
+    ]
+    try:
+        revised = ask_until_valid(backend, conversation, usage, draft.scenario_id, max_reasks, source)
+    except LlmOutputError:
+        return draft, findings
+    remaining = review(revised, narrative, facts)
+    if sum(f.revise for f in remaining) <= sum(f.revise for f in findings):
+        return revised, remaining
+    return draft, findings
