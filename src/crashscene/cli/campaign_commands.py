@@ -1,0 +1,118 @@
+"""`crashscene campaign`: many cases x N variations, chunked, resumable, on a process pool or Ray."""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+
+from crashscene.cli import app
+
+ModeOpt = Annotated[str, typer.Option("--mode", help="reproduce (re-enact the crash), test (ego = ADS under test), "
+                                                     "or both.")]
+
+
+def build_config(n: int, seed: int, mode: str, engine: str, workers: int | None, address: str | None, resume: bool,
+                 chunk_size: int, extractor: str, dsl: str | None, simulator: str, ego: str, map_mode: str,
+                 carla_maps: Path | None):
+    """Options -> CampaignConfig, with the CLI's spelling of each bad value in the error."""
+    from crashscene.campaign import CampaignConfig, CampaignError, SimOptions
+
+    modes = {"both": ("reproduce", "test"), "reproduce": ("reproduce",), "test": ("test",)}
+    if mode not in modes:
+        raise CampaignError(f"--mode {mode!r}: allowed: {', '.join(modes)}")
+    if map_mode not in ("generated", "carla"):
+        raise CampaignError(f"--map {map_mode!r}: allowed: generated, carla")
+    if n <= 0:
+        raise CampaignError(f"-n {n}: the number of variations must be positive")
+    if chunk_size <= 0:
+        raise CampaignError(f"--chunk-size {chunk_size}: must be positive")
+    sim = SimOptions(backend=simulator, ego_role=ego, map_mode=map_mode,
+                     carla_maps=str(carla_maps) if carla_maps else None)
+    return CampaignConfig(n=n, seed=seed, modes=modes[mode], engine=engine, workers=workers, address=address,
+                          resume=resume, chunk_size=chunk_size, extract_backend=extractor, dsl_name=dsl, sim=sim)
+
+
+def print_summary(summary, as_json: bool) -> None:
+    """The end-of-campaign summary: a table on stdout (or JSON)."""
+    from rich.console import Console
+    from rich.table import Table
+
+    from crashscene.campaign.runner import summary_json
+
+    if as_json:
+        typer.echo(summary_json(summary))
+        return
+    console = Console()
+    table = Table(title=f"crashscene campaign: {summary.out_dir}")
+    for col in ("case", "mode", "variations", "valid", "pass", "violation", "collision", "invalid", "reproduced"):
+        table.add_column(col, justify="left" if col in ("case", "mode") else "right")
+    for run in summary.runs:
+        rate = f"{run.reproduced} ({run.reproduction_rate:.0%})" if run.reproduction_rate is not None else "-"
+        v = run.verdicts
+        table.add_row(run.case_id, run.mode, str(run.variations), str(run.valid), str(v.get("pass", 0)),
+                      str(v.get("violation", 0)), str(v.get("collision", 0)), str(v.get("invalid", 0)), rate)
+    console.print(table)
+    for case in summary.cases:
+        if case["status"] != "ok":
+            console.print(f"[red]case {case['case_id']} failed:[/red] {case['error']}", soft_wrap=True)
+    console.print(f"{summary.chunks_run} chunk(s) run, {summary.chunks_skipped} already done, "
+                  f"{summary.chunks_failed} failed; {summary.variations_run} variations in {summary.seconds:.1f} s "
+                  f"({summary.throughput:.1f} variations/s, engine {summary.engine} x{summary.workers}); "
+                  f"database {summary.database}")
+    if not summary.complete:
+        console.print("[yellow]incomplete: fix the failures above and rerun with --resume[/yellow]")
+
+
+@app.command()
+def campaign(
+    cases_dir: Annotated[Path, typer.Argument(help="Folder of case folders (narrative.txt, sketch) or scenario .yaml files.")],
+    n: Annotated[int, typer.Option("-n", help="Variations per case and mode.")] = 2000,
+    out: Annotated[Path, typer.Option("--out", "-o", help="Output folder (DuckDB, artefacts, report).")] = Path("out/campaign"),
+    engine: Annotated[str, typer.Option("--engine", help="local (process pool) or ray.")] = "local",
+    workers: Annotated[Optional[int], typer.Option("--workers", min=1, help="Worker processes / Ray CPUs [default: all cores].")] = None,
+    resume: Annotated[bool, typer.Option("--resume", help="Continue the campaign in --out, skipping finished chunks.")] = False,
+    address: Annotated[Optional[str], typer.Option("--address", help="Ray cluster to join (with --engine ray).")] = None,
+    seed: Annotated[int, typer.Option("--seed", help="Campaign seed: variation i depends only on (scenario, seed, i).")] = 0,
+    mode: ModeOpt = "both",
+    chunk_size: Annotated[int, typer.Option("--chunk-size", help="Variations per chunk (the unit of resume).")] = 250,
+    extractor: Annotated[str, typer.Option("--extractor", help="Extraction backend: rules (offline), openai, local.")] = "rules",
+    dsl: Annotated[Optional[str], typer.Option("--dsl", help="Use CASE/<NAME> (e.g. golden.yaml) instead of extracting, when present.")] = None,
+    simulator: Annotated[str, typer.Option("--simulator", help="Simulation backend: embedded, newtonian, carla.")] = "embedded",
+    ego: Annotated[str, typer.Option("--ego", help="DSL role driven by the ADS under test.")] = "ego",
+    map_mode: Annotated[str, typer.Option("--map", help="generated or carla.")] = "generated",
+    carla_maps: Annotated[Optional[Path], typer.Option("--carla-maps", help="Folder of CARLA .xodr towns (--map carla).")] = None,
+    keep_traces: Annotated[bool, typer.Option("--keep-traces", help="Keep every chunk's traces under OUT/cases.")] = False,
+    report: Annotated[bool, typer.Option("--report/--no-report", help="Write OUT/report.html at the end.")] = True,
+    as_json: Annotated[bool, typer.Option("--json", help="Summary as JSON on stdout.")] = False,
+) -> None:
+    """Run N variations of every case, chunked into a resumable DuckDB campaign."""
+    from crashscene.campaign import CampaignError, run_campaign
+
+    try:
+        config = build_config(n, seed, mode, engine, workers, address, resume, chunk_size, extractor, dsl,
+                              simulator, ego, map_mode, carla_maps)
+        config = config.model_copy(update={"keep_traces": keep_traces})
+        summary = run_campaign(cases_dir, out, config, quiet=as_json)
+    except CampaignError as exc:
+        typer.echo(f"error: {exc}", err=True)
+        raise typer.Exit(2) from None
+    except KeyboardInterrupt:
+        typer.echo(f"interrupted; finished chunks are stored in {out}; continue with --resume", err=True)
+        raise typer.Exit(130) from None
+    print_summary(summary, as_json)
+    if report and any(r.variations for r in summary.runs):
+        write_report_cli(out, quiet=as_json)
+    raise typer.Exit(0 if summary.complete else 1)
+
+
+def write_report_cli(out: Path, quiet: bool = False) -> None:
+    from crashscene.report import ReportError, write_report
+
+    try:
+        written = write_report(out)
+    except ReportError as exc:
+        typer.echo(f"report: {exc}", err=True)
+        raise typer.Exit(2) from None
+    if not quiet:
+        typer.echo(f"report: {written.html}")

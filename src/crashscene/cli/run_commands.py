@@ -1,0 +1,50 @@
+"""`crashscene run`: one case, the whole pipeline, one command."""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+
+from crashscene.cli import app
+from crashscene.cli.campaign_commands import ModeOpt, build_config, print_summary
+
+
+@app.command()
+def run(
+    case_dir: Annotated[Path, typer.Argument(help="A case folder (narrative.txt, optional sketch) or a scenario .yaml file.")],
+    n: Annotated[int, typer.Option("-n", help="Variations per mode.")] = 2000,
+    out: Annotated[Path, typer.Option("--out", "-o", help="Output folder: every stage's artefact and the report.")] = Path("out/run"),
+    seed: Annotated[int, typer.Option("--seed", help="Variation i depends only on (scenario, seed, i).")] = 0,
+    mode: ModeOpt = "both",
+    workers: Annotated[Optional[int], typer.Option("--workers", min=1, help="Worker processes [default: all cores].")] = None,
+    chunk_size: Annotated[int, typer.Option("--chunk-size", help="Variations per chunk.")] = 250,
+    resume: Annotated[bool, typer.Option("--resume", help="Continue an interrupted run in --out.")] = False,
+    extractor: Annotated[str, typer.Option("--extractor", help="Extraction backend: rules (offline), openai, local.")] = "rules",
+    dsl: Annotated[Optional[str], typer.Option("--dsl", help="Use CASE/<NAME> (e.g. golden.yaml) instead of extracting.")] = None,
+    simulator: Annotated[str, typer.Option("--simulator", help="Simulation backend: embedded, newtonian, carla.")] = "embedded",
+    ego: Annotated[str, typer.Option("--ego", help="DSL role driven by the ADS under test.")] = "ego",
+    map_mode: Annotated[str, typer.Option("--map", help="generated or carla.")] = "generated",
+    carla_maps: Annotated[Optional[Path], typer.Option("--carla-maps", help="Folder of CARLA .xodr towns.")] = None,
+    report: Annotated[bool, typer.Option("--report/--no-report", help="Write OUT/report.html.")] = True,
+    as_json: Annotated[bool, typer.Option("--json", help="Summary as JSON on stdout.")] = False,
+) -> None:
+    """report -> extract -> validate -> render -> sample -> simulate -> monitor -> report, offline by default."""
+    from crashscene.campaign import CampaignError
+    from crashscene.report import ReportError
+    from crashscene.run import run_case
+
+    try:
+        config = build_config(n, seed, mode, "local", workers, None, resume, chunk_size, extractor, dsl,
+                              simulator, ego, map_mode, carla_maps)
+        result = run_case(case_dir, out, config, report=report, quiet=as_json)
+    except (CampaignError, ReportError) as exc:
+        typer.echo(f"error: {exc}", err=True)
+        raise typer.Exit(2) from None
+    except KeyboardInterrupt:
+        typer.echo(f"interrupted; continue with: crashscene run {case_dir} -n {n} --out {out} --resume", err=True)
+        raise typer.Exit(130) from None
+    print_summary(result.summary, as_json)
+    if result.report and not as_json:
+        typer.echo(f"report: {result.report}")
+    raise typer.Exit(0 if result.summary.complete else 1)

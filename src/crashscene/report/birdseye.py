@@ -1,0 +1,174 @@
+"""Bird's-eye views of a simulated variation on its map: a still at a given time and an animated GIF.
+
+Lanes come from the scenario's OpenDRIVE map through Scenic's parser
+(`Network.fromFile`); actors are drawn as oriented rectangles from the trace
+columns of `crashscene.traces` (x, y, yaw [rad], length, width [m]).
+"""
+from __future__ import annotations
+
+import io
+import math
+from dataclasses import dataclass
+from functools import lru_cache
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from matplotlib.patches import Polygon as PolygonPatch  # noqa: E402
+from PIL import Image  # noqa: E402
+
+ROLE_COLORS = ("#1f77b4", "#d62728", "#ff7f0e", "#2ca02c", "#9467bd", "#8c564b")  # ego, npc1, npc2, ...
+ASPHALT, LANE_LINE, CENTER_LINE = "#4d4d4d", "#f2f2f2", "#f2c200"
+VIEW_MARGIN = 12.0  # [m] around the actors' paths
+MIN_VIEW = 50.0  # [m] smallest side of the view
+GIF_FRAME_DT = 0.2  # [s] of simulated time per GIF frame
+GIF_MAX_FRAMES = 60
+
+
+@dataclass
+class ActorTrack:
+    """One actor's trace in one variation."""
+
+    role: str
+    t: np.ndarray  # [s]
+    x: np.ndarray  # [m]
+    y: np.ndarray  # [m]
+    yaw: np.ndarray  # [rad]
+    length: float  # [m]
+    width: float  # [m]
+
+    def at(self, time: float) -> tuple[float, float, float]:
+        """Pose at `time` [s] (the last sample at or before it)."""
+        k = int(np.clip(np.searchsorted(self.t, time, side="right") - 1, 0, len(self.t) - 1))
+        return float(self.x[k]), float(self.y[k]), float(self.yaw[k])
+
+
+@dataclass
+class MapGeometry:
+    drivable: list[np.ndarray]  # exterior rings [m]
+    holes: list[np.ndarray]
+    lane_edges: list[np.ndarray]
+    center_lines: list[np.ndarray]
+
+
+@lru_cache(maxsize=8)
+def load_map(path: str) -> MapGeometry:
+    """Drivable area, lane edges and centre lines of an OpenDRIVE file (parsed by Scenic)."""
+    from scenic.domains.driving.roads import Network
+
+    network = Network.fromFile(path)
+    polys = network.drivableRegion.polygons
+    polys = list(getattr(polys, "geoms", [polys]))
+    drivable = [np.asarray(p.exterior.coords)[:, :2] for p in polys]
+    holes = [np.asarray(r.coords)[:, :2] for p in polys for r in p.interiors]
+    edges = []
+    for lane in network.lanes:
+        for edge in (lane.leftEdge, lane.rightEdge):
+            edges.append(np.asarray(edge.points, dtype=float)[:, :2])
+    centers = []
+    for road in network.roads:
+        if road.forwardLanes is not None and road.backwardLanes is not None:
+            centers.append(np.asarray(road.forwardLanes.leftEdge.points, dtype=float)[:, :2])
+    return MapGeometry(drivable, holes, edges, centers)
+
+
+def _corners(x: float, y: float, yaw: float, length: float, width: float) -> np.ndarray:
+    c, s = math.cos(yaw), math.sin(yaw)
+    half = np.array([[length / 2, width / 2], [length / 2, -width / 2], [-length / 2, -width / 2],
+                     [-length / 2, width / 2]])
+    return half @ np.array([[c, s], [-s, c]]) + (x, y)
+
+
+def _view(tracks: list[ActorTrack], t0: float, t1: float) -> tuple[float, float, float]:
+    """Centre and half-side [m] of a square view holding every actor between t0 and t1."""
+    xs, ys = [], []
+    for tr in tracks:
+        mask = (tr.t >= t0) & (tr.t <= t1)
+        xs.append(tr.x[mask] if mask.any() else tr.x[:1])
+        ys.append(tr.y[mask] if mask.any() else tr.y[:1])
+    x, y = np.concatenate(xs), np.concatenate(ys)
+    half = max(MIN_VIEW / 2, (max(np.ptp(x), np.ptp(y)) / 2) + VIEW_MARGIN)
+    return float((x.min() + x.max()) / 2), float((y.min() + y.max()) / 2), float(half)
+
+
+def _draw_map(ax, geometry: MapGeometry) -> None:
+    ax.set_facecolor("#b7c9a8")
+    for ring in geometry.drivable:
+        ax.add_patch(PolygonPatch(ring, closed=True, facecolor=ASPHALT, edgecolor="none", zorder=1))
+    for ring in geometry.holes:
+        ax.add_patch(PolygonPatch(ring, closed=True, facecolor="#b7c9a8", edgecolor="none", zorder=1))
+    for edge in geometry.lane_edges:
+        ax.plot(edge[:, 0], edge[:, 1], color=LANE_LINE, lw=0.6, ls=(0, (4, 4)), alpha=0.7, zorder=2)
+    for line in geometry.center_lines:
+        ax.plot(line[:, 0], line[:, 1], color=CENTER_LINE, lw=1.2, zorder=3)
+
+
+def _figure(geometry: MapGeometry, view: tuple[float, float, float], size: float, dpi: int):
+    fig, ax = plt.subplots(figsize=(size, size), dpi=dpi)
+    _draw_map(ax, geometry)
+    cx, cy, half = view
+    ax.set_xlim(cx - half, cx + half)
+    ax.set_ylim(cy - half, cy + half)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.tick_params(labelsize=7)
+    fig.tight_layout()
+    return fig, ax
+
+
+def _draw_actors(ax, tracks: list[ActorTrack], time: float, trail_from: float) -> list:
+    artists = []
+    for k, tr in enumerate(tracks):
+        color = ROLE_COLORS[k % len(ROLE_COLORS)]
+        mask = (tr.t >= trail_from) & (tr.t <= time)
+        if mask.any():
+            artists += ax.plot(tr.x[mask], tr.y[mask], color=color, lw=1.0, ls=":", zorder=4)
+        x, y, yaw = tr.at(time)
+        box = _corners(x, y, yaw, tr.length, tr.width)
+        artists.append(ax.add_patch(PolygonPatch(box, closed=True, facecolor=color, edgecolor="white", lw=0.8,
+                                                 zorder=5)))
+        nose = _corners(x, y, yaw, tr.length, tr.width)[:2].mean(axis=0)
+        artists += ax.plot([x, nose[0]], [y, nose[1]], color="white", lw=1.0, zorder=6)
+        artists.append(ax.text(x, y + tr.width + 0.8, tr.role, color="white", fontsize=7, ha="center", zorder=7,
+                               bbox=dict(facecolor=color, edgecolor="none", pad=1.0, alpha=0.85)))
+    return artists
+
+
+def still_png(map_file: str | Path, tracks: list[ActorTrack], time: float, title: str, size: float = 4.8,
+              dpi: int = 100) -> bytes:
+    """PNG of every actor at `time` [s] with its path over the preceding seconds."""
+    geometry = load_map(str(map_file))
+    fig, ax = _figure(geometry, _view(tracks, max(0.0, time - 6.0), time + 0.5), size, dpi)
+    _draw_actors(ax, tracks, time, trail_from=max(0.0, time - 6.0))
+    ax.set_title(title, fontsize=9)
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png")
+    plt.close(fig)
+    return buf.getvalue()
+
+
+def animation_gif(map_file: str | Path, tracks: list[ActorTrack], t0: float, t1: float, title: str,
+                  size: float = 4.0, dpi: int = 80) -> bytes:
+    """Animated GIF of the actors between t0 and t1 [s] (one frame per GIF_FRAME_DT, at most GIF_MAX_FRAMES)."""
+    geometry = load_map(str(map_file))
+    step = max(GIF_FRAME_DT, (t1 - t0) / GIF_MAX_FRAMES)
+    times = np.arange(t0, t1 + 1e-9, step)
+    fig, ax = _figure(geometry, _view(tracks, t0, t1), size, dpi)
+    frames = []
+    for time in times:
+        artists = _draw_actors(ax, tracks, float(time), trail_from=t0)
+        ax.set_title(f"{title}  t = {time:4.1f} s", fontsize=8)
+        fig.canvas.draw()
+        rgb = Image.frombuffer("RGBA", fig.canvas.get_width_height(), fig.canvas.buffer_rgba()).convert("RGB")
+        frames.append(rgb.quantize(colors=64, method=Image.Quantize.MEDIANCUT))
+        for artist in artists:
+            artist.remove()
+    plt.close(fig)
+    buf = io.BytesIO()
+    frames[0].save(buf, format="GIF", save_all=True, append_images=frames[1:], duration=int(step * 1000), loop=0,
+                   optimize=False)
+    return buf.getvalue()
