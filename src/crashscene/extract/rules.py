@@ -192,6 +192,9 @@ def _subject(sentence: str) -> str | None:
 def _label_at(text: str, position: int) -> str | None:
     """The acting vehicle for a phrase at `position`: nearest preceding label that is not an object."""
     clause_start = max(text.rfind(". ", 0, position), text.rfind("; ", 0, position))
+    adjacent = re.search(r"\bV([1-9])\s+(?:was\s+|were\s+|had\s+|is\s+)?$", text[max(0, position - 16):position])
+    if adjacent:  # "did not see V1 stopped": the phrase describes the label right before it
+        return f"V{adjacent.group(1)}"
     best = None
     for match in re.finditer(r"\bV([1-9])\b", text[:position]):
         if match.start() < clause_start:
@@ -274,7 +277,7 @@ def _split_pre_crash(state: _State) -> None:
 
 
 _ENV_SENTENCE = r"weather|sky|skies|daylight|dark|dawn|dusk|night|rain|snow|sleet|fog|cloudy|overcast|conditions|" \
-                r"surface|road was (?:dry|wet|icy)|roads were"
+                r"surface|\b(?:dry|wet|icy)\b|roads were"
 
 
 def _environment(state: _State) -> dict:
@@ -325,10 +328,15 @@ def _road_network(state: _State) -> dict:
     road_sentences = [s for s in t.sentences if re.search(r"\b(?:road|roadway|highway|freeway|interstate|street|"
                                                           r"trafficway|lanes?|route|avenue|ramp)\b", s, re.I)]
     road_text = " ".join(road_sentences)
-    state.divided = bool(re.search(r"\bdivided\b(?! by (?:a )?(?:double|painted|yellow))|\bmedian\b|"
-                                   r"\b(?:concrete|jersey|cable|median) barrier|interstate|\bfreeway\b",
-                                   road_text, re.I)) and not re.search(r"\bnon-?divided|\bundivided|"
-                                                                       r"not divided", road_text, re.I)
+    sketch_text = " ".join(state.fact_texts("text: "))
+    divided_pattern = r"\bdivided\b(?! by (?:a )?(?:double|painted|yellow))|\bmedian\b|" \
+                      r"\b(?:concrete|jersey|cable|median) barrier|interstate|\bfreeway\b"
+    state.divided = bool(re.search(divided_pattern, road_text, re.I) or re.search(r"\bmedian\b", sketch_text, re.I)) \
+        and not re.search(r"\bnon-?divided|\bundivided|not divided|(?:center|centre|middle) (?:two-way )?(?:left[- ])?"
+                          r"turn(?:ing)? lane", road_text, re.I)
+    if state.divided:
+        match = re.search(divided_pattern, road_text, re.I)
+        state.note("road_network.divided", _around(road_text, match) if match else "sketch: median")
     _traffic_controls(state)
     road_type, curve_direction = _road_type(state)
     ways = _ways(state, road_text)
@@ -413,7 +421,7 @@ def _road_type(state: _State) -> tuple[str, str | None]:
     if curve_match:
         window = pre[max(0, curve_match.start() - 60):curve_match.end() + 40]
         side = re.search(r"\b(left|right)(?:-hand)?\s+curve|curve[sd]?\s+(?:to\s+the\s+)?(left|right)|"
-                         r"curved\s+(?:to\s+the\s+)?(left|right)", window, re.I)
+                         r"curved\s+(?:to\s+the\s+)?(left|right)", pre, re.I)
         if side:
             direction = next(g for g in side.groups() if g).lower()
         if not re.search(r"\bstraight\b[^.]{0,40}\bcurv|no curve", window, re.I):
@@ -468,10 +476,21 @@ def _lanes(state: _State, road_text: str, ways: int) -> int:
                              rf"ha(?:s|d))\s+{_NUM}\s+(?:straight\s+)?(?:through\s+|travel\s+)*lanes", road_text, re.I):
         per_direction[match.group(1).lower()] = _count(match.group(2))
     # explicit through-lane breakdowns override totals that include turn lanes
+    breakdown = False
     for match in re.finditer(rf"{_DIR}bound lanes (?:are|were) composed of ([^.]*)", road_text, re.I):
         through = re.search(rf"{_NUM}\s+(?:straight\s+)?through", match.group(2), re.I)
         if through:
             per_direction[match.group(1).lower()] = _count(through.group(1))
+            breakdown = True
+    if per_direction and not breakdown:
+        # "six southbound lanes, with the far-left lane being a U-turn lane and the adjacent a left turn-only lane"
+        counted = next((s for s in state.t.sentences if re.search(rf"{_NUM}\s+(?:\w+\s+)?{_DIR}bound", s, re.I)), "")
+        for turn in re.finditer(r"\b(?:u-turn|left[- ]turn(?:[- ]only)?|right[- ]turn(?:[- ]only)?) lane", counted, re.I):
+            before = counted[: turn.start()]
+            direction = re.findall(rf"{_DIR}bound", before, re.I)
+            key = direction[-1].lower() if direction else None
+            if key in per_direction and per_direction[key] > 1:
+                per_direction[key] -= 1
     if re.search(r"one (?:travel )?lane in each direction|single lane in each direction", road_text, re.I):
         per_direction = {"a": 1, "b": 1}
     total = None
@@ -541,12 +560,14 @@ def _marker(state: _State, road_text: str, ways: int) -> str:
     if ways == 1 and state.divided:
         state.note("road_network.road_marker", "divided roadway: no centre line on V1's carriageway")
         return "none"
-    if state.divided and re.search(r"median", road_text, re.I):
+    if state.divided:
+        state.note("road_network.road_marker", "divided roadway (median): no centre line")
         return "none"
-    drawn = [f for f in state.fact_texts("double solid line drawn")]
-    if drawn and ways == 2:
-        state.note("road_network.road_marker", f"sketch: {drawn[0]}")
-        return "double_solid_line"
+    if ways == 2:
+        for fact, token in (("double solid line drawn", "double_solid_line"), ("broken line drawn", "broken_line")):
+            if state.fact_texts(fact):
+                state.note("road_network.road_marker", f"sketch: {fact}")
+                return token
     return "not_mentioned"
 
 
@@ -554,7 +575,7 @@ def _marker(state: _State, road_text: str, ways: int) -> str:
 
 
 _LOSE = r"\blost control|\bloss of control|\blose control|\bbegan (?:to )?(?:rotat|yaw|skid|spin|fishtail)|" \
-        r"\bbegan a (?:\w+ )?(?:rotation|yaw|skid|spin)|\b(?:skidded|spun|yawed|fishtailed|hydroplaned)\b"
+        r"\bbegan a (?:\w+ )?(?:rotation|yaw|spin)|\b(?:spun|yawed|fishtailed|hydroplaned)\b"
 _CROSS = r"cross(?:ed|ing|es)?\s+(?:over\s+)?the\s+(?:double\s+(?:yellow\s+)?|solid\s+|painted\s+)*(?:cent(?:er|re)[- ]?lines?|" \
          r"cent(?:er|re) lane lines|double (?:yellow )?lines?|yellow lines?)|" \
          r"left[- ]of[- ]cent(?:er|re)|into the (?:opposing|oncoming) (?:traffic )?(?:travel )?lane|wrong[- ]way|" \
@@ -660,11 +681,15 @@ def _resolve(state: _State, vehicle: _Vehicle, found: list[tuple[int, str, re.Ma
             break
     if first_event:
         return first_event[0], quote(first_event[1])
+    stop = next((m for _, t, m in found if t == "stop"), None)
     for token in ("u_turn", "turn_left", "turn_right"):
         match = next((m for _, t, m in found if t == token), None)
         if match:
+            intention = re.search(r"(?:waiting|preparing|intending|planning|about|signal(?:ing|led)?)\s+(?:to\s+)?"
+                                  r"(?:make\s+a\s+|turn\s*)?$", pre[max(0, match.start() - 30):match.start()], re.I)
+            if stop and intention and stop.start() < match.start():
+                return "stop", quote(stop)
             return token, quote(match)
-    stop = next((m for _, t, m in found if t == "stop"), None)
     if stop:
         after = pre[stop.end(): stop.end() + 200]
         if re.search(_PROCEED, after, re.I):
@@ -775,7 +800,8 @@ def _same_direction_relation(state: _State, ego: _Vehicle, npc: _Vehicle, text: 
     behind = re.search(rf"\b{label}\b[^.]{{0,80}}\b(?:behind|following)\b[^.]{{0,20}}V1|"
                        rf"\bfront (?:plane )?of {label}\b[^.]{{0,40}}\b(?:struck|impacted|contacted)\b[^.]{{0,20}}"
                        rf"(?:rear|back)|(?:rear|back)(?: plane)? of V1\b[^.]{{0,40}}(?:struck|impacted) by[^.]{{0,30}}{label}|"
-                       rf"\b{label}\b (?:struck|rear-ended|impacted) (?:the )?(?:rear|back) of V1|"
+                       rf"\b{label}\b[^.]{{0,100}}\b(?:struck|striking|strike|impacted|hit|rear-ended)\s+(?:the\s+)?"
+                       rf"(?:rear|back)(?:\s+plane|\s+end)?\s+of\s+V1|\b{label}\b[^.]{{0,80}}\bapproaching V1\b|"
                        rf"\b{label}\b[^.]{{0,40}}slightly behind", text, re.I)
     if behind:
         return "behind"
@@ -890,8 +916,8 @@ def _rear_end_oracle(state: _State, actors: dict, add) -> None:
     text = state.crash_sentence or ""
     for label, vehicle in state.vehicles.items():
         match = re.search(rf"(?:front(?: plane)? of {label}\b[^.]{{0,30}}(?:struck|impacted|hit|contacted)\s+(?:the\s+)?"
-                          rf"(?:rear|back)(?: plane)? of (V[1-9])|\b{label}\b[^.]{{0,60}}(?:struck|impacted|rear-ended|hit)\s+"
-                          rf"(?:the\s+)?(?:rear|back)(?: plane)? of (V[1-9]))", text, re.I)
+                          rf"(?:rear|back)(?: plane)? of (V[1-9])|\b{label}\b[^.]{{0,100}}(?:struck|striking|strike|impacted|rear-ended|hit)\s+"
+                          rf"(?:the\s+)?(?:rear|back)(?: plane| end)? of (V[1-9]))", text, re.I)
         if not match:
             continue
         struck_label = match.group(1) or match.group(2)
