@@ -142,6 +142,12 @@ def test_carla_town_from_map_name(name, town):
     assert carla_backend.carla_town(Path("/x") / name) == town
 
 
+def test_carla_town_from_the_program_wins():
+    program = "param map = localPath('map.xodr')\nparam carla_map = 'Town05'\nmodel scenic.simulators.carla.model\n"
+    assert carla_backend.carla_town(Path("/run/map.xodr"), program) == "Town05"
+    assert carla_backend.carla_town(Path("/run/map.xodr"), "param carla_map = 'os.system'\n") is None
+
+
 @pytest.mark.slow
 def test_program_compiles_under_the_carla_model_without_a_client(no_carla, tmp_path):
     # Scenic's CARLA model compiles and samples without `carla`: only the run needs it.

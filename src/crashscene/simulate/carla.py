@@ -48,9 +48,9 @@ from crashscene.simulate.backend import (
     check_ego_role,
 )
 from crashscene.simulate.newtonian import (
-    PIN_TOLERANCE,
     compile_program,
     generate_scenic_scene,
+    placement_mismatch,
     quiet_scenic,
     seeded_globals,
 )
@@ -61,6 +61,7 @@ EGO_ROLE_NAME = "hero"  # the role_name CARLA's ROS bridge and Autoware's CARLA 
 CONNECT_TIMEOUT = 3.0  # [s] TCP probe of the server
 CLIENT_TIMEOUT = 10.0  # [s] CARLA client RPC timeout
 TOWN_NAME = re.compile(r"^Town\d{2}(_Opt|HD(_Opt)?)?$")
+PROGRAM_TOWN = re.compile(r"^param carla_map = ['\"](Town\d{2}(?:_Opt|HD(?:_Opt)?)?)['\"]", re.MULTILINE)
 
 
 @runtime_checkable
@@ -126,8 +127,15 @@ def load_agent(spec: str, params: dict[str, Any] | None = None) -> CarlaAgent:
     return agent
 
 
-def carla_town(map_file: Path) -> str | None:
-    """The CARLA town to load for `map_file` (`Town04.xodr` -> 'Town04'), None to generate the world from it."""
+def carla_town(map_file: Path, program: str = "") -> str | None:
+    """The CARLA town to load, None to generate the world from `map_file` itself.
+
+    The program's own `param carla_map = 'TownNN'` (render's carla mode) wins;
+    else a map file named after a town (`Town04.xodr`) names it.
+    """
+    found = PROGRAM_TOWN.search(program)
+    if found:
+        return found.group(1)
     stem = Path(map_file).stem
     return stem if TOWN_NAME.match(stem) else None
 
@@ -175,8 +183,14 @@ def _tracing_classes(carla):
                     self.objects[self._agent_index].carlaActor.apply_control(control)
 
     class PinnedCarlaSimulator(ScenicCarlaSimulator):
-        def __init__(self, *args, pins=None, agent_index=None, agent=None, agent_setup=None, **kwargs):
-            super().__init__(*args, **kwargs)
+        """One connection and world for a batch; `prepare` sets the next run's pins and agent."""
+
+        pins: list = []
+        agent_index: int | None = None
+        agent: CarlaAgent | None = None
+        agent_setup = None
+
+        def prepare(self, pins, agent_index=None, agent=None, agent_setup=None):
             self.pins, self.agent_index, self.agent, self.agent_setup = pins, agent_index, agent, agent_setup
 
         def createSimulation(self, scene, *, timestep, **kwargs):  # noqa: N802 (Scenic hook)
@@ -202,6 +216,8 @@ class CarlaSimulator(Simulator):
         super().__init__(settings)
         self._compiled: dict[tuple[str, str], object] = {}
         self._carla = None
+        self._world_key: tuple | None = None
+        self._scenic_simulator = None
 
     def check_available(self) -> None:
         """BackendUnavailable unless `import carla` works and a server answers at the configured host:port."""
@@ -226,17 +242,42 @@ class CarlaSimulator(Simulator):
         return result
 
     def compiled(self, program: str, map_file: Path):
+        """The program compiled under Scenic's CARLA model (no server needed for this part)."""
         key = (program, str(Path(map_file).resolve()))
         if key not in self._compiled:
             params = {"render": 0, "address": self.settings.carla_host, "port": self.settings.carla_port,
-                      "timestep": self.settings.dt, "carla_map": carla_town(map_file), "timeout": CLIENT_TIMEOUT}
+                      "timestep": self.settings.dt, "carla_map": carla_town(map_file, program),
+                      "timeout": CLIENT_TIMEOUT}
             self._compiled[key] = compile_program(program, map_file, model=CARLA_MODEL, extra_params=params)
         return self._compiled[key]
 
+    def scenic_simulator(self, program: str, map_file: Path):
+        """The Scenic CARLA simulator (a connection and a loaded world), created once per map."""
+        town = carla_town(map_file, program)
+        key = (town, str(Path(map_file).resolve()))
+        if self._scenic_simulator is None or self._world_key != key:
+            self.close()
+            settings = self.settings
+            try:
+                self._scenic_simulator = _tracing_classes(self._carla or import_carla())(
+                    town, str(map_file), address=settings.carla_host, port=settings.carla_port,
+                    timeout=CLIENT_TIMEOUT, render=False, timestep=settings.dt)
+            except RuntimeError as exc:  # Scenic wraps CARLA's load/connection errors in RuntimeError
+                raise BackendUnavailable(f"CARLA at {settings.carla_host}:{settings.carla_port} could not load "
+                                         f"the world for {map_file} (town {town or 'generated from OpenDRIVE'}): "
+                                         f"{exc}") from exc
+            self._world_key = key
+        return self._scenic_simulator
+
+    def close(self) -> None:
+        if self._scenic_simulator is not None:
+            self._scenic_simulator.destroy()
+            self._scenic_simulator, self._world_key = None, None
+
     def simulate_scene(self, request: SimulationRequest, scene: SampledScene) -> SceneResult:
-        carla = self._carla or import_carla()
         settings = self.settings
-        scenario = self.compiled(request.program or "", request.map_file)
+        program = request.program or ""
+        scenario = self.compiled(program, request.map_file)
         with quiet_scenic():
             scenic_scene = generate_scenic_scene(scenario, scene.seed, scene.index)
         roles = scenic_trace.object_roles(scenic_scene.objects, scene)
@@ -255,36 +296,29 @@ class CarlaSimulator(Simulator):
         def agent_setup(world, vehicle):
             agent.setup(world, vehicle, ego_actor, Path(request.map_file), settings.dt)
 
-        try:
-            simulator = _tracing_classes(carla)(
-                carla_town(request.map_file), str(request.map_file), address=settings.carla_host,
-                port=settings.carla_port, timeout=CLIENT_TIMEOUT, render=False, timestep=settings.dt,
-                pins=pins, agent_index=agent_index, agent=agent, agent_setup=agent_setup)
-        except RuntimeError as exc:
-            raise BackendUnavailable(f"CARLA at {settings.carla_host}:{settings.carla_port} refused the world for "
-                                     f"{request.map_file}: {exc}") from exc
+        simulator = self.scenic_simulator(program, request.map_file)
+        simulator.prepare(pins, agent_index, agent, agent_setup)
         try:
             with seeded_globals(scene.seed, scene.index):
                 simulation = simulator.simulate(scenic_scene, maxSteps=settings.steps, verbosity=0)
-        except Exception as exc:
-            tracks = {a.role: scenic_trace.still_track(a, settings.steps + 1) for a in scene.actors}
-            result = scenic_trace.scene_result(scene, tracks, settings.dt, None)
-            result.valid, result.invalid_reason = False, f"carla run failed: {type(exc).__name__}: {exc}"
-            return result
+        except Exception as exc:  # a spawn or behaviour failure invalidates this variation only
+            return _invalid(scene, settings, f"carla run failed: {type(exc).__name__}: {exc}")
         finally:
             if agent is not None:
                 agent.teardown()
-            simulator.destroy()
         if simulation is None:
-            tracks = {a.role: scenic_trace.still_track(a, settings.steps + 1) for a in scene.actors}
-            result = scenic_trace.scene_result(scene, tracks, settings.dt, None)
-            result.valid, result.invalid_reason = False, "scenic rejected the simulation (a requirement was violated)"
-            return result
+            return _invalid(scene, settings, "scenic rejected the simulation (a requirement was violated)")
         tracks = scenic_trace.tracks_from_trajectory(simulation.result.trajectory, roles)
         tracks = scenic_trace.pad_tracks(tracks, settings.steps + 1)
         result = scenic_trace.scene_result(scene, tracks, settings.dt, request.map_file)
-        if drift > PIN_TOLERANCE and result.valid:
-            result.valid = False
-            result.invalid_reason = (f"scenic placed an actor {drift:.2f} m from the sampled scene "
-                                     f"(tolerance {PIN_TOLERANCE} m): program and scenes disagree")
+        mismatch = placement_mismatch(scenic_scene, scene, drift)
+        if mismatch and result.valid:
+            result.valid, result.invalid_reason = False, mismatch
         return result
+
+
+def _invalid(scene: SampledScene, settings: SimulationSettings, reason: str) -> SceneResult:
+    tracks = {a.role: scenic_trace.still_track(a, settings.steps + 1) for a in scene.actors}
+    result = scenic_trace.scene_result(scene, tracks, settings.dt, None)
+    result.valid, result.invalid_reason, result.collisions = False, reason, []
+    return result

@@ -96,16 +96,26 @@ def compile_program(program: str, map_file: Path, model: str = NEWTONIAN_MODEL, 
 
 
 def generate_scenic_scene(scenario, seed: int, index: int, max_iterations: int = 2000):
-    """The Scenic scene of variation `index`: the sample module's per-scene reseeding when it has one."""
+    """The Scenic scene of variation `index`, drawn exactly as `crashscene.sample` draws it.
+
+    Python's `random` and numpy's global generator are seeded with the sample
+    module's `scene_seed(seed, index)` and restored afterwards.
+    """
     try:
-        from crashscene import sample as sample_module
-    except ImportError:
-        sample_module = None
-    generate = getattr(sample_module, "generate_scene", None) if sample_module else None
-    if generate is not None:
-        return generate(scenario, seed, index)
-    with seeded_globals(seed, index):
+        from crashscene.sample import scene_seed
+    except ImportError:  # the render stage is absent: any fixed derivation keeps runs reproducible
+        def scene_seed(seed: int, index: int) -> tuple[int, int]:
+            words = np.random.SeedSequence([seed & 0xFFFFFFFFFFFFFFFF, index]).generate_state(2, dtype=np.uint32)
+            return int(words[0]), int(words[1])
+    py_state, np_state = random.getstate(), np.random.get_state()
+    py_seed, np_seed = scene_seed(seed, index)
+    random.seed(py_seed)
+    np.random.seed(np_seed)
+    try:
         scene, _ = scenario.generate(maxIterations=max_iterations, verbosity=0)
+    finally:
+        random.setstate(py_state)
+        np.random.set_state(np_state)
     return scene
 
 
@@ -249,11 +259,29 @@ class NewtonianSimulator(Simulator):
         tracks = scenic_trace.tracks_from_trajectory(simulation.result.trajectory, roles)
         tracks = scenic_trace.pad_tracks(tracks, settings.steps + 1)
         result = scenic_trace.scene_result(scene, tracks, settings.dt, request.map_file)
-        if drift > PIN_TOLERANCE and result.valid:
-            result.valid = False
-            result.invalid_reason = (f"scenic placed an actor {drift:.2f} m from the sampled scene "
-                                     f"(tolerance {PIN_TOLERANCE} m): program and scenes disagree")
+        mismatch = placement_mismatch(scenic_scene, scene, drift)
+        if mismatch and result.valid:
+            result.valid, result.invalid_reason = False, mismatch
         return result
+
+
+def placement_mismatch(scenic_scene, scene: SampledScene, drift: float) -> str | None:
+    """Why the Scenic scene is not the sampled scene (placement or sampled parameters differ), or None.
+
+    Behaviour arguments come from the Scenic scene's parameters, so a scene
+    whose parameters differ would not replay the sampled variation even with
+    its actors pinned in place.
+    """
+    if drift > PIN_TOLERANCE:
+        return (f"scenic placed an actor {drift:.2f} m from the sampled scene (tolerance {PIN_TOLERANCE} m): "
+                f"the program and the scenes disagree (re-sample the scenes from this program)")
+    for key, value in scene.params.items():
+        ours = scenic_scene.params.get(key)
+        if isinstance(value, float) and isinstance(ours, (int, float)) and not math.isclose(value, ours,
+                                                                                              rel_tol=1e-9):
+            return (f"scenic sampled parameter {key} = {ours!r} but the scene has {value!r}: "
+                    f"the program and the scenes disagree (re-sample the scenes from this program)")
+    return None
 
 
 def _invalid(scene: SampledScene, settings: SimulationSettings, reason: str) -> SceneResult:

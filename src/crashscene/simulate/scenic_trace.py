@@ -67,18 +67,18 @@ class Track:
 def object_roles(objects: Sequence, scene: SampledScene) -> list[str]:
     """The DSL role of each Scenic object of a simulated scene, in object order.
 
-    Rendered programs tag each object with a `role` property; objects without
-    it (hand-written Scenic) are matched to the scene's actors in order, the
-    ego object first, as Scenic lists them.
+    Rendered programs tag each object with a `cs_role` property (hand-written
+    ones may use `role`); untagged objects are matched to the scene's actors in
+    order, the ego object first, as Scenic lists them.
     """
-    roles = [getattr(obj, "role", None) for obj in objects]
+    roles = [getattr(obj, "cs_role", None) or getattr(obj, "role", None) for obj in objects]
     known = {actor.role for actor in scene.actors}
     if all(isinstance(role, str) and role in known for role in roles):
         return roles
     if len(objects) != len(scene.actors):
         raise SimulationError(f"variation {scene.index}: the Scenic scene has {len(objects)} objects but the "
                               f"sampled scene has {len(scene.actors)} actors "
-                              f"({', '.join(a.role for a in scene.actors)}); tag each object with `role`")
+                              f"({', '.join(a.role for a in scene.actors)}); tag each object with `cs_role`")
     return [actor.role for actor in scene.actors]
 
 
@@ -237,6 +237,155 @@ def scene_result(scene: SampledScene, tracks: dict[str, Track], dt: float, map_f
     return SceneResult(traces=columns, collisions=collisions)
 
 
+ROUTE_INTENTS = ("straight", "left", "right", "u_turn")  # intents RoadMap.route turns at junctions
+LOST_GRIP = 0.8 * 9.81  # [m/s2] lateral acceleration beyond dry-road friction: the actor is skidding
+LANE_CHANGE_RATE = 0.3  # [m/s] lateral speed across the lane above which an actor counts as changing lanes
+
+
 def map_columns(scene: SampledScene, tracks: dict[str, Track], dt: float, map_file) -> dict[str, list]:
-    """Map-derived TRACE_SCHEMA columns for the tracks, actors in the scene's order (see module doc)."""
-    return {}
+    """Map-derived TRACE_SCHEMA columns for the tracks, actors in the scene's order (see module doc).
+
+    Uses the embedded backend's `RoadMap` (lane/junction raster, routes in (s, d)),
+    so lane ids, stations and junction entries mean the same in every backend.
+    Each actor's route starts at the start of its sampled lane and takes its
+    route intent at the first junction, as the embedded backend's routes do.
+    """
+    from crashscene.simulate.roads import RoadMap
+
+    road_map = RoadMap.load(map_file)
+    out: dict[str, list] = {name: [] for name in (
+        "lane_id", "route_s", "opposing_lane", "off_road", "centerline_marker", "centerline_intrusion",
+        "in_junction", "junction_id", "maneuver", "stop_line_dist", "speed_limit", "lane_change",
+        "target_lane_id", "lost_control")}
+    for actor in scene.actors:
+        for name, values in _actor_map_columns(road_map, actor, tracks[actor.role], dt).items():
+            out[name].extend(values)
+    return out
+
+
+def _actor_map_columns(road_map, actor: SampledActor, track: Track, dt: float) -> dict[str, list]:
+    from crashscene.simulate.roads import STOP_LINE_SETBACK
+
+    n = track.x.size
+    lane_idx, junction_idx = road_map.lookup(track.x, track.y)
+    lanes = road_map.lanes
+    in_junction = junction_idx >= 0
+    lane_yaw = np.full(n, np.nan)
+    for k in np.unique(lane_idx[lane_idx >= 0]):
+        mask = lane_idx == k
+        lane_yaw[mask] = _polyline_heading(lanes[k].points, track.x[mask], track.y[mask])
+    on_lane = lane_idx >= 0
+    rel = wrap_angle(track.yaw - np.where(on_lane, lane_yaw, track.yaw))
+    opposing = on_lane & ~in_junction & (np.cos(rel) < 0)
+    lateral_speed = track.speed * np.sin(rel)
+    changing = on_lane & ~in_junction & ~opposing & (np.abs(lateral_speed) > LANE_CHANGE_RATE)
+    target = [None] * n
+    for k in np.flatnonzero(changing):
+        lane = lanes[lane_idx[k]]
+        target[k] = lane.left if lateral_speed[k] > 0 else lane.right
+    route = _actor_route(road_map, actor)
+    columns: dict[str, list] = {
+        "lane_id": [lanes[k].uid if k >= 0 else None for k in lane_idx],
+        "opposing_lane": opposing.tolist(),
+        "off_road": (~on_lane & ~in_junction).tolist(),
+        "in_junction": in_junction.tolist(),
+        "speed_limit": [lanes[k].speed_limit if k >= 0 else math.nan for k in lane_idx],
+        "lane_change": [bool(c and t is not None) for c, t in zip(changing, target)],
+        "target_lane_id": [t if c else None for c, t in zip(changing, target)],
+        "lost_control": (np.abs(lateral_accel(track.speed, track.yaw, dt)) > LOST_GRIP).tolist(),
+    }
+    junction_uid = [road_map.junctions[j].uid if j >= 0 else None for j in junction_idx]
+    if route is None:  # no lane to start from (off the map): nothing along a route is known
+        columns.update({"route_s": [math.nan] * n, "centerline_marker": [None] * n,
+                        "centerline_intrusion": [math.nan] * n, "junction_id": junction_uid,
+                        "maneuver": ["none"] * n, "stop_line_dist": [math.nan] * n})
+        return columns
+    s, d, k = project_track(route.xy, track.x, track.y)
+    route_lane = route.lane[k]
+    columns["route_s"] = s.tolist()
+    columns["centerline_marker"] = [lanes[i].marker if i >= 0 else None for i in route_lane]
+    rel_route = wrap_angle(track.yaw - route.yaw[k])
+    reach = actor.length / 2 * np.abs(np.sin(rel_route)) + actor.width / 2 * np.abs(np.cos(rel_route))
+    columns["centerline_intrusion"] = (d + reach - route.centerline_offset[k]).tolist()  # NaN on one-way roads
+    maneuver, stop_dist, approaching = ["none"] * n, [math.nan] * n, [None] * n
+    exits = [_junction_exit(route, entry.s) for entry in route.entries]
+    front = s + actor.length / 2
+    for step in range(n):
+        for entry, exit_s in zip(route.entries, exits):
+            if s[step] - actor.length / 2 < exit_s:  # not yet clear of this junction
+                maneuver[step] = entry.maneuver
+                approaching[step] = road_map.junctions[entry.junction].uid
+                stop_dist[step] = float(entry.s - STOP_LINE_SETBACK - front[step])
+                break
+    columns["maneuver"] = maneuver
+    columns["junction_id"] = [j if j is not None else a for j, a in zip(junction_uid, approaching)]
+    columns["stop_line_dist"] = stop_dist
+    return columns
+
+
+def _actor_route(road_map, actor: SampledActor):
+    """The embedded backend's route for the actor: from its sampled lane, its intent at the first junction."""
+    lane_uid = actor.lane_id if actor.lane_id in road_map.by_uid else None
+    if lane_uid is None:
+        lane = road_map.lane_at(actor.x, actor.y, actor.yaw)
+        if lane is None:
+            return None
+        lane_uid = lane.uid
+    intent = actor.route_intent if actor.route_intent in ROUTE_INTENTS else "straight"
+    return road_map.route(lane_uid, intent)
+
+
+def _junction_exit(route, entry_s: float) -> float:
+    """[m] station where the route leaves the junction it enters at `entry_s`."""
+    from crashscene.simulate.roads import ROUTE_DS
+
+    k = int(round(entry_s / ROUTE_DS))
+    inside = np.flatnonzero(route.junction[k:] >= 0)
+    if inside.size == 0:
+        return float(entry_s)
+    after = np.flatnonzero(route.junction[k + inside[0]:] < 0)
+    last = k + inside[0] + (after[0] if after.size else route.junction.size - k - inside[0])
+    return float(last * ROUTE_DS)
+
+
+def _polyline_heading(points: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """[rad] heading of the polyline segment nearest to each point."""
+    a, b = points[:-1], points[1:]
+    seg = b - a
+    rel = np.stack([x, y], axis=-1)[:, None, :] - a[None, :, :]
+    u = np.clip(np.einsum("tkj,kj->tk", rel, seg) / np.maximum(np.einsum("kj,kj->k", seg, seg), 1e-12), 0, 1)
+    foot = a[None] + seg[None] * u[..., None]
+    k = np.argmin(np.hypot(*(np.stack([x, y], axis=-1)[:, None, :] - foot).transpose(2, 0, 1)), axis=1)
+    return np.arctan2(seg[k, 1], seg[k, 0])
+
+
+def project_track(route_xy: np.ndarray, x: np.ndarray, y: np.ndarray, window: float = 15.0):
+    """Station s [m], lateral offset d [m] (left positive) and nearest route-sample index of each track point.
+
+    Follows the track along the route: each step searches only near the previous
+    station (within `window` [m] plus the distance moved), so a route that folds
+    back on itself (a U-turn) does not make the station jump.
+    """
+    from crashscene.simulate.roads import ROUTE_DS
+
+    a, seg = route_xy[:-1], np.diff(route_xy, axis=0)
+    seg_len2 = np.maximum(np.einsum("ij,ij->i", seg, seg), 1e-12)
+    n = x.size
+    s, d, nearest = np.empty(n), np.empty(n), np.empty(n, dtype=np.int64)
+    lo, hi = 0, len(seg)
+    for step in range(n):
+        if step:
+            moved = math.hypot(x[step] - x[step - 1], y[step] - y[step - 1])
+            reach = int((window + moved) / ROUTE_DS)
+            centre = int(s[step - 1] / ROUTE_DS)
+            lo, hi = max(0, centre - reach), min(len(seg), centre + reach + 1)
+        rel = np.array([x[step], y[step]]) - a[lo:hi]
+        u = np.clip(np.einsum("ij,ij->i", rel, seg[lo:hi]) / seg_len2[lo:hi], 0.0, 1.0)
+        off = rel - seg[lo:hi] * u[:, None]
+        dist = np.hypot(off[:, 0], off[:, 1])
+        j = int(np.argmin(dist))
+        cross = seg[lo + j, 0] * rel[j, 1] - seg[lo + j, 1] * rel[j, 0]
+        s[step] = (lo + j + u[j]) * ROUTE_DS
+        d[step] = math.copysign(dist[j], cross) if cross else 0.0
+        nearest[step] = min(lo + j + int(round(u[j])), len(route_xy) - 1)
+    return s, d, nearest
