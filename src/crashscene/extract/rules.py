@@ -19,7 +19,7 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass, field
 
-from crashscene.dsl import Scenario, from_raw
+from crashscene.dsl import Scenario, from_raw, validate
 from crashscene.dsl.errors import DslError
 from crashscene.extract.errors import RulesError
 from crashscene.extract.report import Report
@@ -141,7 +141,9 @@ def extract_rules(report: Report, facts: list[SketchFact] | None = None) -> Scen
         "evidence": dict(sorted(state.evidence.items())),
     }
     try:
-        return from_raw(raw, source=f"rules extraction of {report.source}")
+        scenario = from_raw(raw, source=f"rules extraction of {report.source}")
+        validate(scenario)
+        return scenario
     except DslError as exc:
         raise RulesError(f"rule-based extraction produced an invalid scenario:\n{exc}", report.source) from None
 
@@ -219,7 +221,7 @@ def _direction_of(state: _State, label: str) -> tuple[str | None, str | None]:
             if lane:
                 side = "left" if "left" in lane.group(1).lower() or lane.group(1).lower() == "inboard" else \
                     "right" if "right" in lane.group(1).lower() or lane.group(1).lower() == "outboard" else "middle"
-            state.note(f"actors.{state.vehicles[label].role}.direction", sentence)
+            state.note(f"actors.{state.vehicles[label].role}.position", sentence)
             return match.group(1).lower(), side
     return None, None
 
@@ -336,7 +338,7 @@ def _road_network(state: _State) -> dict:
                           r"turn(?:ing)? lane", road_text, re.I)
     if state.divided:
         match = re.search(divided_pattern, road_text, re.I)
-        state.note("road_network.divided", _around(road_text, match) if match else "sketch: median")
+        state.note("road_network.number_of_ways", _around(road_text, match) if match else "sketch: median")
     _traffic_controls(state)
     road_type, curve_direction = _road_type(state)
     ways = _ways(state, road_text)
@@ -833,7 +835,7 @@ def _oracle(state: _State, road: dict, actors: dict) -> list[dict]:
                 quote)
         crossed = behavior in ("cross_centerline", "overtake") or (behavior == "lose_control" and "cross_centerline"
                                                                   in flags)
-        if crossed and road["number_of_ways"] == 2:
+        if crossed:
             add("CVC_21650", "wrong_side", role, f"{label} entered the opposing lanes of the two-way roadway.", quote)
             if marker == "double_solid_line" and behavior != "overtake":
                 add("CVC_21460", "double_line_crossing", role, f"{label} crossed the double solid centre line.", quote)

@@ -1,0 +1,139 @@
+"""Rule-based extraction: every bundled case validates; field checks where the narrative is unambiguous."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from crashscene.dsl import dumps, validate, validate_text
+from crashscene.extract.report import Report, load_report
+from crashscene.extract.rules import extract_rules
+from crashscene.extract.sketch import SketchFact
+
+CIREN = Path(__file__).resolve().parents[2] / "examples" / "ciren"
+CASES = sorted(p.name for p in CIREN.iterdir() if p.is_dir())
+
+
+def _extract(case: str, facts: list[SketchFact] | None = None):
+    return extract_rules(load_report(CIREN / case), facts or [])
+
+
+def _text(narrative: str, facts: list[SketchFact] | None = None):
+    return extract_rules(Report(case_id="t", narrative=narrative, source=Path("t.txt")), facts or [])
+
+
+@pytest.mark.parametrize("case", CASES)
+def test_every_case_gives_a_valid_scenario(case):
+    scenario = _extract(case)
+    warnings = validate(scenario)  # raises on errors
+    # a wrong-way driver on a divided roadway is oncoming traffic on a one-way carriageway, as in the golden file
+    assert {w.message for w in warnings} <= {"oncoming traffic on a one-way roadway"}
+    validate_text(dumps(scenario))  # the written file validates too
+    assert scenario.actors["ego"].label == "V1"
+    assert [a.label for a in scenario.npcs.values()] == [f"V{i}" for i in range(2, len(scenario.actors) + 1)]
+    assert scenario.scenario_id == f"CIREN-{case}"
+    assert scenario.evidence  # decisions carry their quotes
+    assert _extract(case) == scenario  # deterministic
+
+
+def test_head_on_after_drifting_over_the_centerline():
+    s = _extract("103378")
+    assert (s.environment.weather.value, s.environment.time_of_day.value) == ("clear", "nighttime")
+    road = s.road_network
+    assert (road.road_type.value, road.number_of_ways, road.number_of_lanes) == ("straight", 2, 2)
+    assert s.actors["ego"].behavior.value == "cross_centerline"
+    npc = s.actors["npc1"].position
+    assert (npc.reference, npc.relation.value, npc.heading.value) == ("ego", "front", "opposite_direction")
+    assert ("CVC_21650", "ego") in {(o.code, o.actor) for o in s.oracle}
+    assert "centerline" in s.evidence["actors.ego.behavior"]
+
+
+def test_crossing_traffic_from_the_right_at_a_4_leg_intersection():
+    s = _extract("100237")
+    assert s.road_network.road_type.value == "intersection"
+    assert (s.environment.weather.value, s.environment.road_surface.value) == ("cloudy", "dry")
+    npc = s.actors["npc1"]
+    assert (npc.behavior.value, npc.position.relation.value, npc.position.heading.value) == \
+        ("go_forward", "right", "from_right")
+
+
+def test_signalised_left_turn_across_oncoming_traffic():
+    s = _extract("3-C4-2018-012")
+    road = s.road_network
+    assert [x.value for x in road.traffic_signs] == ["traffic_light", "speed_limit_sign"]
+    assert (road.speed_limit_mph, road.number_of_lanes) == (45, 4)  # turn lanes are not through lanes
+    assert s.actors["ego"].position.reference == "traffic_light"
+    assert s.actors["npc1"].behavior.value == "turn_left"
+    assert [(o.code, o.actor) for o in s.oracle] == [("CVC_21801", "npc1")]
+
+
+def test_stopped_waiting_to_turn_and_struck_from_behind():
+    s = _extract("3-C2-2018-008")
+    assert (s.environment.weather.value, s.environment.road_surface.value) == ("rainy", "wet")
+    assert s.road_network.road_type.value == "t_intersection"
+    assert s.actors["ego"].behavior.value == "stop"
+    npc = s.actors["npc1"].position
+    assert (npc.relation.value, npc.heading.value) == ("behind", "same_direction")
+    assert ("CVC_22350", "npc1") in {(o.code, o.actor) for o in s.oracle}
+
+
+def test_single_vehicle_on_a_divided_interstate():
+    s = _extract("3-C5-2017-002")
+    assert list(s.actors) == ["ego"]
+    road = s.road_network
+    assert (road.number_of_ways, road.number_of_lanes, road.road_marker.value) == (1, 4, "none")
+    assert s.oracle == []
+
+
+@pytest.mark.parametrize("v2_direction, side", [("north", "right"), ("south", "left")])
+def test_cross_traffic_side_follows_travel_directions(v2_direction, side):
+    s = _text("Vehicle one (V1) was traveling east in the eastbound lane of a two-lane, two-way road and was "
+              "approaching a 4-leg intersection. Vehicle two (V2) was traveling " + v2_direction +
+              " on the intersecting road. It was daylight and the sky was clear. The front of V2 struck V1.")
+    npc = s.actors["npc1"].position
+    assert (npc.reference, npc.relation.value, npc.heading.value) == ("intersection", side, f"from_{side}")
+    expected = {("CVC_21800", "ego")} if side == "right" else {("CVC_21800", "npc1")}
+    assert {(o.code, o.actor) for o in s.oracle} == expected  # the vehicle on the right has priority
+
+
+def test_stop_sign_violation_and_the_stop_sign_reference():
+    s = _text("V1 was traveling north on a two-lane, two-way road approaching a 4-leg intersection. V2 was "
+              "traveling west and was controlled by a stop sign. The driver of V2 failed to stop at the stop sign "
+              "and entered the intersection. The front of V1 struck the left side of V2.")
+    assert [x.value for x in s.road_network.traffic_signs] == ["stop_sign"]
+    npc = s.actors["npc1"].position
+    assert (npc.reference, npc.relation.value, npc.heading.value) == ("stop_sign", "right", "from_right")
+    assert s.actors["ego"].position.reference == "intersection"
+    assert {(o.code, o.actor) for o in s.oracle} == {("CVC_22450", "npc1")}
+
+
+def test_sketch_facts_fill_what_the_text_does_not_say():
+    narrative = ("V1 was traveling south in the southbound lane of a two-lane, two-way road. V2 was traveling "
+                 "north in the northbound lane. V1 crossed the centerline and struck V2.")
+    plain = _text(narrative)
+    assert plain.road_network.speed_limit_mph is None and plain.road_network.road_marker.value == "not_mentioned"
+    facts = [SketchFact(text="speed limit 45 mph", confidence=0.99),
+             SketchFact(text="double solid line drawn", source="sketch:lines", confidence=0.8)]
+    s = _text(narrative, facts)
+    assert s.road_network.speed_limit_mph == 45
+    assert s.road_network.road_marker.value == "double_solid_line"
+    assert {(o.code, o.actor) for o in s.oracle} == {("CVC_21650", "ego"), ("CVC_21460", "ego")}
+    assert s.evidence["road_network.speed_limit_mph"] == "sketch: speed limit 45 mph"
+
+
+def test_text_speed_limit_wins_over_the_sketch():
+    s = _text("V1 was traveling east on a two-lane road with a posted speed limit of 89 km/h (55 mph). The front of "
+              "V1 struck a tree.", [SketchFact(text="speed limit 50 mph")])
+    assert s.road_network.speed_limit_mph == 55
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("case", ["108812", "3-C1-2018-001"])
+def test_with_real_sketch_facts(case, tmp_path, monkeypatch):
+    from crashscene.extract.sketch import sketch_facts
+
+    monkeypatch.setenv("CRASHSCENE_CACHE_DIR", str(tmp_path))
+    report = load_report(CIREN / case)
+    s = extract_rules(report, sketch_facts(report.sketch))
+    assert s.road_network.speed_limit_mph in (40, 55)
+    assert s.road_network.road_marker.value in ("broken_line", "double_solid_line")
