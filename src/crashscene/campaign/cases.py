@@ -103,11 +103,12 @@ def _scenario_of(path: Path, work: Path, backend: str, dsl_name: str | None) -> 
     from crashscene.extract.pipeline import extract_case
 
     result = extract_case(path, backend=backend)
-    scenario = result.scenario
     meta = _extraction_meta(result, backend)
     (work / "extraction.json").write_text(json.dumps(meta, indent=2, default=str), encoding="utf-8")
-    warnings = validate(scenario)
-    return scenario, str(meta.get("backend") or backend), [str(w) for w in warnings]
+    if result.scenario is None:
+        raise CampaignError(f"{path}: extraction ({backend}) failed: {result.error or 'no scenario'}")
+    warnings = [*getattr(result, "warnings", []), *map(str, validate(result.scenario))]
+    return result.scenario, str(meta.get("backend") or backend), [str(w) for w in warnings]
 
 
 def _extraction_meta(result: object, backend: str) -> dict:

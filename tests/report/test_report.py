@@ -1,0 +1,62 @@
+"""The report: files written, self-contained HTML, results.json and JUnit shape, and images in Chromium."""
+from __future__ import annotations
+
+import json
+import re
+import xml.etree.ElementTree as ET
+
+import pytest
+from PIL import Image
+
+from crashscene.report import ReportError, write_report
+from tests.report import chromium
+
+
+@pytest.fixture(scope="module")
+def written(fake_campaign):
+    return write_report(fake_campaign, gifs=False)
+
+
+def test_report_writes_html_results_and_junit(written):
+    assert written.html.stat().st_size > 10_000
+    results = json.loads(written.results.read_text())
+    assert [c["case_id"] for c in results["cases"]] == ["100237", "120013"]
+    case = results["cases"][1]
+    assert set(case["modes"]) == {"reproduce", "test"}
+    test = case["modes"]["test"]
+    assert test["variations"] == 40 and sum(test["verdicts"].values()) == 40
+    assert results["totals"]["modes"]["test"]["variations"] == 80
+    suite = ET.parse(written.junit).getroot()
+    cases = suite.findall("testcase")
+    assert suite.get("tests") == "2" and len(cases) == 2
+    assert {c.get("classname") for c in cases} == {"crashscene.100237", "crashscene.120013"}
+    failing = [c for c in cases if c.find("failure") is not None]
+    assert len(failing) == int(suite.get("failures"))
+
+
+def test_html_is_self_contained(written):
+    html = written.html.read_text()
+    assert not re.search(r'(src|href)="(https?:)?//', html), "the report must not load anything from a network"
+    assert "<script" not in html and "<link" not in html
+    assert html.count('src="data:image/') >= 4  # sketch, verdicts, violations, scatter per case
+    narrative = (chromium.Path(__file__).resolve().parents[2] / "examples/ciren/120013/narrative.txt").read_text()
+    assert narrative.split()[0] in html
+
+
+def test_missing_campaign_is_a_clear_error(tmp_path):
+    with pytest.raises(ReportError, match="campaign.duckdb"):
+        write_report(tmp_path)
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(chromium.CHROMIUM is None, reason="Debian's chromium is not installed (see .ci/run)")
+def test_chromium_shows_the_report_images(written, tmp_path):
+    images = chromium.decoded_images(written.html, tmp_path)
+    assert len(images) >= 8
+    broken = [i for i in images if not i["ok"]]
+    assert not broken, f"images that did not decode: {broken}"
+    assert any(i["alt"].startswith("crash sketch") and i["w"] > 100 for i in images)
+    shot = chromium.screenshot(written.html, tmp_path / "shot.png", tmp_path)
+    with Image.open(shot) as img:
+        colors = img.convert("RGB").resize((320, 600)).getcolors(maxcolors=1 << 20)
+    assert colors is not None and len(colors) > 200, "the page rendered as (almost) a single colour"
