@@ -19,8 +19,11 @@ $(VENV)/.installed-test: pyproject.toml | $(BIN)/python
 	touch $@ $(VENV)/.installed-base
 
 .PHONY: demo test bench clean
+# One bundled CIREN case through the whole pipeline, offline (rules extractor, embedded simulator), no API key.
 demo: $(VENV)/.installed-base
-	$(BIN)/crashscene validate examples/ciren/*/golden.yaml
+	rm -rf out/demo
+	$(BIN)/crashscene run $(DEMO_CASE) -n $(DEMO_N) --out out/demo
+	@echo "open out/demo/report.html"
 
 test: $(VENV)/.installed-test
 	$(BIN)/python -m pytest -q
