@@ -1,0 +1,128 @@
+"""Where two actors' paths cross: the conflict areas of the right-of-way rules.
+
+For every ordered pair of actors (a, b) of every variation: does a's path
+cross (or merge into) b's path, when does a enter b's path and when does it
+leave it, and at which arc length [m] along a's path the crossing lies. The
+right-of-way rules (CVC 21800, 21801, 21802, 21803) turn these into
+post-encroachment times and times to reach the conflict area.
+
+A path is the recorded trajectory, sampled every `stride` steps, extended
+straight ahead of its last position by `extension` [m]: a vehicle that braked
+to a stop short of the crossing (because another cut in front of it) still has
+a conflict point, so its time to reach it can be measured.
+A pair whose paths touch at a heading difference below `min_angle` or above
+pi - `min_angle` (car-following, oncoming traffic in its own lane) has no
+crossing conflict: those are the following and wrong-side rules' business.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from crashscene.monitor.arrays import TraceArrays
+from crashscene.monitor.geometry import heading_difference, pair_indices
+from crashscene.monitor.timeseries import first_index
+
+NO_STEP = -1
+
+
+@dataclass
+class PathConflicts:
+    """Ordered-pair conflict geometry, arrays (V, A, A) indexed [variation, a, b]."""
+
+    crossing: np.ndarray   # bool: a's path crosses or merges into b's path
+    angle: np.ndarray      # [rad] heading difference where a enters b's path
+    enter: np.ndarray      # step at which a's centre enters b's path (NO_STEP if never in the trace)
+    exit: np.ndarray       # last step of that stay (NO_STEP if never)
+    s_enter: np.ndarray    # [m] a's arc length at that entry (extension included; NaN if none)
+    s: np.ndarray          # (V, A, T) a's arc length along its recorded path [m]
+
+
+def arc_length(arrays: TraceArrays) -> np.ndarray:
+    """(V, A, T) cumulative distance travelled [m]; steps without a position keep the last value."""
+    x, y = arrays.floats["x"], arrays.floats["y"]
+    seg = np.hypot(np.diff(x, axis=2), np.diff(y, axis=2))
+    seg = np.where(np.isfinite(seg), seg, 0.0)
+    s = np.concatenate([np.zeros(x.shape[:2] + (1,)), np.cumsum(seg, axis=2)], axis=2)
+    return s
+
+
+def path_conflicts(arrays: TraceArrays, stride: int = 2, extension: float = 20.0, extension_step: float = 2.0,
+                   min_angle: float = np.radians(20.0), chunk: int = 256) -> PathConflicts:
+    """Conflict geometry of every ordered actor pair, vectorised in chunks of variations."""
+    n_var, n_act, n_steps = arrays.shape
+    s_full = arc_length(arrays)
+    shape = (n_var, n_act, n_act)
+    out = PathConflicts(crossing=np.zeros(shape, dtype=bool), angle=np.full(shape, np.nan),
+                        enter=np.full(shape, NO_STEP, dtype=np.int64), exit=np.full(shape, NO_STEP, dtype=np.int64),
+                        s_enter=np.full(shape, np.nan), s=s_full)
+    if n_act < 2 or n_steps == 0:
+        return out
+    idx = np.arange(0, n_steps, max(1, stride))
+    n_ext = max(0, int(round(extension / extension_step)))
+    px, py, pyaw, ps = _sampled_paths(arrays, s_full, idx, n_ext, extension_step)
+    n_real = len(idx)
+    ia, ib = pair_indices(n_act)
+    for lo in range(0, n_var, chunk):
+        hi = min(n_var, lo + chunk)
+        for a, b in zip(ia, ib):
+            _pair(out, arrays, lo, hi, a, b, px, py, pyaw, ps, idx, n_real, min_angle)
+    return out
+
+
+def _sampled_paths(arrays: TraceArrays, s_full: np.ndarray, idx: np.ndarray, n_ext: int, ds: float):
+    x = np.where(arrays.alive, arrays.floats["x"], np.nan)
+    y = np.where(arrays.alive, arrays.floats["y"], np.nan)
+    yaw = arrays.floats["yaw"]
+    last = np.where(arrays.alive.any(axis=2), arrays.shape[2] - 1 - np.argmax(arrays.alive[..., ::-1], axis=2), 0)
+    take = lambda arr: np.take_along_axis(arr, last[..., None], axis=2)  # noqa: E731
+    lx, ly, lyaw, ls = take(x), take(y), take(yaw), take(s_full)
+    steps = np.arange(1, n_ext + 1) * ds
+    ex = lx + steps * np.cos(lyaw)
+    ey = ly + steps * np.sin(lyaw)
+    es = ls + steps
+    px = np.concatenate([x[..., idx], ex], axis=2)
+    py = np.concatenate([y[..., idx], ey], axis=2)
+    pyaw = np.concatenate([yaw[..., idx], np.broadcast_to(lyaw, ex.shape)], axis=2)
+    ps = np.concatenate([s_full[..., idx], es], axis=2)
+    return px, py, pyaw, ps
+
+
+def _pair(out: PathConflicts, arrays: TraceArrays, lo: int, hi: int, a: int, b: int, px, py, pyaw, ps,
+          idx: np.ndarray, n_real: int, min_angle: float) -> None:
+    sl = slice(lo, hi)
+    dx = px[sl, a, :, None] - px[sl, b, None, :]
+    dy = py[sl, a, :, None] - py[sl, b, None, :]
+    d2 = dx * dx + dy * dy
+    d2 = np.where(np.isfinite(d2), d2, np.inf)
+    r = (arrays.width[sl, a] + arrays.width[sl, b]) / 2
+    r2 = (r * r)[:, None]
+    near_a = d2.min(axis=2) < r2           # a's samples on b's path
+    near_b = d2.min(axis=1) < r2           # b's samples on a's path
+    for (me, other, near, nearest_axis) in ((a, b, near_a, 2), (b, a, near_b, 1)):
+        first_any = first_index(near)
+        has = first_any >= 0
+        rows = np.nonzero(has)[0]
+        if not len(rows):
+            continue
+        v = rows + lo
+        f = first_any[rows]
+        other_pt = (np.argmin(d2[rows, f, :], axis=1) if nearest_axis == 2 else np.argmin(d2[rows, :, f], axis=1))
+        angle = heading_difference(pyaw[v, me, f], pyaw[v, other, other_pt])
+        crossing = (angle >= min_angle) & (angle <= np.pi - min_angle)
+        out.crossing[v, me, other] = crossing
+        out.angle[v, me, other] = angle
+        out.s_enter[v, me, other] = ps[v, me, f]
+        real = f < n_real
+        # Stay on the other's path: the contiguous run of near samples from the entry.
+        after = near[rows].copy()
+        positions = np.arange(near.shape[1])
+        after[positions[None, :] < f[:, None]] = True
+        leave = first_index(~after)
+        last_in = np.where(leave >= 0, leave - 1, near.shape[1] - 1)
+        last_in = np.minimum(last_in, n_real - 1)
+        enter_step = np.where(real, idx[np.minimum(f, n_real - 1)], NO_STEP)
+        exit_step = np.where(real, idx[np.maximum(last_in, 0)], NO_STEP)
+        out.enter[v, me, other] = enter_step
+        out.exit[v, me, other] = exit_step

@@ -1,0 +1,117 @@
+"""What every rule sees: the batch arrays, the scenario, and shared derived quantities.
+
+Derived quantities several rules need (path conflicts, same-lane leaders,
+junction arrival times) are computed once, lazily, and cached here.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from functools import cached_property
+
+import numpy as np
+
+from crashscene.dsl.model import Scenario
+from crashscene.monitor.arrays import TraceArrays, code_of
+from crashscene.monitor.conflicts import PathConflicts, path_conflicts
+from crashscene.monitor.geometry import heading_difference, relative_position
+from crashscene.monitor.timeseries import first_index, take
+
+MPH = 0.44704  # [m/s] per mph
+
+
+@dataclass
+class Leaders:
+    """For each (variation, actor, step): the nearest actor ahead in the same lane."""
+
+    index: np.ndarray     # (V, A, T) leader actor index, -1 none
+    gap: np.ndarray       # (V, A, T) bumper-to-bumper gap [m], inf none
+    speed: np.ndarray     # (V, A, T) leader speed [m/s], NaN none
+
+
+@dataclass
+class EvalContext:
+    """The batch under evaluation."""
+
+    arrays: TraceArrays
+    scenario: Scenario | None
+    conflict_stride: int = 2
+    lane_half_width: float = 1.6       # [m] lateral offset still counted as the same lane
+    leader_range: float = 150.0        # [m] farthest leader considered
+    _cache: dict = field(default_factory=dict, repr=False)
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self.arrays.shape[:2]
+
+    @property
+    def dt(self) -> float:
+        return self.arrays.dt
+
+    @cached_property
+    def time(self) -> np.ndarray:
+        return self.arrays.time()
+
+    def time_at(self, step: np.ndarray) -> np.ndarray:
+        """(V, A) time [s] at a per-actor step index (-1 -> NaN)."""
+        return take(self.time, step)
+
+    def is_code(self, column: str, token: str) -> np.ndarray:
+        return self.arrays.codes[column] == code_of(column, token)
+
+    @cached_property
+    def conflicts(self) -> PathConflicts:
+        return path_conflicts(self.arrays, stride=self.conflict_stride)
+
+    @cached_property
+    def junction_entry(self) -> np.ndarray:
+        """(V, A) first step inside a junction, -1 if never."""
+        return first_index(self.arrays.flag("in_junction"))
+
+    @cached_property
+    def leaders(self) -> Leaders:
+        """Nearest same-lane actor ahead: same lane id, or (ids unknown) within a lane's half width laterally."""
+        a = self.arrays
+        n_var, n_act, n_steps = a.shape
+        x, y, yaw, speed = a.floats["x"], a.floats["y"], a.floats["yaw"], a.floats["speed"]
+        lane = a.codes["lane_id"]
+        best_gap = np.full((n_var, n_act, n_steps), np.inf)
+        best_idx = np.full((n_var, n_act, n_steps), -1, dtype=np.int64)
+        for i in range(n_act):
+            for j in range(n_act):
+                if i == j:
+                    continue
+                lon, lat = relative_position(x[:, i], y[:, i], yaw[:, i], x[:, j], y[:, j])
+                same_dir = heading_difference(yaw[:, i], yaw[:, j]) < np.radians(45)
+                same_id = (lane[:, i] >= 0) & (lane[:, i] == lane[:, j])
+                geometric = np.abs(lat) < self.lane_half_width
+                gap = lon - (a.length[:, i, None] + a.length[:, j, None]) / 2
+                with np.errstate(invalid="ignore"):
+                    ok = (same_id | geometric) & same_dir & (lon > 0) & (lon < self.leader_range)
+                ok &= a.alive[:, i] & a.alive[:, j]
+                gap = np.where(ok, gap, np.inf)
+                better = gap < best_gap[:, i]
+                best_gap[:, i] = np.where(better, gap, best_gap[:, i])
+                best_idx[:, i] = np.where(better, j, best_idx[:, i])
+        lead_speed = np.take_along_axis(speed, np.clip(best_idx, 0, None), axis=1)
+        lead_speed = np.where(best_idx >= 0, lead_speed, np.nan)
+        return Leaders(index=best_idx, gap=best_gap, speed=lead_speed)
+
+    # --- scenario-derived facts -------------------------------------------------------------
+    def environment(self) -> tuple[str, str, str]:
+        """(weather, road_surface, time_of_day) tokens; not_mentioned without a scenario."""
+        if self.scenario is None:
+            return "not_mentioned", "not_mentioned", "not_mentioned"
+        env = self.scenario.environment
+        return str(env.weather), str(env.road_surface), str(env.time_of_day)
+
+    def scenario_speed_limit(self) -> float | None:
+        """The DSL's posted limit [m/s], or None."""
+        if self.scenario is None or self.scenario.road_network.speed_limit_mph is None:
+            return None
+        return self.scenario.road_network.speed_limit_mph * MPH
+
+    def two_lane_two_way(self) -> bool:
+        if self.scenario is None:
+            return False
+        road = self.scenario.road_network
+        return road.number_of_ways == 2 and road.number_of_lanes <= 2

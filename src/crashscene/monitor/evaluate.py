@@ -1,0 +1,48 @@
+"""`evaluate`: the rulebook, collisions and verdicts for a batch of trace tables."""
+from __future__ import annotations
+
+from typing import Literal
+
+import pyarrow as pa
+
+from crashscene.dsl.model import Scenario
+from crashscene.monitor.arrays import build_arrays
+from crashscene.monitor.collisions import classify_collisions
+from crashscene.monitor.context import EvalContext
+from crashscene.monitor.errors import MonitorError
+from crashscene.monitor.result import MonitorResult, rule_results_table
+from crashscene.monitor.rulebook import Rulebook
+from crashscene.monitor.verdicts import ExpectedCollision, ads_mask, expected_collision, verdict_table
+
+
+def evaluate(tables: dict[str, pa.Table], scenario: Scenario | None, rulebook: Rulebook | None = None, *,
+             expected: ExpectedCollision | None | Literal["auto"] = "auto") -> MonitorResult:
+    """Evaluate every actor of every variation in `tables` (see `crashscene.traces`).
+
+    `scenario` supplies the environment (condition factors), the posted limit,
+    the road layout and the oracle to reproduce. `expected` overrides the
+    collision the report implies ("auto": derived from the DSL; None: none).
+    """
+    rulebook = rulebook or Rulebook()
+    arrays = build_arrays(tables)
+    ctx = EvalContext(arrays=arrays, scenario=scenario)
+    ads = ads_mask(arrays)
+    outcomes = []
+    for rule in rulebook.rules():
+        try:
+            outcome = rule.evaluate(ctx)
+        except MonitorError:
+            raise
+        except Exception as exc:  # a user rule's bug must say which rule failed
+            raise MonitorError(f"rule {rule.code} ({type(rule).__module__}.{type(rule).__qualname__}) failed: "
+                               f"{type(exc).__name__}: {exc}") from exc
+        outcomes.append((rule, outcome.finalize()))
+    rule_results = rule_results_table(arrays.variations, arrays.roles, arrays.present, ads, outcomes)
+    collisions = classify_collisions(arrays, tables.get("collisions"), ads)
+    if expected == "auto":
+        expected = expected_collision(scenario)
+    verdicts, oracle = verdict_table(arrays, {r.code: o for r, o in outcomes}, collisions, scenario, ads, expected)
+    rules = [{"code": r.code, "violation": r.violation, "unit": r.unit, "summary": r.summary,
+              "params": r.params.model_dump(mode="json")} for r, _ in outcomes]
+    return MonitorResult(rule_results=rule_results, collisions=collisions, verdicts=verdicts, rules=rules,
+                         oracle=oracle, rulebook=rulebook.source)

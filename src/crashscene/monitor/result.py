@@ -1,0 +1,116 @@
+"""MonitorResult: the three result tables and the JSON summary built from them."""
+from __future__ import annotations
+
+from collections import Counter
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.compute as pc
+
+from crashscene.monitor.collisions import COLLISION_CLASSES
+from crashscene.monitor.verdicts import VERDICTS
+
+RULE_RESULT_SCHEMA = pa.schema([
+    ("variation", pa.int32()),
+    ("actor", pa.string()),
+    ("code", pa.string()),
+    ("violation", pa.string()),         # the rule's violation token
+    ("verdict", pa.string()),           # violated | satisfied | not_applicable
+    ("first_violation_t", pa.float64()),  # [s]
+    ("measured", pa.float64()),         # in `unit`
+    ("threshold", pa.float64()),        # in `unit`
+    ("unit", pa.string()),
+    ("robustness", pa.float64()),       # signed margin in `unit`, negative when violated
+    ("is_ads", pa.bool_()),             # the actor is under test in this variation
+    ("note", pa.string()),              # exemption used, advisory, condition factor
+])
+
+
+@dataclass
+class MonitorResult:
+    """What the monitor found for one batch of variations."""
+
+    rule_results: pa.Table
+    collisions: pa.Table
+    verdicts: pa.Table
+    rules: list[dict[str, Any]] = field(default_factory=list)   # code, violation, unit, params of each rule run
+    oracle: dict[str, Any] = field(default_factory=dict)       # observable/unmonitored entries, expected collision
+    rulebook: str | None = None
+
+    def summary(self) -> dict[str, Any]:
+        """JSON-ready summary; counts are over valid variations unless said otherwise."""
+        verdicts = self.verdicts.to_pydict()
+        valid = {v for v, verdict in zip(verdicts["variation"], verdicts["verdict"]) if verdict != "invalid"}
+        n_valid = len(valid)
+        violations: dict[str, dict[str, int]] = {}
+        rr = self.rule_results.filter(pc.equal(self.rule_results["verdict"], "violated"))
+        if rr.num_rows:
+            cols = rr.select(["variation", "actor", "code"]).to_pydict()
+            seen = set()
+            for v, actor, code in zip(cols["variation"], cols["actor"], cols["code"]):
+                if v in valid and (v, actor, code) not in seen:
+                    seen.add((v, actor, code))
+                    violations.setdefault(code, {}).setdefault(actor, 0)
+                    violations[code][actor] += 1
+        order = [r["code"] for r in self.rules]
+        violations = {code: dict(sorted(violations[code].items())) for code in order if code in violations}
+        counts = Counter(verdicts["verdict"])
+        reproduced = int(sum(1 for r in verdicts["reproduced"] if r))
+        coll = self.collisions.to_pydict()
+        by_class: Counter = Counter()
+        by_pair: dict[str, Counter] = {}
+        for v, a, b, klass in zip(coll["variation"], coll["actor_a"], coll["actor_b"], coll["class"]):
+            if v in valid:
+                by_class[klass] += 1
+                by_pair.setdefault(f"{a}-{b}", Counter())[klass] += 1
+        invalid_reasons = Counter(r for r, verdict in zip(verdicts["reason"], verdicts["verdict"])
+                                  if verdict == "invalid")
+        return {
+            "variations": len(verdicts["variation"]),
+            "valid": n_valid,
+            "violations": violations,
+            "verdicts": {name: int(counts.get(name, 0)) for name in VERDICTS},
+            "reproduced": reproduced,
+            "reproduction_rate": round(reproduced / n_valid, 4) if n_valid else None,
+            "collisions": {name: int(by_class.get(name, 0)) for name in COLLISION_CLASSES},
+            "collision_pairs": {pair: dict(c) for pair, c in sorted(by_pair.items())},
+            "invalid_reasons": dict(invalid_reasons),
+            "oracle": self.oracle.get("oracle", []),
+            "expected_collision": self.oracle.get("expected_collision"),
+            "rules": [r["code"] for r in self.rules],
+            "rulebook": self.rulebook,
+        }
+
+
+def rule_results_table(variations: np.ndarray, roles: list[str], present: np.ndarray, ads: np.ndarray,
+                       outcomes: list[tuple[Any, Any]]) -> pa.Table:
+    """Long table, one row per (variation, actor, rule) for actors present in the variation."""
+    vv, aa = np.nonzero(present)
+    parts = []
+    role_arr = np.asarray(roles, dtype=object)
+    for rule, out in outcomes:
+        verdict = np.where(out.applicable, np.where(out.violated, "violated", "satisfied"), "not_applicable")
+        n = len(vv)
+        parts.append(pa.table({
+            "variation": pa.array(variations[vv].astype(np.int32)),
+            "actor": pa.array(role_arr[aa].tolist(), type=pa.string()),
+            "code": pa.array([rule.code] * n, type=pa.string()),
+            "violation": pa.array([rule.violation] * n, type=pa.string()),
+            "verdict": pa.array(verdict[vv, aa].tolist(), type=pa.string()),
+            "first_violation_t": pa.array(out.first_t[vv, aa].astype(float)),
+            "measured": pa.array(out.measured[vv, aa].astype(float)),
+            "threshold": pa.array(out.threshold[vv, aa].astype(float)),
+            "unit": pa.array([rule.unit] * n, type=pa.string()),
+            "robustness": pa.array(out.robustness[vv, aa].astype(float)),
+            "is_ads": pa.array(ads[vv, aa]),
+            "note": pa.array(out.note[vv, aa].tolist(), type=pa.string()),
+        }, schema=RULE_RESULT_SCHEMA))
+    if not parts:
+        return RULE_RESULT_SCHEMA.empty_table()
+    table = pa.concat_tables(parts)
+    # variation-major order, then actor (ego first), then rule (rules.md order)
+    rule_no = np.repeat(np.arange(len(parts)), len(vv))
+    key = (np.tile(vv, len(parts)) * len(roles) + np.tile(aa, len(parts))) * len(parts) + rule_no
+    return table.take(pa.array(np.argsort(key, kind="stable")))

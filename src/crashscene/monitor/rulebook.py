@@ -1,0 +1,136 @@
+"""The rulebook: which rules run, with which thresholds; defaults from rules.md, overridable from YAML.
+
+A rulebook file::
+
+    imports: [my_company.rules]      # optional: modules that register extra rules (@register_rule)
+    rules:
+      CVC_21703: {min_headway: 1.5}  # override a threshold
+      CVC_22349: {enabled: false}    # switch a rule off
+      CVC_22108: {}                  # a user rule registered by an imported module
+
+Every error names the file, the rule code, the parameter, the bad value and
+what is allowed.
+"""
+from __future__ import annotations
+
+import importlib
+from pathlib import Path
+from typing import Any
+
+import yaml
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from crashscene.monitor.errors import RulebookError
+from crashscene.monitor.rules import BUILTIN_ORDER, Rule, RuleParams, registered_rules
+
+TOP_LEVEL_KEYS = ("imports", "rules")
+
+
+class Rulebook(BaseModel):
+    """Per-code parameters (codes not listed run with their defaults)."""
+
+    model_config = ConfigDict(frozen=True, arbitrary_types_allowed=True)
+
+    params: dict[str, RuleParams] = Field(default_factory=dict)
+    imports: list[str] = Field(default_factory=list)
+    source: str | None = None
+
+    def rules(self) -> list[Rule]:
+        """Instances of every enabled registered rule, built-ins in rules.md order, then user rules."""
+        registry = registered_rules()
+        codes = [c for c in BUILTIN_ORDER if c in registry] + [c for c in registry if c not in BUILTIN_ORDER]
+        out = []
+        for code in codes:
+            cls = registry[code]
+            params = self.params.get(code) or cls.Params()
+            if params.enabled:
+                out.append(cls(params))
+        return out
+
+    def defaults(self) -> dict[str, dict[str, Any]]:
+        """Effective parameters of every registered rule (for `--show-rules` and reports)."""
+        return {rule_cls.code: (self.params.get(code) or rule_cls.Params()).model_dump(mode="json")
+                for code, rule_cls in registered_rules().items()}
+
+    @classmethod
+    def from_mapping(cls, data: Any, source: str = "<rulebook>") -> Rulebook:
+        if data is None:
+            data = {}
+        if not isinstance(data, dict):
+            raise RulebookError(f"{source}: a rulebook is a mapping with keys {', '.join(TOP_LEVEL_KEYS)} "
+                                f"(got {type(data).__name__})")
+        unknown = [k for k in data if k not in TOP_LEVEL_KEYS]
+        if unknown:
+            raise RulebookError(f"{source}: unknown key {unknown[0]!r}; allowed: {', '.join(TOP_LEVEL_KEYS)}")
+        imports = data.get("imports") or []
+        if not isinstance(imports, list) or not all(isinstance(m, str) for m in imports):
+            raise RulebookError(f"{source}: imports: expected a list of module names (got {imports!r})")
+        for module in imports:
+            try:
+                importlib.import_module(module)
+            except Exception as exc:  # any import failure is the user's module: say which one
+                raise RulebookError(f"{source}: imports: cannot import {module!r}: {exc}") from exc
+        rules = data.get("rules") or {}
+        if not isinstance(rules, dict):
+            raise RulebookError(f"{source}: rules: expected a mapping of rule code -> parameters (got {rules!r})")
+        registry = registered_rules()
+        params: dict[str, RuleParams] = {}
+        for code, values in rules.items():
+            if code not in registry:
+                raise RulebookError(f"{source}: rules.{code}: unknown rule code; allowed: {', '.join(registry)}")
+            if values is None:
+                values = {}
+            if not isinstance(values, dict):
+                raise RulebookError(f"{source}: rules.{code}: expected a mapping of parameter -> value "
+                                    f"(got {values!r}); allowed parameters: {_names(registry[code].Params)}")
+            params[code] = _validate(registry[code].Params, values, source, code)
+        return cls(params=params, imports=list(imports), source=source)
+
+
+def load_rulebook(path: str | Path) -> Rulebook:
+    """Read a rulebook YAML file."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise RulebookError(f"{path}: cannot read rulebook: {exc.strerror or exc}") from exc
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f"{path}:{mark.line + 1}" if mark is not None else str(path)
+        raise RulebookError(f"{where}: not valid YAML: {getattr(exc, 'problem', exc)}") from exc
+    return Rulebook.from_mapping(data, source=str(path))
+
+
+def _names(model: type[BaseModel]) -> str:
+    return ", ".join(model.model_fields)
+
+
+def _allowed(model: type[BaseModel], name: str) -> str:
+    field = model.model_fields.get(name)
+    if field is None:
+        return _names(model)
+    bounds = []
+    for meta in field.metadata:
+        for attr, sign in (("gt", ">"), ("ge", ">="), ("lt", "<"), ("le", "<=")):
+            value = getattr(meta, attr, None)
+            if value is not None:
+                bounds.append(f"{sign} {value}")
+    kind = getattr(field.annotation, "__name__", str(field.annotation))
+    text = f"{kind} {' and '.join(bounds)}".strip()
+    if field.description:
+        text += f" ({field.description})"
+    return text
+
+
+def _validate(model: type[RuleParams], values: dict, source: str, code: str) -> RuleParams:
+    try:
+        return model.model_validate(values)
+    except ValidationError as exc:
+        err = exc.errors()[0]
+        name = str(err["loc"][0]) if err["loc"] else "?"
+        if err["type"] == "extra_forbidden":
+            raise RulebookError(f"{source}: rules.{code}.{name}: unknown parameter; allowed: {_names(model)}") from None
+        raise RulebookError(f"{source}: rules.{code}.{name}: {err['msg']} (got {err.get('input')!r}); "
+                            f"allowed: {_allowed(model, name)}") from None

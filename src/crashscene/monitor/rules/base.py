@@ -1,0 +1,129 @@
+"""The rule interface and the registry of rules by code.
+
+A rule is a small class: its CVC code, violation token, unit, a pydantic
+`Params` model holding its thresholds (defaults from rules.md), and an
+`evaluate(ctx)` returning one `RuleOutcome` of (variation, actor) arrays.
+Registering a class by its code is all it takes to add a rule
+(`@register_rule class Cvc22108(Rule): ...`): the rulebook, the monitor and the
+reports pick it up without touching the other rules.
+"""
+from __future__ import annotations
+
+import re
+from abc import ABC, abstractmethod
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, ClassVar
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
+
+from crashscene.monitor.errors import RegistryError
+
+if TYPE_CHECKING:
+    from crashscene.monitor.context import EvalContext
+
+CODE_RE = re.compile(r"^CVC_[0-9]+[A-Za-z]?$")
+TOKEN_RE = re.compile(r"^[a-z][a-z0-9_]*$")
+
+
+class RuleParams(BaseModel):
+    """Thresholds of one rule; subclasses add fields with units in their descriptions."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    enabled: bool = Field(default=True, description="evaluate this rule")
+
+
+@dataclass
+class RuleOutcome:
+    """One rule's result for every (variation, actor); all arrays (V, A)."""
+
+    applicable: np.ndarray     # bool
+    violated: np.ndarray       # bool (only where applicable)
+    first_t: np.ndarray        # [s] time of the first violation, NaN otherwise
+    measured: np.ndarray       # the measured value, in the rule's unit
+    threshold: np.ndarray      # the threshold it is compared with, in the rule's unit
+    robustness: np.ndarray     # signed margin in the rule's unit, negative when violated
+    note: np.ndarray | None = None  # object array of str/None: advisories, exemptions used
+
+    @classmethod
+    def empty(cls, shape: tuple[int, int], threshold: float = np.nan) -> RuleOutcome:
+        return cls(applicable=np.zeros(shape, dtype=bool), violated=np.zeros(shape, dtype=bool),
+                   first_t=np.full(shape, np.nan), measured=np.full(shape, np.nan),
+                   threshold=np.full(shape, float(threshold)), robustness=np.full(shape, np.inf),
+                   note=np.full(shape, None, dtype=object))
+
+    def finalize(self) -> RuleOutcome:
+        """Make the arrays consistent: no violation where not applicable, robustness sign matches."""
+        self.violated &= self.applicable
+        self.first_t = np.where(self.violated, self.first_t, np.nan)
+        self.robustness = np.where(self.applicable, self.robustness, np.nan)
+        self.robustness = np.where(self.violated, np.minimum(self.robustness, -0.0), self.robustness)
+        self.robustness = np.where(self.applicable & ~self.violated & (self.robustness <= 0), 0.0, self.robustness)
+        self.measured = np.where(self.applicable, self.measured, np.nan)
+        if self.note is None:
+            self.note = np.full(self.applicable.shape, None, dtype=object)
+        return self
+
+
+class Rule(ABC):
+    """One monitored traffic rule."""
+
+    code: ClassVar[str]
+    violation: ClassVar[str]
+    unit: ClassVar[str]
+    summary: ClassVar[str] = ""
+    Params: ClassVar[type[RuleParams]] = RuleParams
+
+    def __init__(self, params: RuleParams | None = None):
+        self.params = params if params is not None else self.Params()
+
+    @abstractmethod
+    def evaluate(self, ctx: EvalContext) -> RuleOutcome:
+        """Evaluate every actor of every variation of the batch in `ctx`."""
+
+
+_REGISTRY: dict[str, type[Rule]] = {}
+
+
+def register_rule(cls: type[Rule] | None = None, *, replace: bool = False):
+    """Class decorator registering a rule by its `code` (use `replace=True` to override a built-in)."""
+
+    def wrap(rule_cls: type[Rule]) -> type[Rule]:
+        code = getattr(rule_cls, "code", None)
+        if not isinstance(code, str) or not CODE_RE.match(code):
+            raise RegistryError(f"{rule_cls.__qualname__}: code {code!r} is not of the form CVC_<digits>")
+        token = getattr(rule_cls, "violation", None)
+        if not isinstance(token, str) or not TOKEN_RE.match(token):
+            raise RegistryError(f"{rule_cls.__qualname__}: violation token {token!r} is not snake_case")
+        if not isinstance(getattr(rule_cls, "unit", None), str):
+            raise RegistryError(f"{rule_cls.__qualname__}: missing `unit` (e.g. 's', 'm/s', 'm')")
+        if not (isinstance(rule_cls.Params, type) and issubclass(rule_cls.Params, RuleParams)):
+            raise RegistryError(f"{rule_cls.__qualname__}: Params must subclass RuleParams")
+        existing = _REGISTRY.get(code)
+        if existing is not None and existing is not rule_cls and not replace:
+            same = existing.__module__ == rule_cls.__module__ and existing.__qualname__ == rule_cls.__qualname__
+            if not same:
+                raise RegistryError(f"{code} is already registered by {existing.__module__}.{existing.__qualname__}; "
+                                    f"pass replace=True to override it")
+        _REGISTRY[code] = rule_cls
+        return rule_cls
+
+    return wrap(cls) if cls is not None else wrap
+
+
+def unregister_rule(code: str) -> None:
+    """Remove a rule from the registry (tests, plugins that withdraw a rule)."""
+    _REGISTRY.pop(code, None)
+
+
+def registered_rules() -> dict[str, type[Rule]]:
+    """Code -> rule class, built-ins first in rulebook order, then user rules in registration order."""
+    return dict(_REGISTRY)
+
+
+def rule_class(code: str) -> type[Rule]:
+    try:
+        return _REGISTRY[code]
+    except KeyError:
+        raise RegistryError(f"unknown rule {code!r}; registered: {', '.join(_REGISTRY)}") from None

@@ -1,0 +1,168 @@
+"""Speed rules: CVC 22350 (basic speed law, conditions) and CVC 22349 (maximum speed).
+
+The limit at each step is the scenario's posted `speed_limit_mph`, else the
+trace's lane limit, else the statutory defaults (25 mph at junctions, 55 mph on
+a two-lane two-way road, 65 mph otherwise); `limit_source: trace` makes the
+map's lane limit win over the scenario's.
+"""
+from __future__ import annotations
+
+from typing import Literal
+
+import numpy as np
+from pydantic import Field
+
+from crashscene.monitor.context import MPH, EvalContext
+from crashscene.monitor.rules.base import Rule, RuleOutcome, RuleParams, register_rule
+from crashscene.monitor.timeseries import first_index, margin_in, steps_for, take, window_min
+
+G = 9.81  # [m/s2]
+
+
+class LimitParams(RuleParams):
+    limit_source: Literal["scenario", "trace"] = Field(
+        default="scenario", description="which posted limit wins when both the DSL and the trace give one")
+    junction_limit_mph: float = Field(default=25, gt=0, le=100, description="[mph] default limit in junctions")
+    two_lane_limit_mph: float = Field(default=55, gt=0, le=100,
+                                      description="[mph] default limit on two-lane two-way roads")
+    default_limit_mph: float = Field(default=65, gt=0, le=100, description="[mph] default limit elsewhere")
+
+
+def speed_limit(ctx: EvalContext, p: LimitParams) -> np.ndarray:
+    """(V, A, T) applicable limit [m/s]."""
+    a = ctx.arrays
+    trace_limit = a.floats["speed_limit"]
+    road_default = (p.two_lane_limit_mph if ctx.two_lane_two_way() else p.default_limit_mph) * MPH
+    default = np.where(a.flag("in_junction"), p.junction_limit_mph * MPH, road_default)
+    scenario_limit = ctx.scenario_speed_limit()
+    trace_ok = np.isfinite(trace_limit) & (trace_limit > 0)
+    if scenario_limit is None:
+        return np.where(trace_ok, trace_limit, default)
+    if p.limit_source == "trace":
+        return np.where(trace_ok, trace_limit, scenario_limit)
+    return np.full(trace_limit.shape, scenario_limit)
+
+
+def sustained_excess(ctx: EvalContext, excess: np.ndarray, duration: float) -> np.ndarray:
+    """(V, A, T) lowest excess over the `duration` [s] ending at each step (> 0: exceeded all along)."""
+    return window_min(np.where(ctx.arrays.alive, excess, np.nan), steps_for(duration, ctx.dt))
+
+
+class SpeedLimitParams(LimitParams):
+    tolerance: float = Field(default=1.0, ge=0, le=10, description="[m/s] allowed above the posted limit")
+    min_duration: float = Field(default=1.0, gt=0, le=30, description="[s] the excess must last this long")
+
+
+@register_rule
+class SpeedLimit(Rule):
+    code = "CVC_22349"
+    violation = "speed_limit"
+    unit = "m/s"
+    summary = "speed above the posted limit + tolerance for the minimum duration"
+    Params = SpeedLimitParams
+
+    def evaluate(self, ctx: EvalContext) -> RuleOutcome:
+        p: SpeedLimitParams = self.params
+        a = ctx.arrays
+        threshold = speed_limit(ctx, p) + p.tolerance
+        excess = sustained_excess(ctx, a.floats["speed"] - threshold, p.min_duration)
+        return _speed_outcome(ctx, excess, threshold).finalize()
+
+
+def _speed_outcome(ctx: EvalContext, excess: np.ndarray, threshold: np.ndarray) -> RuleOutcome:
+    a = ctx.arrays
+    worst_step = np.argmax(np.where(np.isfinite(excess), excess, -np.inf), axis=2)
+    worst = np.take_along_axis(excess, worst_step[..., None], axis=2)[..., 0]
+    thr = np.take_along_axis(threshold, worst_step[..., None], axis=2)[..., 0]
+    out = RuleOutcome.empty(ctx.shape)
+    out.applicable = (a.alive & np.isfinite(a.floats["speed"])).any(axis=2)
+    bad = excess > 0
+    out.violated = bad.any(axis=2)
+    out.first_t = ctx.time_at(first_index(bad))
+    out.threshold = thr
+    finite = np.isfinite(worst)
+    out.measured = np.where(finite, thr + worst, np.nan)
+    out.robustness = np.where(finite, -worst, np.inf)
+    return out
+
+
+class UnsafeSpeedParams(LimitParams):
+    min_duration: float = Field(default=1.0, gt=0, le=30, description="[s] the excess must last this long")
+    factor_wet: float = Field(default=0.85, gt=0, le=1, description="limit factor on a wet surface or in rain")
+    factor_fog: float = Field(default=0.70, gt=0, le=1, description="limit factor in fog")
+    factor_snow_ice: float = Field(default=0.60, gt=0, le=1, description="limit factor on snow or ice")
+    factor_night: float = Field(default=0.90, gt=0, le=1, description="limit factor at night")
+    friction_dry: float = Field(default=0.8, gt=0, le=1.5, description="tyre-road friction coefficient, dry")
+    friction_wet: float = Field(default=0.5, gt=0, le=1.5, description="friction coefficient, wet or rain")
+    friction_snow: float = Field(default=0.3, gt=0, le=1.5, description="friction coefficient, snow")
+    friction_ice: float = Field(default=0.15, gt=0, le=1.5, description="friction coefficient, ice")
+
+
+def condition_factor(ctx: EvalContext, p: UnsafeSpeedParams) -> tuple[float, list[str]]:
+    """Product of the environment's factors and the conditions that set them."""
+    weather, surface, time_of_day = ctx.environment()
+    factor, why = 1.0, []
+    if surface == "wet" or weather == "rainy":
+        factor *= p.factor_wet
+        why.append("wet")
+    if weather == "foggy":
+        factor *= p.factor_fog
+        why.append("fog")
+    if weather == "snowy" or surface in ("snowy", "icy"):
+        factor *= p.factor_snow_ice
+        why.append("snow/ice")
+    if time_of_day == "nighttime":
+        factor *= p.factor_night
+        why.append("night")
+    return factor, why
+
+
+def friction(ctx: EvalContext, p: UnsafeSpeedParams) -> float:
+    weather, surface, _ = ctx.environment()
+    if surface == "icy":
+        return p.friction_ice
+    if surface == "snowy" or weather == "snowy":
+        return p.friction_snow
+    if surface == "wet" or weather == "rainy":
+        return p.friction_wet
+    return p.friction_dry
+
+
+@register_rule
+class UnsafeSpeed(Rule):
+    code = "CVC_22350"
+    violation = "unsafe_speed"
+    unit = "m/s"
+    summary = "speed above the limit times the condition factor for the minimum duration, or loss of control"
+    Params = UnsafeSpeedParams
+
+    def evaluate(self, ctx: EvalContext) -> RuleOutcome:
+        p: UnsafeSpeedParams = self.params
+        a = ctx.arrays
+        factor, why = condition_factor(ctx, p)
+        threshold = speed_limit(ctx, p) * factor
+        excess = sustained_excess(ctx, a.floats["speed"] - threshold, p.min_duration)
+        out = _speed_outcome(ctx, excess, threshold)
+
+        mu_g = friction(ctx, p) * G
+        lat = np.abs(np.where(a.alive, a.floats["lat_accel"], np.nan))
+        skid = (lat > mu_g) | a.flag("lost_control")
+        # A backend that cannot tell loss of control: a non-ADS actor scripted to lose control counts.
+        lost_unknown = ~a.known("lost_control").any(axis=2)
+        scripted = (a.behavior == "lose_control") & ~a.is_ads & lost_unknown & a.present
+        skid_first = ctx.time_at(first_index(skid))
+        skid_first = np.where(scripted & np.isnan(skid_first), 0.0, skid_first)
+        lost = skid.any(axis=2) | scripted
+        out.first_t = np.fmin(out.first_t, skid_first)
+        out.violated |= lost
+        out.applicable |= lost
+        max_lat = np.nanmax(np.where(np.isfinite(lat), lat, -np.inf), axis=2)
+        lat_margin = np.where(np.isfinite(max_lat), margin_in(out.threshold, mu_g - max_lat, mu_g), np.inf)
+        out.robustness = np.fmin(out.robustness, lat_margin)
+        notes = []
+        if why:
+            notes.append(f"condition factor {factor:.3f} ({', '.join(why)})")
+        base = "; ".join(notes) or None
+        out.note = np.full(ctx.shape, base, dtype=object)
+        out.note[lost] = "; ".join(filter(None, [base, "loss of control"]))
+        return out.finalize()
