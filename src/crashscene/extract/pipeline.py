@@ -186,10 +186,10 @@ def open_chat(options: ExtractOptions) -> Iterator[ChatBackend]:
 def _extract_llm(report: Any, facts: list[Any], chat: ChatBackend, options: ExtractOptions, usage: Usage,
                  warnings: list[str], scenario_id: str) -> Scenario:
     from crashscene.extract.openai_backend import image_part
-    from crashscene.extract.prompt import DEFAULT_EXEMPLARS, build_messages
+    from crashscene.extract.prompt import DEFAULT_EXEMPLARS, build_messages, fact_lines as prompt_fact_lines
     from crashscene.extract.revise import ask_until_valid, review, revise
 
-    fact_lines = [_fact_line(fact) for fact in facts]
+    fact_lines = prompt_fact_lines(facts)
     image = image_part(report.sketch) if chat.send_image and report.sketch is not None and options.use_sketch \
         else None
     exemplars = options.exemplars if options.exemplars is not None else (DEFAULT_EXEMPLARS if chat.send_image else 1)
@@ -227,10 +227,6 @@ def _facts(report: Any, warnings: list[str]) -> list[Any]:
     except SketchError as exc:
         warnings.append(f"sketch not read, extracting from the narrative alone: {exc}")
         return []
-
-
-def _fact_line(fact: Any) -> str:
-    return f"{fact.text} ({fact.source})" if hasattr(fact, "text") else str(fact)
 
 
 def _validated(scenario: Scenario, source: Path) -> list[Any]:

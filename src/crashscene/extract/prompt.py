@@ -138,6 +138,20 @@ driveway into traffic). When no cause is stated (a drift with no reason, an anim
 summary: one sentence, who did what, where."""
 
 
+def fact_lines(facts: list[Any]) -> list[str]:
+    """Sketch facts as prompt lines: 'speed limit 45 mph (sketch:ocr)'; duplicates and OCR crumbs dropped."""
+    lines: list[str] = []
+    for fact in facts:
+        text = getattr(fact, "text", str(fact)).strip()
+        source = getattr(fact, "source", "")
+        if text.startswith("text:") and sum(ch.isalpha() for ch in text[5:]) < 3:
+            continue  # 'z<-', '15': OCR crumbs that only cost tokens
+        line = f"{text} ({source})" if source else text
+        if line not in lines:
+            lines.append(line)
+    return lines
+
+
 def case_message(narrative: str, facts: list[str] | tuple[str, ...], image: dict[str, Any] | None = None,
                  ) -> dict[str, Any]:
     """The user turn for one case: fenced narrative, sketch facts, and the sketch image part if given."""
