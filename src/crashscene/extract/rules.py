@@ -213,7 +213,7 @@ def _direction_of(state: _State, label: str) -> tuple[str | None, str | None]:
         match = re.search(rf"(?:travel+ing|driven|heading|proceeding|going|traveled|travelled|was)\s+(?:in\s+(?:a|an|the)\s+)?"
                           rf"{_DIR}(?:bound|ward)?\b", cut, re.I)
         if not match:
-            match = re.search(rf"\b{_DIR}bound\b", cut, re.I)
+            match = re.search(rf"\b{_DIR}bound\b|\bfacing\s+{_DIR}\b", cut, re.I)
         if match:
             lane = re.search(r"\b(left|right|middle|center|far[- ]left|far[- ]right|inboard|outboard)\b[^.]{0,30}?"
                              rf"{_DIR}bound\s+(?:travel\s+)?lane", cut, re.I)
@@ -222,7 +222,7 @@ def _direction_of(state: _State, label: str) -> tuple[str | None, str | None]:
                 side = "left" if "left" in lane.group(1).lower() or lane.group(1).lower() == "inboard" else \
                     "right" if "right" in lane.group(1).lower() or lane.group(1).lower() == "outboard" else "middle"
             state.note(f"actors.{state.vehicles[label].role}.position", sentence)
-            return match.group(1).lower(), side
+            return next(g for g in match.groups() if g).lower(), side
     return None, None
 
 
@@ -400,15 +400,14 @@ def _road_type(state: _State) -> tuple[str, str | None]:
     four = re.search(r"\b(?:4|four)[- ]leg(?:ged)?\b|\bfour[- ]way intersection|\bcross(?:roads| intersection)", text, re.I)
     three = re.search(r"\b(?:3|three)[- ]leg(?:ged)?\b|\bT[- ]intersection|\bT-type intersection|\bTee\b|"
                       r"\bT[- ]junction|driveway|business (?:access|entrance|exit)|parking lot (?:exit|entrance)|"
-                      r"private (?:drive|road)\b", text, re.I)
+                      r"(?:private|commercial) (?:drive|road)\b", text, re.I)
     mentions_junction = re.search(r"\bintersection\b|\bjunction\b|\bintersecting\b", pre, re.I)
     plays_part = bool(
         re.search(r"\bturn(?:ed|ing|s)?\b|left[- ]turn|right[- ]turn|\bintersection\b|\bjunction\b|"
                   r"\bintersecting\b|entered|pulled (?:out|into)|stop sign|signal", pre, re.I) and mentions_junction
     ) or bool(state.signs - {"speed_limit_sign"}) and bool(mentions_junction)
-    driveway_part = three and re.search(r"driveway|business|parking lot|private drive", three.group(0), re.I) and \
-        re.search(r"(?:from|out of|exit(?:ed|ing)?|leaving|into|entering)\s+(?:a |the |an )?(?:private |commercial |"
-                  r"residential )?(?:driveway|business|parking lot|private drive)", pre, re.I)
+    driveway_part = three and re.search(r"driveway|business|parking lot|(?:private|commercial) drive", three.group(0),
+                                        re.I) and _driveway_vehicle(state) is not None
     if plays_part or driveway_part:
         if driveway_part or (three and not four and not re.search(r"driveway|business|parking|private", three.group(0),
                                                                   re.I)):
@@ -440,6 +439,22 @@ def _road_type(state: _State) -> tuple[str, str | None]:
     return "straight", None
 
 
+_DRIVEWAY = r"(?:private |commercial |residential |business )?(?:driveway|drive\b|parking lot|business (?:access|" \
+            r"entrance)|private road|alley)"
+
+
+def _driveway_vehicle(state: _State) -> str | None:
+    """The vehicle that enters the road from a driveway, parking lot or business access, if one does."""
+    text = state.pre_crash + " " + state.crash_sentence
+    for match in re.finditer(rf"(?:from|out of|exit(?:ed|ing)?|leav(?:e|ing)|in the mouth of|pull(?:ed|ing)? out of)\s+"
+                             rf"(?:of\s+)?(?:a |the |an )?{_DRIVEWAY}", text, re.I):
+        label = _label_at(text, match.start())
+        if label:
+            return label
+    match = re.search(rf"{_DRIVEWAY}\s+that\s+(V[1-9])\s+was\s+(?:exiting|leaving|pulling out of)", text, re.I)
+    return match.group(1) if match else None
+
+
 def _ways(state: _State, road_text: str) -> int:
     one_way = re.search(r"\bone[- ]way\b", road_text, re.I)
     if one_way:
@@ -463,59 +478,96 @@ def _count(word: str) -> int:
     return NUMBERS.get(word.lower(), 0)
 
 
+_PLAIN_WORD = r"(?!(?:north|south|east|west)bound\b)(?![\w-]*way\b)[\w-]+"  # not a direction, not "two-way"
+
+
 def _lanes(state: _State, road_text: str, ways: int) -> int:
+    """Through lanes of V1's roadway: all directions when two-way, V1's carriageway when divided or one-way."""
     ego = state.vehicles["V1"]
-    # "two lanes northbound, ... two lanes southbound" / "three northbound lanes and four southbound lanes"
     per_direction: dict[str, int] = {}
+    quote = None
+
+    def put(direction: str, number: int, match: re.Match, override: bool = False) -> None:
+        nonlocal quote
+        if number and (override or direction not in per_direction):
+            per_direction[direction] = number
+            quote = quote or _around(road_text, match)
+
+    # "two lanes northbound ... two lanes southbound", "three northbound lanes and four southbound lanes"
     for match in re.finditer(rf"\b{_NUM}\s+(?:straight\s+)?(?:through\s+)?(?:travel\s+)?(?:lanes?\s+)?{_DIR}bound"
                              rf"(?:\s+(?:through\s+|travel\s+)?lanes?)?|\b{_NUM}\s+(?:travel\s+)?lanes?\s+{_DIR}bound",
                              road_text, re.I):
         groups = [g for g in match.groups() if g]
-        number, direction = _count(groups[0]), groups[1].lower()
-        if number and direction not in per_direction:
-            per_direction[direction] = number
-    for match in re.finditer(rf"{_DIR}bound\s+(?:roadway|lanes)\s+(?:consist(?:s|ed)? of|(?:are|were) composed of|"
-                             rf"ha(?:s|d))\s+{_NUM}\s+(?:straight\s+)?(?:through\s+|travel\s+)*lanes", road_text, re.I):
-        per_direction[match.group(1).lower()] = _count(match.group(2))
-    # explicit through-lane breakdowns override totals that include turn lanes
-    breakdown = False
+        put(groups[1].lower(), _count(groups[0]), match)
+    # "the southbound traffic-way consisted of a six-lane roadway", "the westbound roadway has three travel lanes"
+    for match in re.finditer(rf"(?<![/-]){_DIR}(?:bound)?\s+(?:roadway|lanes|traffic-?way|carriageway|side)\b[^.]{{0,60}}?"
+                             rf"\b{_NUM}[- ](?:{_PLAIN_WORD}\s+){{0,3}}?lanes?\b", road_text, re.I):
+        put(match.group(1).lower(), _count(match.group(2)), match, override=True)
+    # "the two-way east/west roadway consisted of two travel lanes": a total for the road on V1's axis
+    axis = "north/south" if ego.direction in ("north", "south") else "east/west" if ego.direction else None
+    for match in re.finditer(rf"\b(north[/-]south|east[/-]west)\s+(?:roadway|road|street|highway|trafficway)\b"
+                             rf"[^.]{{0,60}}?\b{_NUM}[- ](?:{_PLAIN_WORD}\s+){{0,3}}?lanes?\b", road_text, re.I):
+        if axis and match.group(1).lower().replace("-", "/") == axis and not any(
+                d in per_direction for d in axis.split("/")):
+            put("_axis", _count(match.group(2)), match)
+    # explicit through-lane breakdowns and "three lanes continue westbound" override totals that hold turn lanes
     for match in re.finditer(rf"{_DIR}bound lanes (?:are|were) composed of ([^.]*)", road_text, re.I):
         through = re.search(rf"{_NUM}\s+(?:straight\s+)?through", match.group(2), re.I)
         if through:
-            per_direction[match.group(1).lower()] = _count(through.group(1))
-            breakdown = True
-    if per_direction and not breakdown:
-        # "six southbound lanes, with the far-left lane being a U-turn lane and the adjacent a left turn-only lane"
-        counted = next((s for s in state.t.sentences if re.search(rf"{_NUM}\s+(?:\w+\s+)?{_DIR}bound", s, re.I)), "")
-        for turn in re.finditer(r"\b(?:u-turn|left[- ]turn(?:[- ]only)?|right[- ]turn(?:[- ]only)?) lane", counted, re.I):
-            before = counted[: turn.start()]
-            direction = re.findall(rf"{_DIR}bound", before, re.I)
+            put(match.group(1).lower(), _count(through.group(1)), match, override=True)
+            per_direction.setdefault("_breakdown", 0)
+    for match in re.finditer(rf"\b{_NUM}\s+(?:through\s+)?lanes\s+continu\w*(?:[^.]{{0,30}}?{_DIR})?", road_text, re.I):
+        direction = (match.group(2) or ego.direction or "").lower()
+        if direction:
+            put(direction, _count(match.group(1)), match, override=True)
+    if "_breakdown" in per_direction:
+        del per_direction["_breakdown"]
+    else:
+        # "six southbound lanes, with the far-left lane being a U-turn lane and the adjacent lane being a left turn lane"
+        for turn in re.finditer(r"\b(?:being|is|was|as)\s+an?\s+(?:dedicated\s+)?(?:u-turn|left[- ]turn(?:[- ]only)?|"
+                                r"right[- ]turn(?:[- ]only)?)\s+lane", road_text, re.I):
+            direction = re.findall(rf"{_DIR}bound", road_text[: turn.start()], re.I)
             key = direction[-1].lower() if direction else None
             if key in per_direction and per_direction[key] > 1:
                 per_direction[key] -= 1
-    if re.search(r"one (?:travel )?lane in each direction|single lane in each direction", road_text, re.I):
+    each = re.search(r"one (?:travel )?lane in each direction|single lane in each direction", road_text, re.I)
+    if each:
         per_direction = {"a": 1, "b": 1}
-    total = None
-    match = re.search(rf"\b{_NUM}[- ]lane\b", road_text, re.I)
-    if match:
-        total = _count(match.group(1))
-    turn_lanes = len(re.findall(r"(?:center|centre|middle)\s+(?:two-way\s+)?(?:left[- ])?turn(?:ing)?[- ]lane|"
-                                r"two-way left[- ]turn lane|\bTWLTL\b", road_text, re.I))
-    if per_direction:
+        quote = _around(road_text, each)
+    if axis:  # counts of the crossing road do not describe V1's roadway
+        per_direction = {d: n for d, n in per_direction.items() if d in axis.split("/") or d in ("a", "b", "_axis")}
+    lanes = None
+    if "_axis" in per_direction:
+        total = per_direction["_axis"]
+        lanes = total if ways == 2 else max(1, total // 2)
+    elif per_direction:
         if ways == 1:
-            mine = per_direction.get(ego.direction or "", None)
-            lanes = mine if mine else max(per_direction.values())
+            lanes = per_direction.get(ego.direction or "") or (
+                next(iter(per_direction.values())) if len(per_direction) == 1 else max(per_direction.values()))
         else:
             lanes = sum(per_direction.values()) if len(per_direction) > 1 else 2 * next(iter(per_direction.values()))
-        state.note("road_network.number_of_lanes", _around(road_text, re.search(rf"{_DIR}bound", road_text, re.I)))
-        return max(1, lanes)
-    if total:
-        lanes = max(1, total - min(turn_lanes, 1)) if ways == 2 else total
-        if ways == 1 and state.divided and total >= 2 and not re.search(r"one[- ]way", road_text, re.I):
-            lanes = max(1, total // 2)
-        state.note("road_network.number_of_lanes", _around(road_text, match))
-        return lanes
-    return 2 if ways == 2 else 1
+    else:
+        match = re.search(rf"\b{_NUM}[- ]lane\b", road_text, re.I)
+        if match:
+            total = _count(match.group(1))
+            quote = _around(road_text, match)
+            if ways == 2:
+                # an odd count on a two-way road holds a centre turn lane ("five-lane ... middle left-turn lane")
+                lanes = total - 1 if total >= 3 and total % 2 else total
+            elif state.divided and total >= 2 and not re.search(r"one[- ]way", road_text, re.I):
+                lanes = max(1, total // 2)
+            else:
+                lanes = total
+    if lanes is None:
+        lanes = 2 if ways == 2 else 1
+        quote = "no lane count stated: one lane per direction"
+    merge = re.search(r"\b(?:entrance|on)[- ]ramp\b|\bacceleration lane\b|\bmerg(?:e|ed|ing)\b",
+                      state.pre_crash + " " + state.crash_sentence, re.I)
+    if merge and ways == 1 and len(state.vehicles) > 1:
+        lanes += 1  # the acceleration lane counts when a merge is part of the crash (dsl.md convention 3)
+        quote = f"{quote}; + acceleration lane: {_around(state.pre_crash + ' ' + state.crash_sentence, merge, 40)}"
+    state.note("road_network.number_of_lanes", quote or "lane count per direction")
+    return max(1, lanes)
 
 
 def _speed_limit(state: _State) -> int | None:
@@ -593,7 +645,8 @@ _LANE_CHANGE = r"(?:veer(?:ed|ing)?|mov(?:ed|ing)|chang(?:ed|ing) lanes|steer(?:
 _TURN_LEFT = r"turn(?:ed|ing|s)?\s+left|left[- ]turn(?:ing)?(?! lane)|make a left|making a left|initiat\w+ a left"
 _TURN_RIGHT = r"turn(?:ed|ing|s)?\s+right|right[- ]turn(?:ing)?(?! lane)|make a right|making a right"
 _U_TURN = r"\bu[- ]turn(?:ing|ed)?\b(?! lane)"
-_STOPPED = r"\b(?:was|were|had|been|came to a|come to a) (?:stopped|stationary|stopping|slowing to a stop)|\bstopped in (?:the )?" \
+_STOPPED = r"\b(?:brought|came|come|coming)\s+(?:\w+\s+){0,2}to a (?:stop|halt)|" \
+           r"\b(?:was|were|had|been|came to a|come to a) (?:stopped|stationary|stopping|slowing to a stop)|\bstopped in (?:the )?" \
            r"(?:travel )?lane|\bwaiting (?:to|for)\b|\bstopped (?:in|for|at|behind) (?:traffic|the|a)\b|\bstopped\b"
 _PARKED = r"\bparked\b|\bdisabled\b|\bunoccupied\b|\babandoned\b"
 _DECEL = r"\bslow(?:ed|ing)(?: down)?\b|\bbrak(?:ed|ing)\b|\bdecelerat\w+"
@@ -626,8 +679,8 @@ def _behaviors(state: _State) -> None:
     collect(_STOPPED, "stop")
     collect(_PARKED, "static")
     collect(_DECEL, "decelerate")
-    collect(r"across the (?:north|south|east|west)bound (?:travel )?lanes?|into the (?:north|south|east|west)bound "
-            r"(?:travel )?lanes?", "into_lane")
+    collect(r"across the (?:north|south|east|west)bound (?:travel )?lanes?|(?:into|enter(?:ed|ing|s)?) the "
+            r"(?:north|south|east|west)bound (?:travel )?lanes?", "into_lane")
     for label, vehicle in state.vehicles.items():
         found = sorted(spans[label], key=lambda item: item[0])
         vehicle.behavior, quote = _resolve(state, vehicle, found)
@@ -687,9 +740,11 @@ def _resolve(state: _State, vehicle: _Vehicle, found: list[tuple[int, str, re.Ma
     for token in ("u_turn", "turn_left", "turn_right"):
         match = next((m for _, t, m in found if t == token), None)
         if match:
-            intention = re.search(r"(?:waiting|preparing|intending|planning|about|signal(?:ing|led)?)\s+(?:to\s+)?"
-                                  r"(?:make\s+a\s+|turn\s*)?$", pre[max(0, match.start() - 30):match.start()], re.I)
-            if stop and intention and stop.start() < match.start():
+            intention = re.search(r"(?:waiting|preparing|intending|planning|about|signal(?:ing|led)?|so as)\b[^.;]{0,40}$",
+                                  pre[max(0, match.start() - 50):match.start()], re.I)
+            proceeded = re.search(_PROCEED + r"|began to enter|with the intention of turning", pre[match.end():], re.I)
+            if stop and intention and stop.start() < match.start() and not (
+                    proceeded and _label_at(pre, match.end() + proceeded.start()) == vehicle.label):
                 return "stop", quote(stop)
             return token, quote(match)
     if stop:
@@ -746,10 +801,7 @@ def _ego_reference(state: _State, road: dict, devices: set[str], at_junction: bo
             return "stop_sign", "behind"
         if "yield_sign" in devices and "V1" in state.yield_controlled:
             return "yield_sign", "behind"
-        leaving = ego.behavior in ("turn_left", "turn_right") and re.search(
-            r"\b(?:exit(?:ed|ing)?|leaving|left|pulled out of|out of)\s+(?:a |the )?(?:private |commercial )?"
-            r"(?:driveway|parking lot|business)", state.pre_crash, re.I)
-        return "intersection", "front" if leaving else "behind"
+        return "intersection", "behind"
     if road["road_type"] == "curve":
         return "curve", "behind"
     return "road", "behind"
@@ -884,15 +936,13 @@ def _junction_oracle(state: _State, road: dict, actors: dict, add) -> None:
         elif "yield_sign" in devices and label in _yield_approaches(state):
             add("CVC_21803", "yield_sign", role, f"{label} did not yield at its yield sign to cross traffic.",
                 vehicle.behavior_quote)
-        elif not devices and not re.search(r"driveway|parking lot|business", text, re.I):
+        elif not devices and _driveway_vehicle(state) is None:
             # uncontrolled junction: the vehicle with the other on its right must yield
             if any(h == "from_right" for h in heading_to.values()):
                 add("CVC_21800", "intersection_right_of_way", role,
                     f"{label} entered the uncontrolled intersection without yielding to the vehicle on its right.",
                     vehicle.behavior_quote)
-        if re.search(r"(?:out of|exit(?:ed|ing)?|leaving|from) (?:a |the )?(?:private |commercial |residential )?"
-                     r"(?:driveway|parking lot|business)", state.pre_crash, re.I) and \
-                _label_at(state.pre_crash, state.pre_crash.lower().find("driveway")) == label:
+        if _driveway_vehicle(state) == label:
             add("CVC_21804", "driveway_yield", role, f"{label} left a driveway into the path of traffic.",
                 vehicle.behavior_quote)
 
@@ -915,10 +965,10 @@ def _yield_approaches(state: _State) -> set[str]:
 
 
 def _rear_end_oracle(state: _State, actors: dict, add) -> None:
-    text = state.crash_sentence or ""
+    text = state.t.text
     for label, vehicle in state.vehicles.items():
-        match = re.search(rf"(?:front(?: plane)? of {label}\b[^.]{{0,30}}(?:struck|impacted|hit|contacted)\s+(?:the\s+)?"
-                          rf"(?:rear|back)(?: plane)? of (V[1-9])|\b{label}\b[^.]{{0,100}}(?:struck|striking|strike|impacted|rear-ended|hit)\s+"
+        match = re.search(rf"(?:(?:front|side|corner)(?: plane)? of {label}\b[^.]{{0,30}}(?:struck|impacted|hit|contacted)\s+"
+                          rf"(?:the\s+)?(?:rear|back)(?: plane| corner| end)? of (V[1-9])|\b{label}\b[^.]{{0,100}}(?:struck|striking|strike|impacted|rear-ended|hit)\s+"
                           rf"(?:the\s+)?(?:rear|back)(?: plane| end)? of (V[1-9]))", text, re.I)
         if not match:
             continue
