@@ -61,6 +61,7 @@ class SimOptions(BaseModel):
     ego_role: str = Field(default="ego", description="the DSL role driven by the ADS under test")
     map_mode: Literal["generated", "carla"] = "generated"
     carla_maps: str | None = Field(default=None, description="folder of CARLA .xodr towns for map_mode=carla")
+    rules_file: str | None = Field(default=None, description="YAML rulebook overriding the monitor's thresholds")
 
 
 class ChunkTask(BaseModel):

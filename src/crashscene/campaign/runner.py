@@ -183,12 +183,13 @@ def summarize_runs(store: Store) -> list[RunSummary]:
         verdicts = {r["verdict"]: r["c"] for r in store.query(
             f"SELECT verdict, count(*) AS c FROM variations WHERE {where} GROUP BY verdict ORDER BY verdict", key)}
         violations: dict[str, dict[str, int]] = {}
+        valid = f"AND variation IN (SELECT variation FROM variations WHERE {where} AND valid)"  # as the monitor counts
         for r in store.query(f"SELECT code, actor, count(DISTINCT variation) AS c FROM violations WHERE {where} "
-                             "GROUP BY code, actor ORDER BY code, actor", key):
+                             f"{valid} GROUP BY code, actor ORDER BY code, actor", key + key):
             violations.setdefault(r["code"], {})[r["actor"]] = r["c"]
         collisions = {r["collision_class"]: r["c"] for r in store.query(
-            f"SELECT collision_class, count(*) AS c FROM collisions WHERE {where} GROUP BY collision_class "
-            "ORDER BY collision_class", key)}
+            f"SELECT collision_class, count(*) AS c FROM collisions WHERE {where} {valid} GROUP BY collision_class "
+            "ORDER BY collision_class", key + key)}
         rate = counts["reproduced"] / counts["valid"] if counts["valid"] else None
         out.append(RunSummary(case_id=run["case_id"], mode=run["mode"], scenario_hash=run["scenario_hash"],
                               variations=counts["n"], valid=counts["valid"], verdicts=verdicts,

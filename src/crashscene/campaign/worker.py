@@ -14,6 +14,7 @@ from pathlib import Path
 
 import pyarrow as pa
 import pyarrow.compute as pc
+import pyarrow.parquet as pq
 
 from crashscene.campaign.model import COLLISION_ROWS, VARIATION_ROWS, VIOLATION_ROWS, ChunkResult, ChunkTask
 from crashscene.dsl import loads
@@ -34,7 +35,6 @@ def simulate_chunk(task: ChunkTask) -> ChunkResult:
 
 
 def _simulate_and_monitor(task: ChunkTask, run_dir: Path) -> ChunkResult:
-    from crashscene.monitor import evaluate
     from crashscene.simulate.pipeline import simulate_scenario
     from crashscene.traces import TABLES, read_table
 
@@ -43,40 +43,48 @@ def _simulate_and_monitor(task: ChunkTask, run_dir: Path) -> ChunkResult:
     simulate_scenario(scenario, run_dir, n=task.count, seed=task.seed, first=task.first, mode=task.mode,
                       backend=opts.backend, ego_role=opts.ego_role, map_mode=opts.map_mode,
                       carla_maps=Path(opts.carla_maps) if opts.carla_maps else None)
-    tables = {name: read_table(run_dir, name) for name in TABLES}
-    monitored = evaluate(tables, scenario)
-    return rows_from(tables, monitored, run_dir)
+    tables = {name: read_table(run_dir, name) for name in TABLES if (run_dir / f"{name}.parquet").exists()}
+    return rows_from(tables, _monitor(run_dir, opts.rules_file))
 
 
-def rows_from(tables: dict[str, pa.Table], monitored: object, run_dir: Path | None = None) -> ChunkResult:
-    """Turn the simulate tables and the monitor's result into the campaign's row tables."""
-    variations = tables["variations"]
-    actors = tables["actors"]
-    verdicts = {r["variation"]: r for r in monitored.verdicts.to_pylist()}
-    collisions = monitored.collisions.to_pylist()
+def _monitor(run_dir: Path, rules_file: str | None) -> dict[str, pa.Table]:
+    """The monitor's tables for the run: those simulate wrote, or a fresh evaluation (custom rulebook)."""
+    names = {"rule_results": "rule_results.parquet", "collisions": "collisions_classified.parquet",
+             "verdicts": "verdicts.parquet"}
+    if rules_file is None and all((run_dir / f).exists() for f in names.values()):
+        return {key: pq.read_table(run_dir / f) for key, f in names.items()}
+    from crashscene.monitor import monitor_run
+
+    result = monitor_run(run_dir, Path(rules_file) if rules_file else None)
+    return {"rule_results": result.rule_results, "collisions": result.collisions, "verdicts": result.verdicts}
+
+
+def rows_from(tables: dict[str, pa.Table], monitored: dict[str, pa.Table]) -> ChunkResult:
+    """Turn the simulate tables and the monitor's tables into the campaign's row tables."""
+    verdicts = {r["variation"]: r for r in monitored["verdicts"].to_pylist()}
+    collisions = monitored["collisions"].to_pylist()
     collided = {r["variation"] for r in collisions}
-    starts = _actor_starts(tables["traces"])
+    starts = _actor_starts(tables["traces"]) if "traces" in tables else {}
     var_rows = []
-    for row in variations.to_pylist():
+    for row in tables["variations"].to_pylist():
         i = row["variation"]
         verdict = verdicts.get(i, {})
         params = json.loads(row["params"] or "{}")
         params.update(starts.get(i, {}))
-        var_rows.append(dict(variation=i, valid=bool(row["valid"]), invalid_reason=row["invalid_reason"],
-                             verdict=verdict.get("verdict", "invalid" if not row["valid"] else "pass"),
-                             reproduced=bool(verdict.get("reproduced", False)), collided=i in collided,
+        var_rows.append(dict(variation=i, valid=bool(row["valid"]) and verdict.get("verdict") != "invalid",
+                             invalid_reason=row["invalid_reason"] or (verdict.get("reason") if verdict.get("verdict") == "invalid"
+                                                                     else None),
+                             verdict=verdict.get("verdict") or ("pass" if row["valid"] else "invalid"),
+                             reproduced=bool(verdict.get("reproduced")), collided=i in collided,
                              params=json.dumps(params, sort_keys=True)))
-    ads = {(r["variation"], r["actor"]): bool(r["is_ads"]) for r in actors.select(["variation", "actor", "is_ads"]).to_pylist()}
-    rules = monitored.rule_results
+    rules = monitored["rule_results"]
     violated = rules.filter(pc.equal(rules.column("verdict"), "violated")).to_pylist()
-    viol_rows = [dict(variation=r["variation"], actor=r["actor"], is_ads=ads.get((r["variation"], r["actor"]), False),
-                      code=r["code"], violation=r.get("violation"), t_first=r.get("t_first"), value=r.get("value"),
-                      threshold=r.get("threshold"), unit=r.get("unit"), robustness=r.get("robustness"))
-                 for r in violated]
+    viol_rows = [dict(variation=r["variation"], actor=r["actor"], is_ads=bool(r["is_ads"]), code=r["code"],
+                      violation=r["violation"], t_first=r["first_violation_t"], value=r["measured"],
+                      threshold=r["threshold"], unit=r["unit"], robustness=r["robustness"]) for r in violated]
     coll_rows = [dict(variation=r["variation"], t=r["t"], actor_a=r["actor_a"], actor_b=r["actor_b"],
-                      collision_class=r.get("class") or r.get("collision_class") or r.get("kind"),
-                      speed_a=r.get("speed_a"), speed_b=r.get("speed_b"), x=r.get("x"), y=r.get("y"))
-                 for r in collisions]
+                      collision_class=r["class"], speed_a=r.get("speed_a"), speed_b=r.get("speed_b"),
+                      x=r.get("x"), y=r.get("y")) for r in collisions]
     return ChunkResult(variations=pa.Table.from_pylist(var_rows, VARIATION_ROWS),
                        violations=pa.Table.from_pylist(viol_rows, VIOLATION_ROWS),
                        collisions=pa.Table.from_pylist(coll_rows, COLLISION_ROWS))

@@ -14,7 +14,7 @@ ModeOpt = Annotated[str, typer.Option("--mode", help="reproduce (re-enact the cr
 
 def build_config(n: int, seed: int, mode: str, engine: str, workers: int | None, address: str | None, resume: bool,
                  chunk_size: int, extractor: str, dsl: str | None, simulator: str, ego: str, map_mode: str,
-                 carla_maps: Path | None):
+                 carla_maps: Path | None, rules: Path | None = None):
     """Options -> CampaignConfig, with the CLI's spelling of each bad value in the error."""
     from crashscene.campaign import CampaignConfig, CampaignError, SimOptions
 
@@ -25,10 +25,13 @@ def build_config(n: int, seed: int, mode: str, engine: str, workers: int | None,
         raise CampaignError(f"--map {map_mode!r}: allowed: generated, carla")
     if n <= 0:
         raise CampaignError(f"-n {n}: the number of variations must be positive")
+    if rules is not None and not rules.is_file():
+        raise CampaignError(f"--rules {rules}: no such rulebook file")
     if chunk_size <= 0:
         raise CampaignError(f"--chunk-size {chunk_size}: must be positive")
     sim = SimOptions(backend=simulator, ego_role=ego, map_mode=map_mode,
-                     carla_maps=str(carla_maps) if carla_maps else None)
+                     carla_maps=str(carla_maps.resolve()) if carla_maps else None,
+                     rules_file=str(rules.resolve()) if rules else None)
     return CampaignConfig(n=n, seed=seed, modes=modes[mode], engine=engine, workers=workers, address=address,
                           resume=resume, chunk_size=chunk_size, extract_backend=extractor, dsl_name=dsl, sim=sim)
 
@@ -82,6 +85,7 @@ def campaign(
     ego: Annotated[str, typer.Option("--ego", help="DSL role driven by the ADS under test.")] = "ego",
     map_mode: Annotated[str, typer.Option("--map", help="generated or carla.")] = "generated",
     carla_maps: Annotated[Optional[Path], typer.Option("--carla-maps", help="Folder of CARLA .xodr towns (--map carla).")] = None,
+    rules: Annotated[Optional[Path], typer.Option("--rules", help="YAML rulebook overriding the monitor's thresholds.")] = None,
     keep_traces: Annotated[bool, typer.Option("--keep-traces", help="Keep every chunk's traces under OUT/cases.")] = False,
     report: Annotated[bool, typer.Option("--report/--no-report", help="Write OUT/report.html at the end.")] = True,
     as_json: Annotated[bool, typer.Option("--json", help="Summary as JSON on stdout.")] = False,
@@ -91,7 +95,7 @@ def campaign(
 
     try:
         config = build_config(n, seed, mode, engine, workers, address, resume, chunk_size, extractor, dsl,
-                              simulator, ego, map_mode, carla_maps)
+                              simulator, ego, map_mode, carla_maps, rules)
         config = config.model_copy(update={"keep_traces": keep_traces})
         summary = run_campaign(cases_dir, out, config, quiet=as_json)
     except CampaignError as exc:

@@ -26,6 +26,7 @@ def run(
     ego: Annotated[str, typer.Option("--ego", help="DSL role driven by the ADS under test.")] = "ego",
     map_mode: Annotated[str, typer.Option("--map", help="generated or carla.")] = "generated",
     carla_maps: Annotated[Optional[Path], typer.Option("--carla-maps", help="Folder of CARLA .xodr towns.")] = None,
+    rules: Annotated[Optional[Path], typer.Option("--rules", help="YAML rulebook overriding the monitor's thresholds.")] = None,
     report: Annotated[bool, typer.Option("--report/--no-report", help="Write OUT/report.html.")] = True,
     as_json: Annotated[bool, typer.Option("--json", help="Summary as JSON on stdout.")] = False,
 ) -> None:
@@ -36,7 +37,7 @@ def run(
 
     try:
         config = build_config(n, seed, mode, "local", workers, None, resume, chunk_size, extractor, dsl,
-                              simulator, ego, map_mode, carla_maps)
+                              simulator, ego, map_mode, carla_maps, rules)
         result = run_case(case_dir, out, config, report=report, quiet=as_json)
     except (CampaignError, ReportError) as exc:
         typer.echo(f"error: {exc}", err=True)

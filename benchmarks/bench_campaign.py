@@ -1,0 +1,68 @@
+"""Campaign throughput [variations/s]: local engine with 1 and 2 workers, and Ray (local, 2 CPUs).
+
+Run by hand (not a test):  .venv/bin/python benchmarks/bench_campaign.py [-n 500] [--cases 120013 100237]
+Each configuration runs the same cases, seed and chunking into a fresh folder
+(both modes: reproduce and test), timed end to end: case preparation, engine
+start-up, simulation, monitoring and DuckDB writes. `--worker fake` measures the
+scheduler and store alone with a stand-in worker.
+"""
+from __future__ import annotations
+
+import argparse
+import shutil
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))  # for --worker fake (tests.campaign.fakes)
+
+from crashscene.campaign import CampaignConfig, Store, run_campaign  # noqa: E402
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("-n", type=int, default=500, help="variations per case and mode")
+    parser.add_argument("--cases", nargs="+", default=["120013", "100237"], help="CIREN case ids in examples/ciren")
+    parser.add_argument("--chunk-size", type=int, default=125)
+    parser.add_argument("--worker", choices=("real", "fake"), default="real")
+    parser.add_argument("--engines", nargs="+", default=["local:1", "local:2", "ray:2"])
+    args = parser.parse_args()
+
+    worker = None
+    if args.worker == "fake":
+        from tests.campaign import fakes
+
+        worker = fakes.fake_chunk
+        try:
+            import ray.cloudpickle
+
+            ray.cloudpickle.register_pickle_by_value(fakes)
+        except ImportError:
+            pass
+    cases = [REPO / "examples" / "ciren" / c for c in args.cases]
+    print(f"campaign throughput: {len(cases)} case(s) x 2 modes x {args.n} variations, chunk {args.chunk_size}, "
+          f"worker {args.worker}, DSL golden.yaml")
+    print(f"{'engine':<10} {'workers':>7} {'variations':>10} {'seconds':>8} {'var/s':>8}")
+    root = Path(tempfile.mkdtemp(prefix="bench-campaign-"))
+    try:
+        for spec in args.engines:
+            engine, _, workers = spec.partition(":")
+            out = root / spec.replace(":", "-")
+            config = CampaignConfig(n=args.n, chunk_size=args.chunk_size, engine=engine, workers=int(workers or 1),
+                                    dsl_name="golden.yaml")
+            start = time.perf_counter()
+            summary = run_campaign(cases, out, config, worker=worker, quiet=True)
+            seconds = time.perf_counter() - start
+            with Store(out, read_only=True) as store:
+                rows = store.query("SELECT count(*) AS c FROM variations")[0]["c"]
+            status = "" if summary.complete else f"  INCOMPLETE ({summary.chunks_failed} chunks failed)"
+            print(f"{engine:<10} {summary.workers:>7} {rows:>10} {seconds:>8.1f} {rows / seconds:>8.1f}{status}",
+                  flush=True)
+    finally:
+        shutil.rmtree(root, ignore_errors=True)
+
+
+if __name__ == "__main__":
+    main()
