@@ -101,8 +101,11 @@ def default_model_path() -> Path:
 class LocalServer:
     """llama.cpp's OpenAI-compatible server, in-process on 127.0.0.1; a context manager."""
 
-    def __init__(self, model_path: Path, context_tokens: int = CONTEXT_TOKENS, threads: int | None = None):
+    def __init__(self, model_path: Path, context_tokens: int = CONTEXT_TOKENS, threads: int | None = None,
+                 verbose: bool | None = None):
         self.model_path = Path(model_path)
+        # llama.cpp logs every slot event to stderr; quiet unless asked (CRASHSCENE_LLAMA_VERBOSE=1)
+        self.verbose = bool(os.environ.get("CRASHSCENE_LLAMA_VERBOSE")) if verbose is None else verbose
         self.context_tokens = context_tokens
         self.threads = threads or max(1, os.cpu_count() or 1)
         self._server: Any = None
@@ -126,10 +129,12 @@ class LocalServer:
         params.cpuparams_batch.n_threads = self.threads
         params.sampling.seed = 0
         params.sampling.temp = 0.0
+        params.verbosity = 3 if self.verbose else 0
         try:
             self._server = xllamacpp.Server(params)
         except Exception as exc:  # the binding raises RuntimeError/ValueError variants on load failure
-            raise LocalModelError(f"llama.cpp could not load the model: {exc}", self.model_path) from None
+            raise LocalModelError(f"llama.cpp could not load the model ({exc}); is it a complete GGUF file? "
+                                  f"Set CRASHSCENE_LLAMA_VERBOSE=1 for llama.cpp's log", self.model_path) from None
         address = self._server.listening_address.rstrip("/")
         self.base_url = address if address.endswith("/v1") else address + "/v1"
         return self.base_url

@@ -213,8 +213,11 @@ def _road_findings(s: Scenario, text: str, sketch: str) -> list[Finding]:
         found.append(Finding("road_network.speed_limit_mph", "no posted limit is stated in the report or sketch "
                              "facts; use null unless the sketch shows one", revise=False))
     lane_counts = _lane_counts(text)
-    divided = re.search(r"divided|median|barrier|one-way", text)
-    if lane_counts and not divided and road.number_of_lanes not in lane_counts:
+    # divided roads count one carriageway, and turn lanes are never counted: the stated total may differ
+    divided = re.search(r"divided|median|barrier|one-way|turn lane|turning lane", text)
+    # an odd total on a two-way road ("three-lane, two-way") usually includes a centre turn lane
+    plausible = lane_counts | {n - 1 for n in lane_counts if n % 2 and road.number_of_ways == 2}
+    if lane_counts and not divided and road.number_of_lanes not in plausible:
         found.append(Finding("road_network.number_of_lanes", f"{road.number_of_lanes}, but the report speaks of "
                              f"{'/'.join(str(n) for n in sorted(lane_counts))}-lane roads; count V1's through lanes"))
     sketch_lanes = [int(m.group(1)) for m in re.finditer(r"(\d+) (?:travel |through )?lanes?\b", sketch)]
