@@ -17,6 +17,7 @@ from crashscene.cli import extract_commands  # noqa: E402,F401  (registers extra
 from crashscene.cli import run_commands  # noqa: E402,F401  (registers run)
 from crashscene.cli import campaign_commands  # noqa: E402,F401  (registers campaign)
 from crashscene.cli import report_commands  # noqa: E402,F401  (registers report)
+from crashscene.cli import monitor_commands  # noqa: E402,F401  (registers monitor)
 
 
 def main() -> None:

@@ -1,0 +1,61 @@
+"""`crashscene monitor RUN_DIR [--rules FILE] [--json]`: re-evaluate the stored traces of a run."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from crashscene.cli import app
+
+
+@app.command()
+def monitor(
+    run_dir: Annotated[Path, typer.Argument(help="Run directory written by `crashscene simulate` "
+                                                 "(scenario.yaml + traces/actors/collisions/variations.parquet).")],
+    rules: Annotated[Path | None, typer.Option("--rules", help="Rulebook YAML overriding thresholds "
+                                               "(rules: {CVC_21703: {min_headway: 1.5}}).")] = None,
+    as_json: Annotated[bool, typer.Option("--json", help="Print the summary as JSON on stdout.")] = False,
+) -> None:
+    """Check every actor of every variation against the 12 California Vehicle Code rules, classify
+    collisions and give each variation a verdict; writes rule_results.parquet, collisions_classified.parquet,
+    verdicts.parquet and monitor.json into RUN_DIR."""
+    from crashscene.monitor import MonitorError, monitor_run
+
+    try:
+        result = monitor_run(run_dir, rules)
+    except MonitorError as exc:
+        typer.echo(f"error: {exc}", err=True)
+        raise typer.Exit(2) from None
+    summary = result.summary()
+    if as_json:
+        typer.echo(json.dumps(summary, indent=2))
+        return
+    _print_summary(run_dir, summary)
+
+
+def _print_summary(run_dir: Path, summary: dict) -> None:
+    from rich.console import Console
+    from rich.table import Table
+
+    console = Console()
+    console.print(f"[bold]{run_dir}[/]: {summary['variations']} variations, {summary['valid']} valid")
+    verdicts = ", ".join(f"{name} {count}" for name, count in summary["verdicts"].items())
+    console.print(f"verdicts: {verdicts}")
+    rate = summary["reproduction_rate"]
+    console.print(f"reproduced: {summary['reproduced']}" + (f" ({rate:.1%} of valid)" if rate is not None else ""))
+    if summary["violations"]:
+        table = Table(title="violations (variations per actor)")
+        table.add_column("code")
+        roles = sorted({r for per in summary["violations"].values() for r in per})
+        for role in roles:
+            table.add_column(role, justify="right")
+        for code, per in summary["violations"].items():
+            table.add_row(code, *[str(per.get(role, 0)) for role in roles])
+        console.print(table)
+    collisions = ", ".join(f"{k} {v}" for k, v in summary["collisions"].items() if v)
+    console.print(f"collisions: {collisions or 'none'}")
+    for entry in summary["oracle"]:
+        seen = "unmonitored" if not entry["monitored"] else f"observed in {entry['observed']}"
+        console.print(f"oracle {entry['code']} by {entry['actor']}: {seen}")
