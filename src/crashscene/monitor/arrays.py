@@ -7,7 +7,7 @@ backend could not fill are NaN (floats) or -1 (categorical codes).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import pyarrow as pa
@@ -71,6 +71,14 @@ class TraceArrays:
     def known(self, name: str) -> np.ndarray:
         """Where a float/bool column is filled."""
         return np.isfinite(self.floats[name])
+
+    def truncated(self, last_step: np.ndarray) -> TraceArrays:
+        """A copy where each actor's rows after `last_step` (V, A; -1 = keep all) are dropped."""
+        steps = np.arange(self.shape[2])
+        drop = (last_step[..., None] >= 0) & (steps > last_step[..., None])
+        floats = {k: np.where(drop, np.nan, v) if k != "t" else v for k, v in self.floats.items()}
+        codes = {k: np.where(drop, -1, v) for k, v in self.codes.items()}
+        return replace(self, alive=self.alive & ~drop, floats=floats, codes=codes)
 
     def time(self) -> np.ndarray:
         """(V, A, T) time [s]; steps without a row get step * dt."""

@@ -154,3 +154,19 @@ def classify_collisions(arrays: TraceArrays, contacts: pa.Table | None, ads: np.
     }
     return pa.table({k: pa.array(list(v[order]) if v.dtype == object else v[order], type=CLASSIFIED_SCHEMA.field(k).type)
                      for k, v in columns.items()}, schema=CLASSIFIED_SCHEMA)
+
+
+def first_contact_steps(arrays: TraceArrays, collisions: pa.Table) -> np.ndarray:
+    """(V, A) step of each actor's first collision, -1 when it never collides."""
+    out = np.full(arrays.shape[:2], -1, dtype=np.int64)
+    if not collisions.num_rows:
+        return out
+    role_index = {r: i for i, r in enumerate(arrays.roles)}
+    v = np.searchsorted(arrays.variations, collisions.column("variation").to_numpy())
+    step = np.round(collisions.column("t").to_numpy() / arrays.dt).astype(np.int64)
+    big = np.iinfo(np.int64).max
+    best = np.full(arrays.shape[:2], big, dtype=np.int64)
+    for col in ("actor_a", "actor_b"):
+        a = np.array([role_index[r] for r in collisions.column(col).to_pylist()], dtype=np.int64)
+        np.minimum.at(best, (v, a), step)
+    return np.where(best < big, best, -1)

@@ -7,7 +7,7 @@ import pyarrow as pa
 
 from crashscene.dsl.model import Scenario
 from crashscene.monitor.arrays import build_arrays
-from crashscene.monitor.collisions import classify_collisions
+from crashscene.monitor.collisions import classify_collisions, first_contact_steps
 from crashscene.monitor.context import EvalContext
 from crashscene.monitor.errors import MonitorError
 from crashscene.monitor.result import MonitorResult, rule_results_table
@@ -16,17 +16,23 @@ from crashscene.monitor.verdicts import ExpectedCollision, ads_mask, expected_co
 
 
 def evaluate(tables: dict[str, pa.Table], scenario: Scenario | None, rulebook: Rulebook | None = None, *,
-             expected: ExpectedCollision | None | Literal["auto"] = "auto") -> MonitorResult:
+             expected: ExpectedCollision | None | Literal["auto"] = "auto",
+             stop_at_collision: bool = True) -> MonitorResult:
     """Evaluate every actor of every variation in `tables` (see `crashscene.traces`).
 
     `scenario` supplies the environment (condition factors), the posted limit,
     the road layout and the oracle to reproduce. `expected` overrides the
     collision the report implies ("auto": derived from the DSL; None: none).
+    With `stop_at_collision`, an actor's rules see its trace up to its first
+    collision only: what a backend without contact physics does afterwards
+    (vehicles passing through each other) is not driving.
     """
     rulebook = rulebook or Rulebook()
-    arrays = build_arrays(tables)
+    full = build_arrays(tables)
+    ads = ads_mask(full)
+    collisions = classify_collisions(full, tables.get("collisions"), ads)
+    arrays = full.truncated(first_contact_steps(full, collisions)) if stop_at_collision else full
     ctx = EvalContext(arrays=arrays, scenario=scenario)
-    ads = ads_mask(arrays)
     outcomes = []
     for rule in rulebook.rules():
         try:
@@ -38,7 +44,6 @@ def evaluate(tables: dict[str, pa.Table], scenario: Scenario | None, rulebook: R
                                f"{type(exc).__name__}: {exc}") from exc
         outcomes.append((rule, outcome.finalize()))
     rule_results = rule_results_table(arrays.variations, arrays.roles, arrays.present, ads, outcomes)
-    collisions = classify_collisions(arrays, tables.get("collisions"), ads)
     if expected == "auto":
         expected = expected_collision(scenario)
     verdicts, oracle = verdict_table(arrays, {r.code: o for r, o in outcomes}, collisions, scenario, ads, expected)

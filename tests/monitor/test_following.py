@@ -1,0 +1,36 @@
+"""CVC 21703: following too closely."""
+from __future__ import annotations
+
+from tests.monitor.builders import tables, track
+
+SPEED = 15.0  # [m/s]
+
+
+def pair(headway: float, leader_speed: float = SPEED, lane_ids: bool = True) -> dict:
+    gap = headway * SPEED
+    lane = {"lane_id": "road1_lane-1"} if lane_ids else {}
+    return {"ego": track(50, x0=0.0, speed=SPEED, **lane),
+            "npc1": track(50, x0=gap + 4.5, speed=leader_speed, **lane)}
+
+
+def test_headway_just_below_is_violated(check):
+    row = check(tables(pair(1.9)), "CVC_21703", "ego")
+    assert row["verdict"] == "violated" and abs(row["measured"] - 1.9) < 1e-6
+
+
+def test_headway_just_above_is_satisfied_with_advisory(check):
+    row = check(tables(pair(2.1)), "CVC_21703", "ego")
+    assert row["verdict"] == "satisfied" and "advisory" in row["note"]
+
+
+def test_slow_leader_is_not_applicable(check):
+    assert check(tables(pair(1.0, leader_speed=4.0)), "CVC_21703", "ego")["verdict"] == "not_applicable"
+
+
+def test_geometric_same_lane_without_lane_ids(check):
+    assert check(tables(pair(1.5, lane_ids=False)), "CVC_21703", "ego")["verdict"] == "violated"
+
+
+def test_leader_in_other_lane_is_not_followed(check):
+    actors = {"ego": track(50, speed=SPEED, lane_id="a"), "npc1": track(50, x0=10, y0=3.5, speed=SPEED, lane_id="b")}
+    assert check(tables(actors), "CVC_21703", "ego")["verdict"] == "not_applicable"
