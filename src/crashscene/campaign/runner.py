@@ -98,6 +98,10 @@ def run_campaign(cases: str | Path | Sequence[str | Path], out_dir: str | Path, 
     if dupes:
         raise CampaignError(f"several cases share the id(s) {dupes}; case ids are folder or file names")
     start = time.perf_counter()
+    if config.engine not in ("local", "ray"):
+        raise CampaignError(f"unknown engine {config.engine!r}; allowed: local, ray")
+    if config.address and config.engine != "ray":
+        raise CampaignError("--address joins a Ray cluster; use it with --engine ray")
     with Store(out) as store:
         if store.has_results() and not config.resume:
             raise CampaignError(f"{out} already holds a campaign ({store.path.name}); add --resume to continue it "

@@ -97,11 +97,11 @@ def _view(tracks: list[ActorTrack], t0: float, t1: float) -> tuple[float, float,
 def _draw_map(ax, geometry: MapGeometry) -> None:
     ax.set_facecolor("#b7c9a8")
     for ring in geometry.drivable:
-        ax.add_patch(PolygonPatch(ring, closed=True, facecolor=ASPHALT, edgecolor="none", zorder=1))
+        ax.add_patch(PolygonPatch(ring, closed=True, facecolor=ASPHALT, edgecolor=LANE_LINE, lw=0.8, zorder=1))
     for ring in geometry.holes:
         ax.add_patch(PolygonPatch(ring, closed=True, facecolor="#b7c9a8", edgecolor="none", zorder=1))
     for edge in geometry.lane_edges:
-        ax.plot(edge[:, 0], edge[:, 1], color=LANE_LINE, lw=0.6, ls=(0, (4, 4)), alpha=0.7, zorder=2)
+        ax.plot(edge[:, 0], edge[:, 1], color=LANE_LINE, lw=0.5, ls=(0, (5, 5)), alpha=0.5, zorder=2)
     for line in geometry.center_lines:
         ax.plot(line[:, 0], line[:, 1], color=CENTER_LINE, lw=1.2, zorder=3)
 
@@ -133,17 +133,20 @@ def _draw_actors(ax, tracks: list[ActorTrack], time: float, trail_from: float) -
                                                  zorder=5)))
         nose = _corners(x, y, yaw, tr.length, tr.width)[:2].mean(axis=0)
         artists += ax.plot([x, nose[0]], [y, nose[1]], color="white", lw=1.0, zorder=6)
-        artists.append(ax.text(x, y + tr.width + 0.8, tr.role, color="white", fontsize=7, ha="center", zorder=7,
-                               bbox=dict(facecolor=color, edgecolor="none", pad=1.0, alpha=0.85)))
+        side = 1 if k % 2 == 0 else -1  # alternate label sides so close actors stay readable
+        artists.append(ax.text(x, y + side * (tr.length / 2 + 2.0), tr.role, color="white", fontsize=7, ha="center",
+                               va="center", zorder=7, bbox=dict(facecolor=color, edgecolor="none", pad=1.0, alpha=0.85)))
     return artists
 
 
 def still_png(map_file: str | Path, tracks: list[ActorTrack], time: float, title: str, size: float = 4.8,
-              dpi: int = 100) -> bytes:
-    """PNG of every actor at `time` [s] with its path over the preceding seconds."""
+              dpi: int = 100, impact: tuple[float, float] | None = None) -> bytes:
+    """PNG of every actor at `time` [s] with its path over the preceding seconds; `impact` [m] is starred."""
     geometry = load_map(str(map_file))
-    fig, ax = _figure(geometry, _view(tracks, max(0.0, time - 6.0), time + 0.5), size, dpi)
+    fig, ax = _figure(geometry, _view(tracks, max(0.0, time - 3.0), time + 0.3), size, dpi)
     _draw_actors(ax, tracks, time, trail_from=max(0.0, time - 6.0))
+    if impact is not None and all(v is not None and math.isfinite(v) for v in impact):
+        ax.plot(*impact, marker="*", markersize=14, color="#ffe000", markeredgecolor="black", zorder=8)
     ax.set_title(title, fontsize=9)
     buf = io.BytesIO()
     fig.savefig(buf, format="png")

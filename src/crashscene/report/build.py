@@ -238,7 +238,9 @@ def _impact_and_gifs(store: Store, out: Path, case: dict, fig: dict, gifs: bool)
             title = f"{case['case_id']} {mode} #{variation}: {label}"
             if name == "still":
                 t = t_impact if t_impact is not None else t_end
-                fig["still"] = data_uri(birdseye.still_png(map_file, actor_tracks, t, title), "image/png")
+                point = _impact_point(store, case["scenario_hash"], mode, variation)
+                fig["still"] = data_uri(birdseye.still_png(map_file, actor_tracks, t, title, impact=point),
+                                        "image/png")
                 fig["still_caption"] = (f"{label} ({mode} mode, variation {variation}) at "
                                         f"{'impact' if t_impact is not None else 'the end'}, t = {t:.1f} s")
             else:
@@ -256,3 +258,9 @@ def _impact_time(store: Store, scenario_hash: str, mode: str, variation: int) ->
     row = store.query("SELECT min(t) AS t FROM collisions WHERE scenario_hash=? AND mode=? AND variation=?",
                       [scenario_hash, mode, variation])
     return row[0]["t"] if row and row[0]["t"] is not None else None
+
+
+def _impact_point(store: Store, scenario_hash: str, mode: str, variation: int) -> tuple[float, float] | None:
+    rows = store.query("SELECT x, y FROM collisions WHERE scenario_hash=? AND mode=? AND variation=? ORDER BY t LIMIT 1",
+                       [scenario_hash, mode, variation])
+    return (rows[0]["x"], rows[0]["y"]) if rows else None
