@@ -50,6 +50,8 @@ class _Text:
 
     def __post_init__(self) -> None:
         text = self.raw.replace("\u2019", "'").replace("\u201c", '"').replace("\u201d", '"')
+        text = re.sub(r"\bVehicles\s+((?:[1-9](?:,\s*|\s+and\s+|,\s+and\s+))+[1-9])\b",
+                      lambda m: re.sub(r"([1-9])", r"V\1", m.group(1)), text)
         text = re.sub(r"\b(?:Vehicle|Veh\.?|Vehicle\s+number)\s*#?\s*(one|two|three|four|five|[1-9])\b",
                       _label_sub, text, flags=re.I)
         text = re.sub(r"\bV-?\s?([1-9])\b", r"V\1", text)
@@ -234,15 +236,15 @@ _MOTORCYCLE = re.compile(r"motorcycle|motorbike|moped|scooter|\bHarley\b", re.I)
 
 def _type_of(state: _State, label: str) -> str:
     texts = []
-    for sentence in state.t.sentences:
-        match = re.search(rf"\b{label}\b", sentence)
-        if match:
-            # the description sits beside the label's first mention: "V2, a 2002 Ford F150 ..." or "... minivan (V2)"
-            texts.append(sentence[max(0, match.start() - 120):match.end() + 120])
-            break
+    text = state.t.text
+    # "V2, a 2002 Ford F150 pickup truck was ...", "V2 - 2001 Volvo", "a 2013 Freightliner tractor/trailer (V2)"
+    after = re.search(rf"\b{label}\b\s*(?:\([^)]*\))?\s*[,:(-]\s*(?:the\s+|a\s+|an\s+)?([^.;]*?)(?:\b(?:was|were|is|had|"
+                      rf"driven|traveling|travelling)\b|[.;]|$)", text)
+    before = re.search(rf"(?:\b(?:a|an|the)\s+|,\s*)([^.;()]{{3,80}}?)\s*\(\s*{label}\s*\)", text)
+    for match in sorted((m for m in (after, before) if m), key=lambda m: m.start()):
+        texts.append(match.group(1))
     texts += [t for t in state.fact_texts(f"vehicle {label}:")]
-    for text in texts:
-        descriptor = re.split(r"\b(?:was|is|were)\b", text)[0] if text.startswith(label) else text
+    for descriptor in texts:
         if _MOTORCYCLE.search(descriptor):
             return "motorcycle"
         if _TRUCK.search(descriptor):
@@ -272,13 +274,15 @@ def _split_pre_crash(state: _State) -> None:
     pre = " ".join(kept)
     pre = re.sub(r"(?:in an? )?(?:attempt(?:ed|ing)?|tried|trying)\s+to\s+avoid[^.;]*", " ", pre, flags=re.I)
     pre = re.sub(r"\bto avoid (?:a )?(?:collision|the crash|impact)[^.;]*", " ", pre, flags=re.I)
+    pre = re.sub(r"\breacted by[^.;]*|[^.;,]*\b(?:in avoidance|as an avoidance|avoidance maneuver|evasive)[^.;]*", " ", pre,
+                 flags=re.I)
     state.pre_crash = pre
 
 
 # ---------------------------------------------------------------- environment
 
 
-_ENV_SENTENCE = r"weather|sky|skies|daylight|dark|dawn|dusk|night|rain|snow|sleet|fog|cloudy|overcast|conditions|" \
+_ENV_SENTENCE = r"weather|sky|skies|\bhours\b|daylight|dark|dawn|dusk|night|rain|snow|sleet|fog|cloudy|overcast|conditions|" \
                 r"surface|\b(?:dry|wet|icy)\b|roads were"
 
 
@@ -303,7 +307,7 @@ def _environment(state: _State) -> dict:
     time_of_day = "not_mentioned"
     for pattern, token in ((r"\bpre-?dawn\b", "nighttime"), (r"\bdawn\b", "dawn"), (r"\bdusk\b", "dusk"),
                            (r"\bdark\b|\bnight(?:time)?\b|\bevening hours \(dark", "nighttime"),
-                           (r"\bdaylight\b|\bday ?time\b|\bdaylight hours\b|\bafternoon\b|\bmorning hours\b",
+                           (r"\bdaylight\b|\bday ?time\b|\bdaylight hours\b|\bafternoon\b|\bmorning hours\b|\bmid-?day\b|\bnoon\b",
                             "daytime")):
         match = re.search(pattern, env_text, re.I)
         if match:
@@ -401,6 +405,7 @@ def _road_type(state: _State) -> tuple[str, str | None]:
     three = re.search(r"\b(?:3|three)[- ]leg(?:ged)?\b|\bT[- ]intersection|\bT-type intersection|\bTee\b|"
                       r"\bT[- ]junction|driveway|business (?:access|entrance|exit)|parking lot (?:exit|entrance)|"
                       r"(?:private|commercial) (?:drive|road)\b", text, re.I)
+    pre = re.sub(r"[^.]*\b(?:intersection|junction) ahead\b[^.]*|[^.]*\bwarning signs?\b[^.]*", " ", pre, flags=re.I)
     mentions_junction = re.search(r"\bintersection\b|\bjunction\b|\bintersecting\b", pre, re.I)
     plays_part = bool(
         re.search(r"\bturn(?:ed|ing|s)?\b|left[- ]turn|right[- ]turn|\bintersection\b|\bjunction\b|"
@@ -424,7 +429,7 @@ def _road_type(state: _State) -> tuple[str, str | None]:
         side = re.search(r"\b(left|right)(?:-hand)?\s+curve|curve[sd]?\s+(?:to\s+the\s+)?(left|right)|"
                          r"curved\s+(?:to\s+the\s+)?(left|right)", pre, re.I)
         if side:
-            direction = next(g for g in side.groups() if g).lower()
+            direction = _as_ego_sees_it(state, pre, side, next(g for g in side.groups() if g).lower())
         if not re.search(r"\bstraight\b[^.]{0,40}\bcurv|no curve", window, re.I):
             curve = "curve"
             state.note("road_network.road_type", _around(pre, curve_match))
@@ -437,6 +442,25 @@ def _road_type(state: _State) -> tuple[str, str | None]:
     match = re.search(r"\bstraight\b", text, re.I)
     state.note("road_network.road_type", _around(text, match) if match else "no junction or curve in the crash sequence")
     return "straight", None
+
+
+def _as_ego_sees_it(state: _State, text: str, match: re.Match, side: str) -> str:
+    """A curve stated for another vehicle's direction of travel bends the other way for an oncoming ego."""
+    start = max(text.rfind(". ", 0, match.start()), 0)
+    end = text.find(".", match.end())
+    sentence = text[start: end if end > 0 else len(text)]
+    ego = state.vehicles["V1"]
+    owner = re.search(r"\b(?:for|in)\s+(V[1-9])\b|\b(V[1-9])'s\b", sentence)
+    other = None
+    if owner:
+        other = state.vehicles.get(owner.group(1) or owner.group(2))
+    heading = re.search(rf"heading (?:{_DIR} )?to(?:wards?)? (?:the )?{_DIR}|in the {_DIR}bound direction", sentence, re.I)
+    their_direction = other.direction if other and other.label != "V1" else None
+    if heading:
+        their_direction = next(g for g in heading.groups()[::-1] if g).lower()
+    if their_direction and ego.direction and (COMPASS[their_direction] - COMPASS[ego.direction]) % 360 == 180:
+        return "left" if side == "right" else "right"
+    return side
 
 
 _DRIVEWAY = r"(?:private |commercial |residential |business )?(?:driveway|drive\b|parking lot|business (?:access|" \
@@ -633,15 +657,20 @@ _LOSE = r"\blost control|\bloss of control|\blose control|\bbegan (?:to )?(?:rot
 _CROSS = r"cross(?:ed|ing|es)?\s+(?:over\s+)?the\s+(?:double\s+(?:yellow\s+)?|solid\s+|painted\s+)*(?:cent(?:er|re)[- ]?lines?|" \
          r"cent(?:er|re) lane lines|double (?:yellow )?lines?|yellow lines?)|" \
          r"left[- ]of[- ]cent(?:er|re)|into the (?:opposing|oncoming) (?:traffic )?(?:travel )?lane|wrong[- ]way|" \
-         r"drift(?:ed|ing)? (?:across|over) the cent|into (?:the )?(?:path of )?oncoming traffic"
+         r"drift(?:ed|ing)? (?:across|over) the cent|into (?:the )?(?:path of )?oncoming traffic|" \
+         r"encroach\w* (?:\w+ ){0,2}into V[1-9]'s (?:travel )?lane|against the flow|in the wrong direction"
 _LEAVE = r"(?:depart(?:ed|ing|s)?|exit(?:ed|ing|s)?|ran|run|running|drove|went|veered|travel(?:ed|led)?)\s+(?:off\s+)?" \
          r"(?:of\s+)?the\s+(?:left|right|north|south|east|west)?\s*(?:side|edge)\s+of\s+the\s+(?:road|roadway|travel lane|" \
          r"highway|lane)|ran off the road|off the roadway|(?:depart(?:ed|ing)?|exit(?:ed|ing)?|left) the (?:road|roadway)\b" \
-         r"(?! onto the (?:single |one |\w+ )?(?:lane )?(?:exit |entrance )?ramp)|onto the (?:left |right )?(?:shoulder|roadside)"
+         r"(?! onto the (?:single |one |\w+ )?(?:lane )?(?:exit |entrance )?ramp)|onto the (?:left |right )?(?:shoulder|roadside)|" \
+         r"entered the (?:[\w-]+ ){0,4}?(?:edge of the )?(?:left |right )?shoulder|" \
+         r"drift(?:ed|ing)? (?:partially )?(?:off|to the (?:right|left) of) the (?:travel lane|road|roadway)"
 _OVERTAKE = r"attempt(?:ed|ing)? to pass\b|\bpass(?:ed|ing)? (?:a |the )?(?:slower|V[1-9])|\bovertak\w+|to pass V[1-9]"
 _LANE_CHANGE = r"(?:veer(?:ed|ing)?|mov(?:ed|ing)|chang(?:ed|ing) lanes|steer(?:ed|ing)|swerv(?:ed|ing)|merg(?:ed|ing)|" \
                r"drift(?:ed|ing))\s+(?:\w+\s+){0,3}?(?:to\s+the\s+)?(left|right)?[^.]{0,40}?into the (left|right|adjacent|" \
                r"middle|center|inside|outside|passing|(?:north|south|east|west)bound)\s*((?:north|south|east|west)bound)?"
+_LANE_CHANGE_SIDE = r"chang(?:e|ed|ing|es) lanes? (?:to|into) the (left|right)|lane change to the (left|right)|" \
+                    r"(?:merge|merged|merging) (?:to the )?(left|right)"
 _TURN_LEFT = r"turn(?:ed|ing|s)?\s+left|left[- ]turn(?:ing)?(?! lane)|make a left|making a left|initiat\w+ a left"
 _TURN_RIGHT = r"turn(?:ed|ing|s)?\s+right|right[- ]turn(?:ing)?(?! lane)|make a right|making a right"
 _U_TURN = r"\bu[- ]turn(?:ing|ed)?\b(?! lane)"
@@ -657,8 +686,26 @@ def _behaviors(state: _State) -> None:
     pre = state.pre_crash
     spans: dict[str, list[tuple[int, str, re.Match]]] = {label: [] for label in state.vehicles}
 
+    leaders = [v.label for v in state.vehicles.values() if v.role != "ego" and re.search(
+        rf"\b{v.label}\b[^.]{{0,80}}\b(?:ahead of|in front of) (?:V1|him|her)\b", state.t.text, re.I)]
+
     def collect(pattern: str, token: str) -> None:
         for match in re.finditer(pattern, pre, re.I):
+            clause = pre[max(pre.rfind(". ", 0, match.start()), pre.rfind(", ", 0, match.start()), 0):match.start()]
+            multi = re.search(r"((?:V[1-9](?:,\s*|\s+and\s+|,\s+and\s+))+V[1-9])\s+(?:also\s+|all\s+|both\s+)?$", clause)
+            if multi:
+                for label in re.findall(r"V[1-9]", multi.group(1)):
+                    if label in spans:
+                        spans[label].append((match.start(), token, match))
+                continue
+            if not re.search(r"\bV[1-9]\b", clause) and re.search(
+                    r"\b(?:non-contact|another|other|third|lead|leading|a|the)\s+vehicle\b|\btraffic\b", clause, re.I):
+                # "the vehicle in front of him was stopped", "traffic ahead had slowed": not a labelled actor,
+                # except that slowing traffic ahead is the leader's behaviour
+                if token in ("decelerate", "stop") and re.search(r"\btraffic\b", clause, re.I):
+                    for label in leaders:
+                        spans[label].append((match.start(), token, match))
+                continue
             label = _label_at(pre, match.start())
             if label is None and len(state.vehicles) == 1:
                 label = "V1"
@@ -673,14 +720,15 @@ def _behaviors(state: _State) -> None:
     collect(_LEAVE, "leave_road")
     collect(_OVERTAKE, "overtake")
     collect(_LANE_CHANGE, "lane_change")
+    collect(_LANE_CHANGE_SIDE, "lane_change_side")
     collect(_TURN_LEFT, "turn_left")
     collect(_TURN_RIGHT, "turn_right")
     collect(_U_TURN, "u_turn")
     collect(_STOPPED, "stop")
     collect(_PARKED, "static")
     collect(_DECEL, "decelerate")
-    collect(r"across the (?:north|south|east|west)bound (?:travel )?lanes?|(?:into|enter(?:ed|ing|s)?) the "
-            r"(?:north|south|east|west)bound (?:travel )?lanes?", "into_lane")
+    collect(r"across the (?:north|south|east|west)bound (?:travel )?lanes?|(?:into|enter(?:ed|ing|s)?|in) the "
+            r"(?:north|south|east|west)bound (?:travel )?lanes?(?! of)", "into_lane")
     for label, vehicle in state.vehicles.items():
         found = sorted(spans[label], key=lambda item: item[0])
         vehicle.behavior, quote = _resolve(state, vehicle, found)
@@ -731,6 +779,9 @@ def _resolve(state: _State, vehicle: _Vehicle, found: list[tuple[int, str, re.Ma
             if side in ("left", "right"):
                 first_event = (f"change_lane_{side}", match)
                 break
+        if token == "lane_change_side":
+            first_event = (f"change_lane_{next(g for g in match.groups() if g).lower()}", match)
+            break
         if token == "into_lane" and _opposing_lane(vehicle, match.group(0)):
             first_event = ("cross_centerline", match)
             break
