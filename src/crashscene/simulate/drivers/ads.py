@@ -1,0 +1,112 @@
+"""The reference ADS: a careful rule-following driver, the default system under test.
+
+Lane following along the route of its DSL behaviour (turns included), IDM car
+following, stopping for red lights (and for yellow when it can stop
+comfortably), full stops at stop signs, gap acceptance before entering a
+conflict area where another vehicle has priority, and lane changes only into
+a sufficient gap. Every parameter is in `ReferenceAdsParams` and can be
+overridden (`SimulationSettings.ads_params`, CLI `--ads-param key=value`).
+"""
+from __future__ import annotations
+
+import importlib
+from collections import deque
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from crashscene.simulate.backend import SimulationError
+from crashscene.simulate.drivers.base import Action, Driver, DriverContext, Observation
+from crashscene.simulate.drivers.longitudinal import (
+    LongitudinalRules,
+    LongitudinalState,
+    desired_speed,
+    longitudinal_accel,
+)
+
+
+class ReferenceAdsParams(BaseModel):
+    """Parameters of the reference ADS."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    reaction_time: float = Field(0.3, ge=0, le=3.0, description="[s] delay between perception and actuation")
+    perception_range: float = Field(120.0, gt=0, description="[m] vehicles farther away are not seen")
+    headway: float = Field(1.8, gt=0, description="[s] IDM desired time headway")
+    min_gap: float = Field(2.5, ge=0, description="[m] IDM standstill gap")
+    brake_comfort: float = Field(3.0, gt=0, description="[m/s2] IDM comfortable deceleration")
+    gap_acceptance: float = Field(4.5, gt=0, description="[s] smallest accepted time-to-arrival of a priority vehicle")
+    lane_change_gap: float = Field(1.5, gt=0, description="[s] time gap needed ahead and behind in the target lane")
+    lane_change_time: float = Field(2.0, ge=0, description="[s] after which a lane change behaviour starts")
+    lat_accel: float = Field(2.0, gt=0, description="[m/s2] lateral acceleration accepted in curves")
+    yellow_decel: float = Field(3.5, gt=0, description="[m/s2] stops on yellow when that suffices")
+    respect_speed_limit: bool = Field(True, description="never cruise above the posted limit")
+
+
+class ReferenceADS(Driver):
+    """The default ADS under test (see module docstring)."""
+
+    def __init__(self, params: dict | None = None):
+        super().__init__(params)
+        try:
+            self.config = ReferenceAdsParams(**self.params)
+        except ValidationError as exc:
+            raise SimulationError(f"reference ADS parameters: {exc}") from exc
+        self.perception_range = self.config.perception_range
+
+    def reset(self, ctx: DriverContext) -> None:
+        super().reset(ctx)
+        c = self.config
+        self.rules = LongitudinalRules(headway=c.headway, min_gap=c.min_gap, gap_time=c.gap_acceptance,
+                                       yellow_decel=c.yellow_decel, brake_comfort=c.brake_comfort,
+                                       lat_accel=c.lat_accel)
+        self.state = LongitudinalState(ctx.n_variations)
+        self.commands: deque = deque(maxlen=max(1, int(round(c.reaction_time / ctx.dt)) + 1))
+        self.lane_changed = np.zeros(ctx.n_variations, dtype=bool)
+
+    def step(self, obs: Observation) -> Action:
+        ctx = self.ctx
+        cruise = ctx.cruise_speed
+        if self.config.respect_speed_limit:
+            cruise = np.where(np.isnan(obs.speed_limit), cruise, np.minimum(cruise, obs.speed_limit))
+        accel = longitudinal_accel(obs, ctx, self.state, self.rules, desired_speed(obs, cruise, self.rules))
+        self.commands.append(accel)
+        delayed = self.commands[0]
+        # an emergency seen now is not delayed beyond the reaction time: take the more cautious command
+        accel = np.minimum(delayed, np.maximum(accel, -ctx.limits.brake_comfort))
+
+        offset = np.zeros(ctx.n_variations)
+        if ctx.behavior in ("change_lane_left", "change_lane_right"):
+            gap = self.config.lane_change_gap
+            ok = (obs.t >= self.config.lane_change_time) & (obs.target_gap_front > 5.0 + gap * obs.speed) & (
+                obs.target_gap_rear > 5.0 + gap * np.nan_to_num(obs.target_rear_speed, nan=0.0))
+            self.lane_changed |= ok
+            offset = np.where(self.lane_changed, ctx.lateral_target, ctx.initial_offset)
+        elif np.any(ctx.initial_offset != 0):
+            offset = np.where(obs.t < 1.0, ctx.initial_offset, 0.0)
+        return Action(accel=accel, lateral_offset=offset)
+
+
+def load_driver(spec: str | None, params: dict | None = None):
+    """The ADS driver named by 'package.module:Class' (None: the reference ADS), instantiated with params."""
+    if spec is None:
+        return ReferenceADS(params)
+    module_name, sep, class_name = spec.partition(":")
+    if not sep or not module_name or not class_name:
+        raise SimulationError(f"--ads {spec!r}: expected 'package.module:Class'")
+    try:
+        module = importlib.import_module(module_name)
+    except ImportError as exc:
+        raise SimulationError(f"--ads {spec!r}: cannot import module {module_name!r}: {exc}") from exc
+    cls = getattr(module, class_name, None)
+    if cls is None:
+        raise SimulationError(f"--ads {spec!r}: module {module_name!r} has no attribute {class_name!r}")
+    driver = cls(dict(params or {}))
+    for method in ("reset", "step"):
+        if not callable(getattr(driver, method, None)):
+            raise SimulationError(f"--ads {spec!r}: {class_name} has no {method}() method; "
+                                  f"see crashscene.simulate.drivers.base for the step interface")
+    return driver
+
+
+__all__ = ["ReferenceADS", "ReferenceAdsParams", "load_driver"]

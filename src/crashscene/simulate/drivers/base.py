@@ -1,0 +1,141 @@
+"""The driver step interface: how every actor, the ADS under test included, is driven.
+
+Every actor of a batch has one driver object, which drives that actor in *all*
+variations of the batch at once: each field of an `Observation` is a numpy
+array of shape (V,), one entry per variation, and `step` returns an `Action`
+of arrays of the same shape. Write drivers with numpy operations (`np.where`,
+masks), never a Python loop over variations.
+
+A user ADS (`crashscene simulate ... --ads mypkg.mymodule:MyDriver`) is any
+class with this shape:
+
+    class MyDriver:
+        def __init__(self, params: dict):          # --ads-param overrides, may be empty
+            ...
+        def reset(self, ctx: DriverContext) -> None:   # once per batch, before step 0
+            ...
+        def step(self, obs: Observation) -> Action:    # every step (dt = ctx.dt)
+            return Action(accel=..., lateral_offset=...)
+
+The simulator turns the action into motion with a kinematic bicycle model: the
+commanded acceleration is clipped to the vehicle's limits and the steering
+follows the route, shifted by `lateral_offset` (d, [m], left positive) at a
+bounded lateral rate. Units are SI: m, s, m/s, m/s2, rad.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from crashscene.simulate.embedded.vehicles import VehicleLimits
+
+# integer codes used in observations (index into crashscene.traces vocabularies)
+CONTROL_NONE, CONTROL_SIGNAL, CONTROL_STOP, CONTROL_YIELD = 0, 1, 2, 3  # traces.CONTROLS
+SIGNAL_NONE, SIGNAL_GREEN, SIGNAL_YELLOW, SIGNAL_RED = 0, 1, 2, 3  # traces.SIGNAL_STATES
+MANEUVER_NONE, MANEUVER_STRAIGHT, MANEUVER_LEFT, MANEUVER_RIGHT, MANEUVER_U_TURN = 0, 1, 2, 3, 4  # traces.MANEUVERS
+
+
+@dataclass
+class DriverContext:
+    """What a driver knows about its actor before the batch starts (arrays are shape (V,))."""
+
+    role: str  # DSL role: ego, npc1, ...
+    behavior: str  # DSL behavior token
+    actor_type: str  # car | truck | motorcycle
+    dispositions: frozenset[str]  # oracle codes injected into this driver (empty for the ADS under test)
+    n_variations: int
+    dt: float  # [s]
+    limits: VehicleLimits
+    length: np.ndarray  # [m]
+    width: np.ndarray  # [m]
+    cruise_speed: np.ndarray  # [m/s] sampled desired speed
+    trigger_time: np.ndarray  # [s] when the behaviour's manoeuvre starts (timing plan), inf = never
+    hold_until: np.ndarray  # [s] stay stopped until this time (timing plan), 0 = go at once
+    lateral_target: np.ndarray  # [m] d to reach by the manoeuvre (lane change, cross centre line, leave road)
+    initial_offset: np.ndarray  # [m] d at spawn (a lane change starts off its target lane's centre)
+    lane_width: np.ndarray  # [m] at spawn
+    params: dict[str, float | int | str | bool] = field(default_factory=dict)  # scene params for this actor
+    rng: np.random.Generator | None = None  # seeded per (seed, first variation, role): draw per-variation values only
+
+
+@dataclass
+class Observation:
+    """What the driver sees this step; arrays of shape (V,) unless noted."""
+
+    t: float  # [s]
+    dt: float  # [s]
+    x: np.ndarray  # [m]
+    y: np.ndarray  # [m]
+    yaw: np.ndarray  # [rad]
+    speed: np.ndarray  # [m/s]
+    accel: np.ndarray  # [m/s2] last step
+    s: np.ndarray  # [m] station along the actor's route
+    d: np.ndarray  # [m] lateral offset from the route, left positive
+    route_remaining: np.ndarray  # [m] until the route (map) ends
+    lane_width: np.ndarray  # [m]
+    speed_limit: np.ndarray  # [m/s], NaN if unknown
+    curvature_ahead: np.ndarray  # [1/m] largest |curvature| on the next max(20 m, 3 s) of route
+    lead_gap: np.ndarray  # [m] bumper to bumper to the nearest vehicle ahead in the actor's path, inf if none
+    lead_speed: np.ndarray  # [m/s] its speed along the route, NaN if none
+    control: np.ndarray  # int: CONTROL_* of the approach to the next junction
+    signal: np.ndarray  # int: SIGNAL_* governing the next stop line
+    stop_line_dist: np.ndarray  # [m] front bumper to the next stop line (>0 before it), NaN if none
+    junction_dist: np.ndarray  # [m] front bumper to the next junction entry, NaN if none
+    in_junction: np.ndarray  # bool
+    maneuver: np.ndarray  # int: MANEUVER_* at the next (or current) junction
+    yield_tta: np.ndarray  # [s] smallest time-to-arrival at the shared conflict point of a vehicle with priority
+    yield_occupied: np.ndarray  # bool: a vehicle with priority is inside the conflict area now
+    conflict_dist: np.ndarray  # [m] front bumper to that conflict point, NaN if none
+    target_gap_front: np.ndarray  # [m] gap to the nearest vehicle ahead in the lane at d = lateral target, inf if none
+    target_gap_rear: np.ndarray  # [m] gap to the nearest vehicle behind in that lane, inf if none
+    target_rear_speed: np.ndarray  # [m/s] that vehicle's speed, NaN if none
+    others_x: np.ndarray  # (V, A) [m] every actor's position (own column included), NaN when not perceivable
+    others_y: np.ndarray  # (V, A)
+    others_yaw: np.ndarray  # (V, A) [rad]
+    others_speed: np.ndarray  # (V, A) [m/s]
+    collided: np.ndarray  # bool: this actor has already collided (it is stopped by the simulator)
+
+
+@dataclass
+class Action:
+    """The driver's command for this step; arrays of shape (V,)."""
+
+    accel: np.ndarray  # [m/s2] longitudinal; clipped to [-brake_max, accel_max]
+    lateral_offset: np.ndarray | None = None  # [m] target d (left positive); None keeps the lane centre (0)
+    lose_control: np.ndarray | None = None  # bool: from now on the vehicle skids (yaw spin, friction braking)
+    spin_rate: np.ndarray | None = None  # [rad/s] yaw rate while skidding (sign = direction)
+
+
+class Driver:
+    """Base class of built-in drivers; user drivers need not inherit from it (duck typing is enough)."""
+
+    def __init__(self, params: dict | None = None):
+        self.params = dict(params or {})
+        self.ctx: DriverContext | None = None
+
+    def reset(self, ctx: DriverContext) -> None:
+        self.ctx = ctx
+
+    def step(self, obs: Observation) -> Action:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+
+def idm_accel(speed: np.ndarray, desired: np.ndarray, gap: np.ndarray, lead_speed: np.ndarray,
+              accel_max: float, brake_comfort: float, headway: float | np.ndarray, min_gap: float = 2.0,
+              delta: float = 4.0) -> np.ndarray:
+    """Intelligent Driver Model acceleration [m/s2] (Treiber et al.); gap = inf means a free road."""
+    desired = np.maximum(desired, 0.1)
+    free = 1.0 - (speed / desired) ** delta
+    lead = np.where(np.isnan(lead_speed), speed, lead_speed)
+    dv = speed - lead
+    s_star = min_gap + np.maximum(0.0, speed * headway + speed * dv / (2.0 * np.sqrt(accel_max * brake_comfort)))
+    inter = np.where(np.isfinite(gap), (s_star / np.maximum(gap, 0.1)) ** 2, 0.0)
+    return accel_max * (free - inter)
+
+
+def stop_accel(speed: np.ndarray, dist: np.ndarray, brake_max: float) -> np.ndarray:
+    """Deceleration [m/s2] (<= 0) that stops within `dist` [m]; NaN/negative dist brakes at brake_max."""
+    dist = np.where(np.isnan(dist), np.inf, dist)
+    need = speed ** 2 / (2.0 * np.maximum(dist, 0.05))
+    return -np.minimum(need, brake_max)

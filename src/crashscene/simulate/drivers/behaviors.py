@@ -1,0 +1,127 @@
+"""NPC drivers: each executes its actor's DSL behaviour, with oracle codes injected as dispositions.
+
+Dispositions (reproduce mode injects them into every actor, test mode into the NPCs):
+CVC_21453 ignores red lights; CVC_22450 does not stop at stop signs; CVC_21703
+follows too closely and reacts late; CVC_22350 drives too fast for conditions,
+reacts late and does not slow for curves (and loses control when its behaviour
+says so); CVC_22349 exceeds the limit; CVC_21650 / CVC_21460 cross the centre
+line; CVC_21800 / 21801 / 21802 / 21803 do not yield; CVC_22107 changes lanes
+without checking the gap.
+"""
+from __future__ import annotations
+
+from collections import deque
+
+import numpy as np
+
+from crashscene.simulate.drivers.base import Action, Driver, DriverContext, Observation, stop_accel
+from crashscene.simulate.drivers.longitudinal import (
+    LongitudinalRules,
+    LongitudinalState,
+    desired_speed,
+    longitudinal_accel,
+)
+
+NO_YIELD_CODES = frozenset({"CVC_21800", "CVC_21801", "CVC_21802", "CVC_21803", "CVC_22450"})
+CLOSE_HEADWAY = 0.5  # [s] CVC_21703
+LATE_REACTION = 1.5  # [s] perception delay of an inattentive driver (CVC_21703, CVC_22350)
+OVERSPEED = 1.25  # [-] CVC_22350 / CVC_22349: cruise speed factor
+DECELERATE_TO = 0.25  # [-] decelerate: fraction of cruise speed it slows to
+DECELERATE_RATE = 4.0  # [m/s2]
+SPIN_RATE = 0.35  # [rad/s] yaw rate of a vehicle out of control
+OVERTAKE_TIME = 6.0  # [s] in the opposing lane during an overtake
+LANE_CHANGE_GAP = 1.0  # [s] time gap a careful driver needs in the target lane
+
+
+def rules_for(dispositions: frozenset[str]) -> LongitudinalRules:
+    """The longitudinal rules of a driver carrying these oracle codes."""
+    careless = bool(dispositions & {"CVC_22350"})
+    return LongitudinalRules(
+        headway=CLOSE_HEADWAY if "CVC_21703" in dispositions else 1.5,
+        obey_red="CVC_21453" not in dispositions,
+        obey_stop="CVC_22450" not in dispositions,
+        yields=not (dispositions & NO_YIELD_CODES),
+        curve_speed=not careless,
+    )
+
+
+class DelayedPerception:
+    """Lead-vehicle perception delayed by a reaction time (an inattentive driver)."""
+
+    def __init__(self, delay: float, dt: float):
+        self.buffer: deque = deque(maxlen=max(1, int(round(delay / dt)) + 1))
+
+    def __call__(self, obs: Observation) -> tuple[np.ndarray, np.ndarray]:
+        self.buffer.append((obs.lead_gap.copy(), obs.lead_speed.copy()))
+        gap, speed = self.buffer[0]
+        return gap, speed
+
+
+class BehaviorDriver(Driver):
+    """Drives one actor's DSL behaviour in every variation of the batch."""
+
+    def reset(self, ctx: DriverContext) -> None:
+        super().reset(ctx)
+        disp = ctx.dispositions
+        self.rules = rules_for(disp)
+        self.state = LongitudinalState(ctx.n_variations)
+        inattentive = bool(disp & {"CVC_21703", "CVC_22350"})
+        self.perception = DelayedPerception(LATE_REACTION, ctx.dt) if inattentive else None
+        factor = OVERSPEED if disp & {"CVC_22350", "CVC_22349"} else 1.0
+        self.cruise = ctx.cruise_speed * factor
+        self.check_gap = "CVC_22107" not in disp
+        self.lane_changed = np.zeros(ctx.n_variations, dtype=bool)
+        self.stopping = np.zeros(ctx.n_variations, dtype=bool)
+
+    def step(self, obs: Observation) -> Action:
+        ctx = self.ctx
+        behavior = ctx.behavior
+        n = ctx.n_variations
+        triggered = obs.t >= ctx.trigger_time
+        if behavior == "static":
+            return Action(accel=np.full(n, -ctx.limits.brake_max))
+
+        lead_gap, lead_speed = self.perception(obs) if self.perception else (None, None)
+        cruise = self.cruise
+        if behavior == "decelerate":
+            cruise = np.where(triggered, self.cruise * DECELERATE_TO, cruise)
+        accel = longitudinal_accel(obs, ctx, self.state, self.rules, desired_speed(obs, cruise, self.rules),
+                                   lead_gap, lead_speed)
+        if behavior == "decelerate":
+            accel = np.where(triggered & (obs.speed > cruise), np.minimum(accel, -DECELERATE_RATE), accel)
+        if behavior == "stop":
+            near_junction = np.nan_to_num(obs.junction_dist, nan=np.inf) < 40.0
+            to_line = np.where(near_junction, obs.junction_dist - 1.0, np.nan)
+            self.stopping |= triggered | (obs.speed < 0.1)
+            brake = np.where(near_junction, stop_accel(obs.speed, to_line, ctx.limits.brake_max),
+                             -DECELERATE_RATE)
+            accel = np.where(self.stopping, np.minimum(accel, brake), accel)
+        hold = obs.t < ctx.hold_until
+        accel = np.where(hold, -ctx.limits.brake_max, accel)
+
+        offset = np.zeros(n)
+        lose = None
+        spin = None
+        if behavior in ("change_lane_left", "change_lane_right"):
+            ok = triggered
+            if self.check_gap:
+                ok = ok & (obs.target_gap_front > 5.0 + LANE_CHANGE_GAP * obs.speed) & (
+                    obs.target_gap_rear > 5.0 + LANE_CHANGE_GAP * np.nan_to_num(obs.target_rear_speed, nan=0.0))
+            self.lane_changed |= ok
+            offset = np.where(self.lane_changed, ctx.lateral_target, ctx.initial_offset)
+        elif behavior == "cross_centerline":
+            offset = np.where(triggered, ctx.lateral_target, ctx.initial_offset)
+        elif behavior == "overtake":
+            passing = triggered & (obs.t < ctx.trigger_time + OVERTAKE_TIME)
+            offset = np.where(passing, ctx.lateral_target, 0.0)
+        elif behavior == "leave_road":
+            offset = np.where(triggered, ctx.lateral_target, 0.0)
+            beyond = triggered & (np.abs(obs.d) > np.abs(ctx.lateral_target) * 0.8)
+            accel = np.where(beyond, -DECELERATE_RATE, accel)
+        elif behavior == "lose_control":
+            lose = triggered
+            spin = np.where(ctx.lateral_target >= 0, SPIN_RATE, -SPIN_RATE)
+            accel = np.where(triggered, -3.0, accel)
+        else:
+            offset = ctx.initial_offset * np.where(obs.t < 2.0, 1.0, 0.0)
+        return Action(accel=accel, lateral_offset=offset, lose_control=lose, spin_rate=spin)

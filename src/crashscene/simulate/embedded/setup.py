@@ -1,0 +1,510 @@
+"""Setting up one embedded batch: routes, traffic control, priorities, signal phases and timing plans.
+
+Everything here is computed once per batch from the sampled scenes, before the
+step loop. Per-variation random draws come from a generator seeded by
+(seed, variation index) only, so a variation's plan never depends on which
+chunk of a campaign it is simulated in.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from crashscene.dsl import Scenario
+from crashscene.scene import SampledActor, SampledScene
+from crashscene.simulate.backend import SimulationError, SimulationSettings
+from crashscene.simulate.embedded import signals, timing
+from crashscene.simulate.embedded.vehicles import VehicleLimits, limits_for
+from crashscene.simulate.embedded.world import RouteArrays
+from crashscene.simulate.roads import ROUTE_DS, Lane, RoadMap, Route
+from crashscene.simulate.tables import driver_dispositions, is_ads
+
+MPH = 0.44704  # [m/s] per mph
+LATERAL_BEHAVIORS = ("change_lane_left", "change_lane_right", "cross_centerline", "overtake", "lose_control",
+                     "leave_road")
+JUNCTION_INTENTS = {"straight": "straight", "left": "left", "right": "right", "u_turn": "u_turn"}
+BEHAVIOR_INTENTS = {"turn_left": "left", "turn_right": "right", "u_turn": "u_turn"}
+OPPOSITE_HEADINGS = ("opposite_direction",)
+
+
+def variation_rng(seed: int, index: int) -> np.random.Generator:
+    """The generator of variation `index` of a batch seeded `seed` (independent of the chunking)."""
+    return np.random.default_rng(np.random.SeedSequence([int(seed) & 0xFFFFFFFF, int(index), 0x5EED]))
+
+
+@dataclass
+class ActorColumn:
+    """What is common to one actor role across the batch."""
+
+    role: str
+    behavior: str
+    actor_type: str
+    is_ads: bool
+    dispositions: frozenset[str]
+    limits: VehicleLimits
+
+
+@dataclass
+class BatchSetup:
+    """Arrays of shape (V, A) unless noted, V variations x A actors."""
+
+    scenario: Scenario
+    settings: SimulationSettings
+    roadmap: RoadMap
+    scenes: list[SampledScene]
+    columns: list[ActorColumn]
+    anchor: int  # actor column of the ADS under test (or the ego role in reproduce mode)
+    routes: RouteArrays
+    route: np.ndarray  # (V, A) route index
+    x: np.ndarray
+    y: np.ndarray
+    yaw: np.ndarray
+    speed: np.ndarray  # [m/s] initial
+    cruise: np.ndarray  # [m/s] desired (after timing scale)
+    length: np.ndarray
+    width: np.ndarray
+    s0: np.ndarray
+    d0: np.ndarray
+    lane_width: np.ndarray
+    entry_control: np.ndarray  # (R, J) CONTROL code of each junction entry of each route
+    entry_group: np.ndarray  # (R, J) signal group (0 anchor axis, 1 cross axis)
+    priority: np.ndarray  # (V, A, A) bool: a must yield to b
+    phase: np.ndarray  # (V,) [s] signal phase
+    hold_until: np.ndarray
+    trigger_time: np.ndarray
+    lateral_target: np.ndarray
+    invalid: list[str | None]  # per variation, the first reason found at setup
+    conflict_time: np.ndarray  # (V,) [s] the anchor's nominal arrival at its first conflict point, inf if none
+    default_speed_limit: float  # [m/s] DSL posted limit, NaN if none
+    lane_width_table: np.ndarray  # (n_lanes,) [m]
+    lane_road: np.ndarray  # (n_lanes,) road ordinal
+    lane_forward: np.ndarray  # (n_lanes,) bool
+    lane_marker: np.ndarray  # (n_lanes,) marker ordinal
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def n_variations(self) -> int:
+        return self.x.shape[0]
+
+    @property
+    def n_actors(self) -> int:
+        return self.x.shape[1]
+
+
+def build(scenario: Scenario, scenes: list[SampledScene], roadmap: RoadMap,
+          settings: SimulationSettings) -> BatchSetup:
+    """Everything the step loop needs, for these scenes."""
+    if not scenes:
+        raise SimulationError("no scenes to simulate")
+    roles = [a.role for a in scenes[0].actors]
+    for scene in scenes:
+        if [a.role for a in scene.actors] != roles:
+            raise SimulationError(f"scene {scene.index}: actors {[a.role for a in scene.actors]} differ from "
+                                  f"scene {scenes[0].index}'s {roles}; a batch needs the same actors in every scene")
+    anchor_role = settings.ego_role if settings.ego_role in roles else roles[0]
+    anchor = roles.index(anchor_role)
+    first = scenes[0].actors
+    columns = [ActorColumn(a.role, a.behavior, a.type, is_ads(a.role, settings),
+                           frozenset(driver_dispositions(a, settings)), limits_for(a.type)) for a in first]
+    n_v, n_a = len(scenes), len(roles)
+
+    def grid(attr: str) -> np.ndarray:
+        return np.array([[getattr(a, attr) for a in scene.actors] for scene in scenes], dtype=float)
+
+    x, y, yaw, speed = grid("x"), grid("y"), grid("yaw"), grid("speed")
+    length, width = grid("length"), grid("width")
+    invalid: list[str | None] = [None] * n_v
+    min_length = 100.0 * math.ceil((float(speed.max(initial=10.0)) * 1.5 * settings.horizon + 60.0) / 100.0)
+
+    # ---- routes: one per distinct (start lane, junction intent), plus synthetic ones for off-road starts
+    route_index: dict[tuple, int] = {}
+    routes: list[Route] = []
+    route = np.zeros((n_v, n_a), dtype=np.int64)
+    lateral_target = np.zeros((n_v, n_a))
+    lane_cache: dict[tuple, Lane | None] = {}
+    for v, scene in enumerate(scenes):
+        for a, actor in enumerate(scene.actors):
+            lane = _start_lane(roadmap, actor, lane_cache)
+            if lane is None:
+                invalid[v] = invalid[v] or f"{actor.role} starts off the road network"
+                key = ("synthetic", round(actor.x, 1), round(actor.y, 1), round(actor.yaw, 3))
+                if key not in route_index:
+                    route_index[key] = len(routes)
+                    routes.append(_straight_route(key, actor, min_length))
+                route[v, a] = route_index[key]
+                continue
+            route_lane, target = _route_lane(roadmap, lane, actor)
+            lateral_target[v, a] = target
+            intent = _junction_intent(actor)
+            key = (route_lane.uid, intent, min_length)
+            if key not in route_index:
+                route_index[key] = len(routes)
+                routes.append(roadmap.route(route_lane.uid, intent, min_length))
+            route[v, a] = route_index[key]
+    arrays = RouteArrays.pack(routes)
+
+    s0 = np.zeros((n_v, n_a))
+    d0 = np.zeros((n_v, n_a))
+    for r, rt in enumerate(routes):
+        mask = route == r
+        if mask.any():
+            s0[mask], d0[mask] = _project_many(rt, x[mask], y[mask])
+
+    lane_width_table = np.array([lane.width for lane in roadmap.lanes])
+    start_lane_idx = arrays.lane[route, np.clip((s0 / ROUTE_DS).astype(int), 0, arrays.lane.shape[1] - 1)]
+    lane_width = np.where(start_lane_idx >= 0, lane_width_table[np.maximum(start_lane_idx, 0)], 3.5)
+    co = arrays.sample(arrays.centerline_offset, route, s0)
+    for a, col in enumerate(columns):
+        lateral_target[:, a] = _lateral_target(col.behavior, lateral_target[:, a], co[:, a], lane_width[:, a],
+                                               d0[:, a])
+
+    # ---- traffic control per junction entry, from the DSL
+    entry_control, entry_group = _entry_controls(scenario, scenes[0], arrays, route[0], s0[0], anchor)
+    priority = _priorities(arrays, route, s0, entry_control)
+
+    # ---- timing plans and signal phases, per variation from its own generator
+    hold = np.zeros((n_v, n_a))
+    trigger = np.full((n_v, n_a), np.inf)
+    scale = np.ones((n_v, n_a))
+    phase = np.zeros(n_v)
+    conflict_time = np.full(n_v, np.inf)
+    runs_red = "CVC_21453" in columns[anchor].dispositions
+    for v, scene in enumerate(scenes):
+        rng = variation_rng(scene.seed, scene.index)
+        _plan_variation(v, scene, rng, columns, anchor, arrays, route, s0, d0, speed, length, entry_control,
+                        lateral_target, hold, trigger, scale, phase, conflict_time, runs_red, settings)
+    cruise = speed * scale
+    speed0 = np.where(hold > 0, 0.0, speed * np.where(scale < 1, scale, 1.0))
+    limit = scenario.road_network.speed_limit_mph
+    road_names = sorted({lane.road for lane in roadmap.lanes})
+    from crashscene.simulate.roads import MARKERS
+
+    return BatchSetup(
+        scenario=scenario, settings=settings, roadmap=roadmap, scenes=scenes, columns=columns, anchor=anchor,
+        routes=arrays, route=route, x=x, y=y, yaw=yaw, speed=speed0, cruise=cruise, length=length, width=width,
+        s0=s0, d0=d0, lane_width=lane_width, entry_control=entry_control, entry_group=entry_group,
+        priority=priority, phase=phase, hold_until=hold, trigger_time=trigger, lateral_target=lateral_target,
+        invalid=invalid, conflict_time=conflict_time, default_speed_limit=limit * MPH if limit else math.nan,
+        lane_width_table=lane_width_table,
+        lane_road=np.array([road_names.index(lane.road) for lane in roadmap.lanes]),
+        lane_forward=np.array([lane.forward for lane in roadmap.lanes]),
+        lane_marker=np.array([MARKERS.index(lane.marker) for lane in roadmap.lanes]),
+    )
+
+
+# ------------------------------------------------------------------ routes
+def _start_lane(roadmap: RoadMap, actor: SampledActor, cache: dict) -> Lane | None:
+    if actor.lane_id and actor.lane_id in roadmap.by_uid:
+        lane = roadmap.by_uid[actor.lane_id]
+        if _heading_agrees(lane, actor):
+            return lane
+    lane_idx, _ = roadmap.lookup(np.array([actor.x]), np.array([actor.y]))
+    if lane_idx[0] >= 0:
+        lane = roadmap.lanes[int(lane_idx[0])]
+        if _heading_agrees(lane, actor):
+            return lane
+    key = (round(actor.x, 1), round(actor.y, 1), round(actor.yaw, 2))
+    if key not in cache:
+        lane = roadmap.lane_at(actor.x, actor.y, actor.yaw)
+        cache[key] = lane if lane is not None and _heading_agrees(lane, actor, tolerance=-0.2) else None
+    return cache[key]
+
+
+def _heading_agrees(lane: Lane, actor: SampledActor, tolerance: float = 0.5) -> bool:
+    pts = lane.points
+    k = int(np.argmin(np.hypot(pts[:, 0] - actor.x, pts[:, 1] - actor.y)))
+    k2 = min(k + 1, len(pts) - 1)
+    k1 = k2 - 1
+    heading = math.atan2(pts[k2, 1] - pts[k1, 1], pts[k2, 0] - pts[k1, 0])
+    return math.cos(heading - actor.yaw) > tolerance
+
+
+def _junction_intent(actor: SampledActor) -> str:
+    if actor.route_intent in JUNCTION_INTENTS:
+        return JUNCTION_INTENTS[actor.route_intent]
+    return BEHAVIOR_INTENTS.get(actor.behavior, "straight")
+
+
+def _route_lane(roadmap: RoadMap, lane: Lane, actor: SampledActor) -> tuple[Lane, float]:
+    """The lane the route follows and the lateral target on it [m] (lane changes follow the target lane)."""
+    change = actor.route_intent if actor.route_intent.startswith("lane_change") else None
+    if change is None and actor.behavior in ("change_lane_left", "change_lane_right"):
+        change = "lane_change_" + actor.behavior.rsplit("_", 1)[1]
+    if change == "lane_change_left":
+        if lane.left:
+            return roadmap.by_uid[lane.left], 0.0
+        return lane, math.nan  # no lane to the left: the change crosses the centre line (set later)
+    if change == "lane_change_right":
+        if lane.right:
+            return roadmap.by_uid[lane.right], 0.0
+        return lane, -lane.width
+    return lane, 0.0
+
+
+def _lateral_target(behavior: str, current: np.ndarray, centre_offset: np.ndarray, lane_width: np.ndarray,
+                    d0: np.ndarray) -> np.ndarray:
+    """Lateral offset [m] a behaviour steers to, on its route."""
+    across = np.where(np.isnan(centre_offset), lane_width, 2.0 * centre_offset)
+    if behavior in ("cross_centerline", "overtake"):
+        return across
+    if behavior == "leave_road":
+        return -(lane_width / 2.0 + 3.5)
+    if behavior in ("change_lane_left", "change_lane_right"):
+        return np.where(np.isnan(current), across, current)
+    return np.nan_to_num(current)
+
+
+def _straight_route(key: tuple, actor: SampledActor, length: float) -> Route:
+    s = np.arange(0.0, length + 1e-9, ROUTE_DS)
+    xy = np.stack([actor.x + s * math.cos(actor.yaw), actor.y + s * math.sin(actor.yaw)], axis=1)
+    n = len(s)
+    return Route(key, xy, np.full(n, actor.yaw), np.zeros(n), np.full(n, -1, dtype=np.int32),
+                 np.full(n, -1, dtype=np.int32), np.full(n, np.nan), np.full(n, np.nan), [])
+
+
+def _project_many(route: Route, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(s, d) of many points on one route, chunked to bound memory."""
+    s_out = np.empty(len(x))
+    d_out = np.empty(len(x))
+    a = route.xy[:-1]
+    seg = route.xy[1:] - a
+    seg_len2 = np.maximum((seg ** 2).sum(axis=1), 1e-12)
+    for start in range(0, len(x), 256):
+        px = x[start:start + 256, None]
+        py = y[start:start + 256, None]
+        rx, ry = px - a[:, 0], py - a[:, 1]
+        u = np.clip((rx * seg[:, 0] + ry * seg[:, 1]) / seg_len2, 0.0, 1.0)
+        fx, fy = rx - seg[:, 0] * u, ry - seg[:, 1] * u
+        dist = np.hypot(fx, fy)
+        k = np.argmin(dist, axis=1)
+        rows = np.arange(len(k))
+        s_out[start:start + 256] = (k + u[rows, k]) * ROUTE_DS
+        cross = seg[k, 0] * ry[rows, k] - seg[k, 1] * rx[rows, k]
+        d_out[start:start + 256] = np.sign(cross) * dist[rows, k]
+    return s_out, d_out
+
+
+# ------------------------------------------------------------------ control and priority
+def _entry_controls(scenario: Scenario, scene: SampledScene, arrays: RouteArrays, route0: np.ndarray,
+                    s0: np.ndarray, anchor: int) -> tuple[np.ndarray, np.ndarray]:
+    """CONTROL code and signal group of every junction entry of every route (from variation 0's layout)."""
+    signs = {str(s) for s in scenario.road_network.traffic_signs}
+    n_r, n_j = arrays.entry_s.shape
+    control = np.zeros((n_r, n_j), dtype=np.int8)
+    group = np.zeros((n_r, n_j), dtype=np.int8)
+
+    def first_entry(a: int) -> int | None:
+        r = int(route0[a])
+        ahead = np.nonzero(arrays.entry_s[r] > s0[a] - 1.0)[0]
+        return int(ahead[0]) if len(ahead) else None
+
+    ego_col = next((a for a, act in enumerate(scene.actors) if act.role == "ego"), anchor)
+    junctions: set[int] = set()
+    roads: dict[str, set[str]] = {"stop_sign": set(), "yield_sign": set()}
+    for a, actor in enumerate(scene.actors):
+        j = first_entry(a)
+        if j is None:
+            continue
+        r = int(route0[a])
+        junctions.add(int(arrays.entry_junction[r, j]))
+        if actor.reference in roads:
+            roads[actor.reference].add(arrays.entry_road[r][j])
+    for sign, controlled in roads.items():
+        if sign in signs and not controlled:
+            j = first_entry(ego_col)
+            if j is not None:
+                controlled.add(arrays.entry_road[int(route0[ego_col])][j])
+    # the anchor's approach heading at each junction defines signal group 0
+    anchor_heading: dict[int, float] = {}
+    ra = int(route0[anchor])
+    for j in range(n_j):
+        if arrays.entry_junction[ra, j] >= 0:
+            anchor_heading.setdefault(int(arrays.entry_junction[ra, j]),
+                                      _heading_at(arrays, ra, arrays.entry_s[ra, j] - 2.0))
+    for r in range(n_r):
+        for j in range(n_j):
+            junction = int(arrays.entry_junction[r, j])
+            if junction < 0 or junction not in junctions:
+                continue
+            road = arrays.entry_road[r][j]
+            if "traffic_light" in signs:
+                control[r, j] = 1
+            elif road in roads["stop_sign"]:
+                control[r, j] = 2
+            elif road in roads["yield_sign"]:
+                control[r, j] = 3
+            heading = _heading_at(arrays, r, arrays.entry_s[r, j] - 2.0)
+            ref = anchor_heading.get(junction, heading)
+            group[r, j] = 0 if abs(math.cos(heading - ref)) > 0.7 else 1
+    return control, group
+
+
+def _heading_at(arrays: RouteArrays, r: int, s: float) -> float:
+    k = int(np.clip(s / ROUTE_DS, 0, arrays.yaw.shape[1] - 1))
+    return float(arrays.yaw[r, k])
+
+
+def _priorities(arrays: RouteArrays, route: np.ndarray, s0: np.ndarray, entry_control: np.ndarray) -> np.ndarray:
+    """(V, A, A): actor a must yield to actor b at their conflict point."""
+    n_v, n_a = route.shape
+    cache: dict[tuple[int, int], bool] = {}
+    out = np.zeros((n_v, n_a, n_a), dtype=bool)
+    for v in range(n_v):
+        for a in range(n_a):
+            for b in range(n_a):
+                if a == b:
+                    continue
+                key = (int(route[v, a]), int(route[v, b]))
+                if key not in cache:
+                    cache[key] = _must_yield(arrays, *key, entry_control)
+                out[v, a, b] = cache[key]
+    return out
+
+
+def _must_yield(arrays: RouteArrays, ra: int, rb: int, entry_control: np.ndarray) -> bool:
+    cs = arrays.conflict_s[ra, rb]
+    if np.isnan(cs):
+        return False
+    ja = _entry_before(arrays, ra, cs)
+    jb = _entry_before(arrays, rb, arrays.conflict_s[rb, ra])
+    if ja is None or jb is None:
+        return False  # the conflict is not at a junction (merges are handled by the lane-change gap check)
+    ca, cb = int(entry_control[ra, ja]), int(entry_control[rb, jb])
+    minor_a, minor_b = ca in (2, 3), cb in (2, 3)
+    if minor_a != minor_b:
+        return minor_a
+    ha = _heading_at(arrays, ra, arrays.entry_s[ra, ja] - 2.0)
+    hb = _heading_at(arrays, rb, arrays.entry_s[rb, jb] - 2.0)
+    rel = math.remainder(hb - ha, 2 * math.pi)
+    oncoming = abs(rel) > 2.4
+    a_left = arrays.entry_maneuver[ra, ja] in (2, 4)
+    b_left = arrays.entry_maneuver[rb, jb] in (2, 4)
+    if a_left and oncoming and not b_left:
+        return True  # a left turn yields to oncoming traffic
+    if ca == 1 and cb == 1:
+        return False  # signals separate the other movements
+    if oncoming:
+        return False
+    return rel > 0.6  # b travels to a's left, i.e. comes from a's right: yield to the right
+
+
+def _entry_before(arrays: RouteArrays, r: int, s: float) -> int | None:
+    """The junction entry at or before station s, if s lies within that junction (or just before it)."""
+    entries = arrays.entry_s[r]
+    idx = np.nonzero(entries <= s + 3.0)[0]
+    if len(idx) == 0:
+        return None
+    j = int(idx[-1])
+    k = int(np.clip(s / ROUTE_DS, 0, arrays.junction.shape[1] - 1))
+    if arrays.junction[r, k] < 0 and s - entries[j] > 3.0:
+        return None
+    return j
+
+
+# ------------------------------------------------------------------ timing
+def _plan_variation(v: int, scene: SampledScene, rng: np.random.Generator, columns: list[ActorColumn], anchor: int,
+                    arrays: RouteArrays, route: np.ndarray, s0: np.ndarray, d0: np.ndarray, speed: np.ndarray,
+                    length: np.ndarray, entry_control: np.ndarray, lateral_target: np.ndarray, hold: np.ndarray,
+                    trigger: np.ndarray, scale: np.ndarray, phase: np.ndarray, conflict_time: np.ndarray,
+                    runs_red: bool,
+                    settings: SimulationSettings) -> None:
+    """Fill row v of the timing arrays (draws from rng in a fixed order)."""
+    n_a = len(columns)
+    draws = {"offset": rng.normal(timing.ARRIVAL_OFFSET_MEAN, timing.ARRIVAL_OFFSET_SD, n_a),
+             "lead": rng.uniform(0.3, 1.5, n_a), "trigger": rng.uniform(1.0, 4.0, n_a),
+             "green": rng.uniform(3.0, 15.0), "spin": rng.choice([-1.0, 1.0], n_a)}
+    ra = route[v, anchor]
+    va = max(speed[v, anchor], 0.5)
+    anchor_col = columns[anchor]
+    anchor_stop = _stop_dist(arrays, ra, s0[v, anchor], entry_control, anchor_col)
+    arrival_anchor = None
+    for a, col in enumerate(columns):
+        r = route[v, a]
+        params = scene.params
+        offset = float(np.clip(draws["offset"][a], -timing.ARRIVAL_OFFSET_MAX, timing.ARRIVAL_OFFSET_MAX))
+        offset = float(params.get(f"{col.role}_ARRIVAL_OFFSET", offset))
+        if col.is_ads:
+            continue
+        if col.behavior in LATERAL_BEHAVIORS:
+            partner = _partner(v, a, anchor, columns, scene, route, s0)
+            if partner is None:
+                trigger[v, a] = float(params.get(f"{col.role}_TRIGGER_TIME", draws["trigger"][a]))
+                if col.behavior == "lose_control":
+                    lateral_target[v, a] = draws["spin"][a]
+                continue
+            gap, lateral = _relative(arrays, r, s0[v, a], scene.actors[partner].x, scene.actors[partner].y)
+            opposite = math.cos(scene.actors[partner].yaw - scene.actors[a].yaw) < -0.3
+            if col.behavior == "lose_control":
+                lateral_target[v, a] = 1.0 if lateral >= 0 else -1.0
+                dist = 2.5
+            else:
+                dist = lateral_target[v, a] - d0[v, a]
+            lead = float(params.get(f"{col.role}_LEAD_TIME", draws["lead"][a]))
+            trigger[v, a] = timing.lateral_trigger(gap, speed[v, a], speed[v, partner], opposite, dist, lead)
+            continue
+        if col.behavior in ("decelerate", "stop"):
+            trigger[v, a] = float(params.get(f"{col.role}_TRIGGER_TIME", draws["trigger"][a]))
+            continue
+        if a == anchor or col.behavior == "static":
+            continue
+        cs_a = arrays.conflict_s[r, ra]
+        cs_e = arrays.conflict_s[ra, r]
+        if np.isnan(cs_a) or cs_a <= s0[v, a] or cs_e <= s0[v, anchor]:
+            continue
+        if arrival_anchor is None:
+            arrival_anchor = timing.arrival_time(cs_e - s0[v, anchor], va, columns[anchor].limits.accel_max,
+                                                 stop_dist=anchor_stop)
+        stop = _stop_dist(arrays, r, s0[v, a], entry_control, col)
+        sc, hd = timing.junction_plan(arrival_anchor + offset, cs_a - s0[v, a], max(speed[v, a], 0.5),
+                                      col.limits.accel_max, stop_dist=stop)
+        scale[v, a], hold[v, a] = sc, hd
+        conflict_time[v] = min(conflict_time[v], arrival_anchor)
+    # signal phase: green for the anchor's axis at its nominal arrival at its first junction
+    entries = arrays.entry_s[ra]
+    ahead = entries[entries > s0[v, anchor]]
+    t_junction = (ahead[0] - s0[v, anchor]) / va if len(ahead) else 5.0
+    green = float(scene.params.get("SIGNAL_GREEN_REMAINING", draws["green"]))
+    phase[v] = float(signals.phase_for(np.array(t_junction), np.array(green), runs_red))
+
+
+def _stop_dist(arrays: RouteArrays, r: int, s0: float, entry_control: np.ndarray, col: ActorColumn) -> float | None:
+    """Distance [m] to the stop line of a stop-controlled first junction the actor will stop at, else None."""
+    entries = arrays.entry_s[r]
+    idx = np.nonzero(entries > s0)[0]
+    if len(idx) == 0 or entry_control[r, idx[0]] != 2 or "CVC_22450" in col.dispositions:
+        return None
+    return float(entries[idx[0]] - s0 - 1.0)
+
+
+def _partner(v: int, a: int, anchor: int, columns: list[ActorColumn], scene: SampledScene, route: np.ndarray,
+             s0: np.ndarray) -> int | None:
+    """The actor whose path a lateral manoeuvre of actor a is aimed at."""
+    if a != anchor:
+        return anchor
+    me = scene.actors[a]
+    behavior = columns[a].behavior
+    best, best_dist = None, math.inf
+    for b, other in enumerate(scene.actors):
+        if b == a:
+            continue
+        opposite = math.cos(other.yaw - me.yaw) < -0.3
+        if behavior in ("cross_centerline", "overtake", "lose_control") and not opposite:
+            continue
+        dist = math.hypot(other.x - me.x, other.y - me.y)
+        if dist < best_dist:
+            best, best_dist = b, dist
+    if best is None and len(scene.actors) > 1:
+        best = next(b for b in range(len(scene.actors)) if b != a)
+    return best
+
+
+def _relative(arrays: RouteArrays, r: int, s: float, x: float, y: float) -> tuple[float, float]:
+    """(gap along route r from station s to the point, lateral offset of the point) [m]."""
+    xy = arrays.xy[r]
+    k = int(np.argmin(np.hypot(xy[:, 0] - x, xy[:, 1] - y)))
+    yaw = arrays.yaw[r, k]
+    dx, dy = x - xy[k, 0], y - xy[k, 1]
+    lateral = -math.sin(yaw) * dx + math.cos(yaw) * dy
+    return k * ROUTE_DS - s, lateral

@@ -1,0 +1,354 @@
+"""The embedded backend: a batched kinematic simulator over (variations x actors), stepped in time.
+
+Per step: the simulator builds every actor's `Observation` (vectorised over
+variations), asks each actor's driver for an `Action`, moves the vehicles with
+a kinematic bicycle model (pure-pursuit steering along the route at the
+commanded lateral offset, acceleration/brake/steering limits per vehicle
+type), and checks every pair of footprints for overlap. Colliding vehicles
+stop where they touch (post-impact motion is not modelled). The only Python
+loops in the step loop run over actors and actor pairs, never over variations.
+"""
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from crashscene.simulate.backend import (
+    BatchResult,
+    SimulationRequest,
+    SimulationSettings,
+    Simulator,
+    check_ego_role,
+)
+from crashscene.simulate.drivers.ads import load_driver
+from crashscene.simulate.drivers.base import (
+    CONTROL_SIGNAL,
+    SIGNAL_NONE,
+    Action,
+    DriverContext,
+    Observation,
+)
+from crashscene.simulate.drivers.behaviors import BehaviorDriver
+from crashscene.simulate.embedded import setup as batch_setup
+from crashscene.simulate.embedded import signals
+from crashscene.simulate.embedded.collisions import rectangles_overlap
+from crashscene.simulate.embedded.record import Recorder
+from crashscene.simulate.roads import STOP_LINE_SETBACK, RoadMap
+
+CHUNK = 500  # variations simulated together (bounds memory; results do not depend on it)
+LATERAL_RATE = 1.2  # [m/s] how fast the lateral reference moves toward the commanded offset
+LOOKAHEAD = (4.0, 25.0)  # [m] pure-pursuit lookahead range
+LOOKAHEAD_TIME = 0.9  # [s]
+SKID_DECEL = 3.0  # [m/s2] while out of control
+
+
+class EmbeddedSimulator(Simulator):
+    """Batched numpy simulator on the scenario's OpenDRIVE map (default backend)."""
+
+    name = "embedded"
+
+    def simulate(self, request: SimulationRequest) -> BatchResult:
+        settings = self.settings
+        check_ego_role(request.scenario, settings)
+        start = time.perf_counter()
+        roadmap = RoadMap.load(request.map_file)
+        recorder = Recorder(roadmap, settings)
+        scenes = list(request.scenes)
+        for first in range(0, len(scenes), CHUNK):
+            chunk = scenes[first:first + CHUNK]
+            batch = batch_setup.build(request.scenario, chunk, roadmap, settings)
+            run_batch(batch, recorder)
+            if request.progress is not None:
+                request.progress(len(chunk))
+        tables = recorder.tables(scenes)
+        return BatchResult(backend=self.name, tables=tables, seconds=time.perf_counter() - start)
+
+
+def make_drivers(batch: batch_setup.BatchSetup, settings: SimulationSettings) -> list:
+    drivers = []
+    n_v = batch.n_variations
+    for a, col in enumerate(batch.columns):
+        driver = load_driver(settings.ads, settings.ads_params) if col.is_ads else BehaviorDriver()
+        ctx = DriverContext(
+            role=col.role, behavior=col.behavior, actor_type=col.actor_type, dispositions=col.dispositions,
+            n_variations=n_v, dt=settings.dt, limits=col.limits, length=batch.length[:, a],
+            width=batch.width[:, a], cruise_speed=batch.cruise[:, a], trigger_time=batch.trigger_time[:, a],
+            hold_until=batch.hold_until[:, a], lateral_target=batch.lateral_target[:, a],
+            initial_offset=batch.d0[:, a], lane_width=batch.lane_width[:, a],
+            params={k: v for k, v in batch.scenes[0].params.items() if str(k).startswith(col.role)},
+        )
+        driver.reset(ctx)
+        drivers.append(driver)
+    return drivers
+
+
+def run_batch(batch: batch_setup.BatchSetup, recorder: Recorder) -> None:
+    """Simulate one set-up batch and hand every step to the recorder."""
+    settings = batch.settings
+    dt, n_steps = settings.dt, settings.steps
+    n_v, n_a = batch.n_variations, batch.n_actors
+    routes = batch.routes
+    r = batch.route
+    limits = batch.columns
+    accel_max = np.array([c.limits.accel_max for c in limits])[None, :]
+    brake_max = np.array([c.limits.brake_max for c in limits])[None, :]
+    steer_max = np.array([c.limits.steer_max for c in limits])[None, :]
+    steer_rate = np.array([c.limits.steer_rate for c in limits])[None, :]
+    speed_max = np.array([c.limits.speed_max for c in limits])[None, :]
+    wheelbase = batch.length * np.array([c.limits.wheelbase_ratio for c in limits])[None, :]
+    drivers = make_drivers(batch, settings)
+    ranges = np.array([getattr(d, "perception_range", math.inf) for d in drivers])
+
+    state = State(batch)
+    recorder.begin(batch)
+    collided_pairs = np.zeros((n_v, n_a, n_a), dtype=bool)
+    _check_collisions(batch, state, collided_pairs, recorder, 0.0, initial=True)
+    lat_cmd = batch.d0.copy()
+    for step in range(n_steps + 1):
+        t = step * dt
+        geo = _geometry(batch, state, t)
+        recorder.record(step, t, state, geo, lat_cmd)
+        if step == n_steps:
+            break
+        accel_cmd = np.zeros((n_v, n_a))
+        for a, driver in enumerate(drivers):
+            obs = _observe(batch, state, geo, a, t, ranges[a])
+            action: Action = driver.step(obs)
+            accel_cmd[:, a] = np.broadcast_to(np.asarray(action.accel, dtype=float), (n_v,))
+            if action.lateral_offset is not None:
+                lat_cmd[:, a] = np.broadcast_to(np.asarray(action.lateral_offset, dtype=float), (n_v,))
+            else:
+                lat_cmd[:, a] = 0.0
+            if action.lose_control is not None:
+                newly = np.asarray(action.lose_control, dtype=bool) & ~state.lost[:, a]
+                spin = np.broadcast_to(np.asarray(action.spin_rate if action.spin_rate is not None else 0.3,
+                                                  dtype=float), (n_v,))
+                state.spin[:, a] = np.where(newly, spin, state.spin[:, a])
+                state.lost[:, a] |= newly
+        _move(batch, state, accel_cmd, lat_cmd, dt, t + dt, accel_max, brake_max, steer_max, steer_rate,
+              speed_max, wheelbase)
+        _check_collisions(batch, state, collided_pairs, recorder, t + dt)
+    recorder.end(batch, state)
+
+
+class State:
+    """Dynamic state, arrays (V, A)."""
+
+    def __init__(self, batch: batch_setup.BatchSetup):
+        self.x = batch.x.copy()
+        self.y = batch.y.copy()
+        self.yaw = batch.yaw.copy()
+        self.v = batch.speed.copy()
+        self.a = np.zeros_like(self.x)
+        self.yaw_rate = np.zeros_like(self.x)
+        self.steer = np.zeros_like(self.x)
+        self.s = batch.s0.copy()
+        self.d = batch.d0.copy()
+        self.d_ref = batch.d0.copy()
+        self.lost = np.zeros(self.x.shape, dtype=bool)
+        self.spin = np.zeros_like(self.x)
+        self.collided = np.zeros(self.x.shape, dtype=bool)
+        self.gone = np.zeros(self.x.shape, dtype=bool)  # reached the end of its route (left the map)
+        self.gone_time = np.full(self.x.shape, np.nan)
+        self.moved = np.zeros_like(self.x)  # [m] distance travelled
+
+
+class Geometry:
+    """Per-step quantities derived from the state and the routes, shared by observations and the recorder."""
+
+    __slots__ = ("route_yaw", "front", "entry", "in_junction_route", "junction_dist", "stop_line_dist", "control",
+                 "maneuver", "junction", "signal", "speed_limit", "lane_width", "route_lane")
+
+
+def _geometry(batch: batch_setup.BatchSetup, state: State, t: float) -> Geometry:
+    routes, r = batch.routes, batch.route
+    g = Geometry()
+    k, _ = routes.index(state.s)
+    g.route_yaw = routes.yaw[r, k]
+    g.route_lane = routes.lane[r, k]
+    g.front = state.s + batch.length / 2
+    entries = routes.entry_s[r]  # (V, A, J)
+    passed = np.sum(entries < g.front[..., None] - 0.5, axis=-1)
+    g.in_junction_route = routes.junction[r, k] >= 0
+    n_j = entries.shape[-1]
+    current = np.where(g.in_junction_route & (passed > 0), passed - 1, passed)
+    has = current < n_j
+    cur = np.minimum(current, n_j - 1)
+    entry_s = np.take_along_axis(entries, cur[..., None], axis=-1)[..., 0]
+    g.entry = np.where(has, cur, -1)
+    g.junction_dist = np.where(has, entry_s - g.front, np.nan)
+    ctrl = batch.entry_control[r, cur]
+    g.control = np.where(has, ctrl, 0).astype(np.int8)
+    g.stop_line_dist = np.where(has & (g.control > 0), entry_s - STOP_LINE_SETBACK - g.front, np.nan)
+    g.maneuver = np.where(has, routes.entry_maneuver[r, cur], 0).astype(np.int8)
+    g.junction = np.where(has, routes.entry_junction[r, cur], -1)
+    group = batch.entry_group[r, cur]
+    sig = signals.signal_state(group, t, batch.phase[:, None])
+    g.signal = np.where(g.control == CONTROL_SIGNAL, sig, SIGNAL_NONE).astype(np.int8)
+    limit = routes.speed_limit[r, k]
+    g.speed_limit = np.where(np.isnan(limit), batch.default_speed_limit, limit)
+    g.lane_width = np.where(g.route_lane >= 0, batch.lane_width_table[np.maximum(g.route_lane, 0)], 3.5)
+    return g
+
+
+def _relative_on_route(batch: batch_setup.BatchSetup, state: State, a: int, b: int) -> tuple[np.ndarray, np.ndarray]:
+    """Station of b's centre on a's route minus a's station, and b's lateral offset from a's route [m]."""
+    routes = batch.routes
+    r = batch.route[:, a]
+    px, py, pyaw = routes.point(r, state.s[:, a])
+    dx, dy = state.x[:, b] - px, state.y[:, b] - py
+    g0 = dx * np.cos(pyaw) + dy * np.sin(pyaw)
+    s_q = state.s[:, a] + g0
+    qx, qy, qyaw = routes.point(r, s_q)
+    ex, ey = state.x[:, b] - qx, state.y[:, b] - qy
+    corr = ex * np.cos(qyaw) + ey * np.sin(qyaw)
+    lateral = -ex * np.sin(qyaw) + ey * np.cos(qyaw)
+    return g0 + corr, lateral
+
+
+def _observe(batch: batch_setup.BatchSetup, state: State, geo: Geometry, a: int, t: float,
+             perception_range: float) -> Observation:
+    n_v, n_a = batch.n_variations, batch.n_actors
+    routes = batch.routes
+    r = batch.route[:, a]
+    v = state.v[:, a]
+    la, wa = batch.length[:, a], batch.width[:, a]
+    lead_gap = np.full(n_v, np.inf)
+    lead_speed = np.full(n_v, np.nan)
+    tgt_front = np.full(n_v, np.inf)
+    tgt_rear = np.full(n_v, np.inf)
+    tgt_rear_speed = np.full(n_v, np.nan)
+    yield_tta = np.full(n_v, np.inf)
+    yield_occ = np.zeros(n_v, dtype=bool)
+    conflict_dist = np.full(n_v, np.nan)
+    target = batch.lateral_target[:, a]
+    others_x = state.x.copy()
+    others_y = state.y.copy()
+    dist_all = np.hypot(state.x - state.x[:, a:a + 1], state.y - state.y[:, a:a + 1])
+    hidden = (dist_all > perception_range) | state.gone
+    hidden[:, a] = False
+    others_x[hidden] = np.nan
+    others_y[hidden] = np.nan
+    for b in range(n_a):
+        if b == a:
+            continue
+        visible = ~hidden[:, b]
+        lb, wb = batch.length[:, b], batch.width[:, b]
+        ds, lat = _relative_on_route(batch, state, a, b)
+        near_route = np.abs(ds) < 150.0
+        speed_along = state.v[:, b] * np.cos(state.yaw[:, b] - routes.point(r, state.s[:, a] + ds)[2])
+        in_path = visible & near_route & (np.abs(lat - state.d[:, a]) < (wa + wb) / 2 + 0.3) & (ds > 0)
+        gap = ds - (la + lb) / 2
+        closer = in_path & (gap < lead_gap)
+        lead_gap = np.where(closer, gap, lead_gap)
+        lead_speed = np.where(closer, speed_along, lead_speed)
+        lane_w = geo.lane_width[:, a]
+        in_target = visible & near_route & (np.abs(lat - target) < lane_w / 2 + wb / 4)
+        ahead = in_target & (gap > -lb) & (ds >= 0)
+        behind = in_target & (ds < 0)
+        tgt_front = np.where(ahead & (gap < tgt_front), np.maximum(gap, 0.0), tgt_front)
+        rear_gap = -ds - (la + lb) / 2
+        closer_rear = behind & (rear_gap < tgt_rear)
+        tgt_rear = np.where(closer_rear, np.maximum(rear_gap, 0.0), tgt_rear)
+        tgt_rear_speed = np.where(closer_rear, speed_along, tgt_rear_speed)
+        # gap acceptance against vehicles with priority
+        prio = batch.priority[:, a, b] & visible
+        if prio.any():
+            cs_a = routes.conflict_s[r, batch.route[:, b]]
+            cs_b = routes.conflict_s[batch.route[:, b], r]
+            sb_front = state.s[:, b] + lb / 2
+            sb_rear = state.s[:, b] - lb / 2
+            clear_zone = wa / 2 + 1.0
+            occupied = prio & (sb_front > cs_b - clear_zone) & (sb_rear < cs_b + clear_zone)
+            approaching = prio & (sb_front <= cs_b - clear_zone)
+            tta = (cs_b - clear_zone - sb_front) / np.maximum(state.v[:, b], 0.1)
+            yield_tta = np.where(approaching & (tta < yield_tta), tta, yield_tta)
+            yield_occ |= occupied
+            mine = cs_a - geo.front[:, a]
+            relevant = prio & (mine > -wb / 2)
+            conflict_dist = np.where(relevant & ~(conflict_dist < mine), mine, conflict_dist)
+    curvature = routes.max_abs_curvature(r, state.s[:, a], np.maximum(20.0, 3.0 * v))
+    return Observation(
+        t=t, dt=batch.settings.dt, x=state.x[:, a], y=state.y[:, a], yaw=state.yaw[:, a], speed=v,
+        accel=state.a[:, a], s=state.s[:, a], d=state.d[:, a], route_remaining=routes.length[r] - state.s[:, a],
+        lane_width=geo.lane_width[:, a], speed_limit=geo.speed_limit[:, a], curvature_ahead=curvature,
+        lead_gap=lead_gap, lead_speed=lead_speed, control=geo.control[:, a], signal=geo.signal[:, a],
+        stop_line_dist=geo.stop_line_dist[:, a], junction_dist=geo.junction_dist[:, a],
+        in_junction=geo.in_junction_route[:, a], maneuver=geo.maneuver[:, a], yield_tta=yield_tta,
+        yield_occupied=yield_occ, conflict_dist=conflict_dist, target_gap_front=tgt_front,
+        target_gap_rear=tgt_rear, target_rear_speed=tgt_rear_speed, others_x=others_x, others_y=others_y,
+        others_yaw=state.yaw, others_speed=state.v, collided=state.collided[:, a],
+    )
+
+
+def _move(batch: batch_setup.BatchSetup, state: State, accel_cmd: np.ndarray, lat_cmd: np.ndarray, dt: float,
+          t_next: float, accel_max, brake_max, steer_max, steer_rate, speed_max, wheelbase) -> None:
+    routes, r = batch.routes, batch.route
+    frozen = state.collided | state.gone
+    # lateral reference moves toward the command at a bounded rate
+    state.d_ref += np.clip(lat_cmd - state.d_ref, -LATERAL_RATE * dt, LATERAL_RATE * dt)
+    lookahead = np.clip(LOOKAHEAD_TIME * state.v + 3.0, *LOOKAHEAD)
+    tx, ty, tyaw = routes.point(r, state.s + lookahead)
+    px = tx - np.sin(tyaw) * state.d_ref
+    py = ty + np.cos(tyaw) * state.d_ref
+    alpha = np.arctan2(py - state.y, px - state.x) - state.yaw
+    alpha = np.remainder(alpha + np.pi, 2 * np.pi) - np.pi
+    steer_cmd = np.arctan2(2.0 * wheelbase * np.sin(alpha), lookahead)
+    state.steer += np.clip(steer_cmd - state.steer, -steer_rate * dt, steer_rate * dt)
+    state.steer = np.clip(state.steer, -steer_max, steer_max)
+
+    accel = np.clip(accel_cmd, -brake_max, accel_max)
+    accel = np.where(state.lost, -SKID_DECEL, accel)
+    v_new = np.clip(state.v + accel * dt, 0.0, speed_max)
+    v_new = np.where(frozen, 0.0, v_new)
+    accel = np.where(frozen, 0.0, (v_new - state.v) / dt)
+    v_mid = 0.5 * (state.v + v_new)
+    yaw_rate = np.where(state.lost, state.spin * np.minimum(v_mid / 5.0, 1.0),
+                        v_mid / wheelbase * np.tan(state.steer))
+    yaw_rate = np.where(frozen, 0.0, yaw_rate)
+    heading = state.yaw + 0.5 * yaw_rate * dt
+    state.x = state.x + v_mid * np.cos(heading) * dt
+    state.y = state.y + v_mid * np.sin(heading) * dt
+    state.yaw = np.remainder(state.yaw + yaw_rate * dt + np.pi, 2 * np.pi) - np.pi
+    state.moved += v_mid * dt
+    state.v = v_new
+    state.a = accel
+    state.yaw_rate = yaw_rate
+
+    # project back onto the route: predict with the route heading, then correct along the tangent
+    _, _, ryaw = routes.point(r, state.s)
+    s_pred = state.s + v_mid * dt * np.cos(state.yaw - ryaw)
+    for _ in range(2):
+        qx, qy, qyaw = routes.point(r, s_pred)
+        ex, ey = state.x - qx, state.y - qy
+        s_pred = s_pred + ex * np.cos(qyaw) + ey * np.sin(qyaw)
+    s_pred = np.clip(s_pred, 0.0, routes.length[r])
+    qx, qy, qyaw = routes.point(r, s_pred)
+    state.d = -(state.x - qx) * np.sin(qyaw) + (state.y - qy) * np.cos(qyaw)
+    state.s = s_pred
+    newly_gone = ~state.gone & (state.s >= routes.length[r] - batch.length / 2 - 0.5) & ~state.lost
+    state.gone_time = np.where(newly_gone, t_next, state.gone_time)
+    state.gone |= newly_gone
+
+
+def _check_collisions(batch: batch_setup.BatchSetup, state: State, collided_pairs: np.ndarray, recorder: Recorder,
+                      t: float, initial: bool = False) -> None:
+    n_a = batch.n_actors
+    for a in range(n_a):
+        for b in range(a + 1, n_a):
+            active = ~(state.gone[:, a] | state.gone[:, b]) & ~collided_pairs[:, a, b]
+            if not active.any():
+                continue
+            hit = active & rectangles_overlap(state.x[:, a], state.y[:, a], state.yaw[:, a], batch.length[:, a],
+                                              batch.width[:, a], state.x[:, b], state.y[:, b], state.yaw[:, b],
+                                              batch.length[:, b], batch.width[:, b])
+            if not hit.any():
+                continue
+            collided_pairs[:, a, b] |= hit
+            recorder.collision(hit, a, b, t, state, initial)
+            if initial:
+                continue  # a spawn overlap invalidates the variation; the vehicles are not stopped
+            state.collided[:, a] |= hit
+            state.collided[:, b] |= hit

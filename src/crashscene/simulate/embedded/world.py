@@ -1,0 +1,124 @@
+"""The static world of one batch: every actor's route packed into arrays, and route-pair conflicts.
+
+Routes are deduplicated (most variations of a scenario start on the same lanes
+with the same intent), padded into (R, K) arrays, and each (variation, actor)
+points at one route by index, so that any per-step geometric query is a numpy
+gather over (V, A).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import shapely
+
+from crashscene.simulate.roads import ROUTE_DS, MANEUVER_CODES, Route
+
+CONTROL_CODES = {"none": 0, "signal": 1, "stop": 2, "yield": 3}
+
+
+@dataclass
+class RouteArrays:
+    """R routes padded to K samples; samples past a route's end repeat its last sample."""
+
+    routes: list[Route]
+    xy: np.ndarray  # (R, K, 2)
+    yaw: np.ndarray  # (R, K)
+    curvature: np.ndarray  # (R, K)
+    lane: np.ndarray  # (R, K)
+    junction: np.ndarray  # (R, K)
+    centerline_offset: np.ndarray  # (R, K)
+    speed_limit: np.ndarray  # (R, K)
+    length: np.ndarray  # (R,) [m]
+    entry_s: np.ndarray  # (R, J) [m] junction entries along the route, inf padded
+    entry_junction: np.ndarray  # (R, J) junction index, -1 padded
+    entry_maneuver: np.ndarray  # (R, J) MANEUVER code
+    entry_road: list[list[str]]  # approach road uid per entry
+    conflict_s: np.ndarray  # (R, R) [m] station on route i where it first meets route j, NaN if never
+    conflict_angle: np.ndarray  # (R, R) [rad] heading of j minus heading of i at that point
+
+    @classmethod
+    def pack(cls, routes: list[Route]) -> RouteArrays:
+        k_max = max(len(r.xy) for r in routes)
+        n = len(routes)
+
+        def pad(values: list[np.ndarray], dtype) -> np.ndarray:
+            out = np.empty((n, k_max) + values[0].shape[1:], dtype=dtype)
+            for i, v in enumerate(values):
+                out[i, : len(v)] = v
+                out[i, len(v):] = v[-1]
+            return out
+
+        j_max = max(1, max(len(r.entries) for r in routes))
+        entry_s = np.full((n, j_max), np.inf)
+        entry_j = np.full((n, j_max), -1, dtype=np.int32)
+        entry_m = np.zeros((n, j_max), dtype=np.int8)
+        entry_road: list[list[str]] = []
+        for i, r in enumerate(routes):
+            entry_road.append([e.approach_road for e in r.entries])
+            for j, e in enumerate(r.entries):
+                entry_s[i, j] = e.s
+                entry_j[i, j] = e.junction
+                entry_m[i, j] = MANEUVER_CODES.index(e.maneuver)
+        conflict_s, conflict_angle = _conflicts(routes)
+        return cls(routes, pad([r.xy for r in routes], float), pad([r.yaw for r in routes], float),
+                   pad([r.curvature for r in routes], float), pad([r.lane for r in routes], np.int32),
+                   pad([r.junction for r in routes], np.int32), pad([r.centerline_offset for r in routes], float),
+                   pad([r.speed_limit for r in routes], float), np.array([r.length for r in routes]),
+                   entry_s, entry_j, entry_m, entry_road, conflict_s, conflict_angle)
+
+    # ------------------------------------------------------------------ gathers
+    def index(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Sample index and interpolation fraction for stations s (any shape)."""
+        f = np.clip(s / ROUTE_DS, 0.0, self.xy.shape[1] - 1.000001)
+        k = f.astype(np.int64)
+        return k, f - k
+
+    def point(self, r: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(x, y, yaw) of the route centre line at station s; r and s broadcast together."""
+        k, u = self.index(s)
+        p0 = self.xy[r, k]
+        p1 = self.xy[r, k + 1]
+        xy = p0 + (p1 - p0) * u[..., None]
+        return xy[..., 0], xy[..., 1], self.yaw[r, k]
+
+    def sample(self, table: np.ndarray, r: np.ndarray, s: np.ndarray) -> np.ndarray:
+        k, _ = self.index(s)
+        return table[r, k]
+
+    def max_abs_curvature(self, r: np.ndarray, s: np.ndarray, ahead: np.ndarray, n: int = 8) -> np.ndarray:
+        """Largest |curvature| [1/m] on [s, s + ahead], sampled at n points."""
+        frac = np.linspace(0.0, 1.0, n)
+        ss = s[..., None] + ahead[..., None] * frac
+        k, _ = self.index(ss)
+        return np.abs(self.curvature[r[..., None], k]).max(axis=-1)
+
+
+def _conflicts(routes: list[Route]) -> tuple[np.ndarray, np.ndarray]:
+    """First meeting point of every ordered pair of routes (stations on the first route)."""
+    n = len(routes)
+    conflict_s = np.full((n, n), np.nan)
+    angle = np.full((n, n), np.nan)
+    lines = [shapely.LineString(r.xy) for r in routes]
+    for i in range(n):
+        for j in range(n):
+            if i == j or routes[i].key[0] == routes[j].key[0]:
+                continue  # the same start lane: following, not crossing
+            meet = lines[i].intersection(lines[j])
+            if meet.is_empty:
+                continue
+            pts = shapely.get_coordinates(meet)
+            s_i = np.array([lines[i].project(shapely.Point(p)) for p in pts])
+            k = int(np.argmin(s_i))
+            s_j = lines[j].project(shapely.Point(pts[k]))
+            conflict_s[i, j] = s_i[k]
+            yi = routes[i].yaw[min(int(s_i[k] / ROUTE_DS), len(routes[i].yaw) - 1)]
+            yj = routes[j].yaw[min(int(s_j / ROUTE_DS), len(routes[j].yaw) - 1)]
+            angle[i, j] = math.remainder(yj - yi, 2 * math.pi)
+    return conflict_s, angle
+
+
+def conflict_pair_s(arrays: RouteArrays, ra: np.ndarray, rb: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Stations of the meeting point on a's route and on b's route, NaN where they never meet."""
+    return arrays.conflict_s[ra, rb], arrays.conflict_s[rb, ra]

@@ -1,0 +1,444 @@
+"""Road geometry for the embedded simulator, built from Scenic's parsed OpenDRIVE network.
+
+`RoadMap.load(path)` parses the map once (`scenic.domains.driving.roads.Network.fromFile`)
+and keeps, per lane, its centre line in the direction of travel, width, successor,
+junction manoeuvres, neighbours and the lateral offset of the road's centre line.
+`RoadMap.route(...)` chains lanes into a route polyline, resampled every `ROUTE_DS`
+metres, with per-sample lane, junction, centre-line offset and speed limit:
+the (s, d) frame in which drivers think (s: station along the route [m],
+d: lateral offset, positive to the left [m]). A raster of the drivable area
+gives the lane and junction under any point in O(1), vectorised.
+"""
+from __future__ import annotations
+
+import math
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import shapely
+
+from crashscene.simulate.backend import SimulationError
+
+ROUTE_DS = 0.5  # [m] spacing of route samples
+GRID_RES = 0.5  # [m] raster cell size of the lane/junction lookup
+STOP_LINE_SETBACK = 1.0  # [m] stop line before the junction entry
+
+MANEUVER_TOKENS = {"STRAIGHT": "straight", "LEFT_TURN": "left", "RIGHT_TURN": "right", "U_TURN": "u_turn"}
+MANEUVER_CODES = ("none", "straight", "left", "right", "u_turn")  # = traces.MANEUVERS
+MARKERS = ("none", "broken_line", "solid_line", "double_solid_line", "solid_and_broken_line", "not_mentioned")
+_MARK_TYPES = {"solid solid": "double_solid_line", "solid": "solid_line", "broken": "broken_line",
+               "broken broken": "broken_line", "solid broken": "solid_and_broken_line",
+               "broken solid": "solid_and_broken_line", "none": "none", "botts dots": "broken_line"}
+
+
+@dataclass
+class Lane:
+    """One lane, its centre line ordered in the direction of travel."""
+
+    index: int
+    uid: str
+    road: str
+    points: np.ndarray  # (N, 2) [m]
+    width: float  # [m]
+    speed_limit: float  # [m/s], NaN if the map does not say
+    successor: str | None
+    maneuvers: list[tuple[str, str, str, str]]  # (token, connecting lane, end lane, junction uid)
+    junction: str | None  # junction uid for connecting lanes inside a junction
+    left: str | None  # same-direction lane to the left
+    right: str | None  # same-direction lane to the right
+    opposite: str | None  # nearest opposite-direction lane across the centre line
+    centerline_offset: float  # [m] from this lane's centre to the road's centre line (left), NaN if one-way
+    marker: str  # MARKERS of the road's centre line
+    forward: bool = True  # travels along the road's reference line (False: the opposite direction)
+    length: float = 0.0
+
+    def __post_init__(self) -> None:
+        self.length = float(np.sum(np.hypot(*np.diff(self.points, axis=0).T)))
+
+
+@dataclass
+class Junction:
+    index: int
+    uid: str
+    polygon: shapely.Geometry
+    signalised: bool
+    incoming_roads: list[str]
+
+
+@dataclass
+class JunctionEntry:
+    """Where a route enters a junction."""
+
+    s: float  # [m] station of the junction entry (end of the approach lane)
+    junction: int  # junction index
+    maneuver: str  # MANEUVER token
+    approach_road: str  # road uid of the approach lane
+    approach_lane: str
+
+
+@dataclass
+class Route:
+    """A polyline through the network, sampled every ROUTE_DS metres."""
+
+    key: tuple
+    xy: np.ndarray  # (K, 2) [m]
+    yaw: np.ndarray  # (K,) [rad]
+    curvature: np.ndarray  # (K,) [1/m]
+    lane: np.ndarray  # (K,) lane index, -1 on synthetic pieces
+    junction: np.ndarray  # (K,) junction index or -1
+    centerline_offset: np.ndarray  # (K,) [m], NaN if one-way
+    speed_limit: np.ndarray  # (K,) [m/s]
+    entries: list[JunctionEntry] = field(default_factory=list)
+
+    @property
+    def length(self) -> float:
+        return (len(self.xy) - 1) * ROUTE_DS
+
+    def project(self, x: float, y: float) -> tuple[float, float]:
+        """(s, d) of a point: station [m] and signed lateral offset [m], left positive."""
+        seg = self.xy[1:] - self.xy[:-1]
+        rel = np.array([x, y]) - self.xy[:-1]
+        seg_len2 = np.maximum(np.einsum("ij,ij->i", seg, seg), 1e-12)
+        u = np.clip(np.einsum("ij,ij->i", rel, seg) / seg_len2, 0.0, 1.0)
+        foot = self.xy[:-1] + seg * u[:, None]
+        dist = np.hypot(*(np.array([x, y]) - foot).T)
+        k = int(np.argmin(dist))
+        s = (k + u[k]) * ROUTE_DS
+        cross = seg[k, 0] * rel[k, 1] - seg[k, 1] * rel[k, 0]
+        d = math.copysign(dist[k], cross) if cross != 0 else 0.0
+        return float(s), float(d)
+
+
+class RoadMap:
+    """Lanes, junctions and a lookup raster of one OpenDRIVE map."""
+
+    _cache: dict[tuple[str, float], RoadMap] = {}
+
+    def __init__(self, path: Path, lanes: list[Lane], junctions: list[Junction]):
+        self.path = path
+        self.lanes = lanes
+        self.by_uid = {lane.uid: lane for lane in lanes}
+        self.junctions = junctions
+        self.junction_by_uid = {j.uid: j for j in junctions}
+        self._routes: dict[tuple, Route] = {}
+        self._build_grid()
+
+    # ---------------------------------------------------------------- loading
+    @classmethod
+    def load(cls, path: str | Path) -> RoadMap:
+        """Parse (and memoise per path and modification time) an OpenDRIVE map."""
+        path = Path(path)
+        if not path.exists():
+            raise SimulationError(f"{path}: map file not found")
+        key = (str(path.resolve()), path.stat().st_mtime)
+        if key not in cls._cache:
+            cls._cache[key] = cls._parse(path)
+        return cls._cache[key]
+
+    @classmethod
+    def _parse(cls, path: Path) -> RoadMap:
+        from scenic.domains.driving.roads import Network
+
+        try:
+            network = Network.fromFile(str(path), useCache=False)
+        except Exception as exc:  # Scenic raises many types on a bad map
+            raise SimulationError(f"{path}: Scenic cannot parse this OpenDRIVE map: {exc}") from exc
+        markers = _center_markers(path)
+        junction_of_road: dict[str, str] = {}
+        junctions: list[Junction] = []
+        for k, inter in enumerate(network.intersections):
+            for man in inter.maneuvers:
+                if man.connectingLane is not None:
+                    junction_of_road[man.connectingLane.road.uid] = inter.uid
+            incoming = sorted({lane.road.uid for lane in inter.incomingLanes})
+            junctions.append(Junction(k, inter.uid, inter.polygon, bool(inter.signals), incoming))
+        lanes: list[Lane] = []
+        for k, lane in enumerate(network.lanes):
+            pts = np.asarray(lane.centerline.points, dtype=float)[:, :2]
+            pts = _dedupe(pts)
+            poly_area = float(lane.polygon.area)
+            length = float(np.sum(np.hypot(*np.diff(pts, axis=0).T))) if len(pts) > 1 else 0.0
+            width = poly_area / length if length > 0 else 3.5
+            succ = lane._successor.uid if lane._successor is not None else None
+            mans = [(MANEUVER_TOKENS.get(m.type.name, "straight"), m.connectingLane.uid, m.endLane.uid,
+                     m.intersection.uid) for m in lane.maneuvers if m.connectingLane is not None]
+            sec = lane.sections[len(lane.sections) // 2]
+            left = _same_direction(sec, sec._laneToLeft)
+            right = _same_direction(sec, sec._laneToRight)
+            opposite, offset = _opposite(lane, pts)
+            speed = float(lane.speedLimit) if lane.speedLimit else math.nan
+            road_id = lane.road.uid
+            lanes.append(Lane(k, lane.uid, road_id, pts, min(max(width, 2.0), 6.0), speed, succ, mans,
+                              junction_of_road.get(road_id), left, right, opposite, offset,
+                              markers.get(road_id, "not_mentioned"), bool(sec.isForward)))
+        return cls(path, lanes, junctions)
+
+    # ---------------------------------------------------------------- lookup raster
+    def _build_grid(self) -> None:
+        all_pts = np.concatenate([lane.points for lane in self.lanes])
+        pad = 10.0
+        self.origin = all_pts.min(axis=0) - pad
+        extent = all_pts.max(axis=0) + pad - self.origin
+        self.shape = (int(extent[0] / GRID_RES) + 1, int(extent[1] / GRID_RES) + 1)
+        lane_grid = np.full(self.shape, -1, dtype=np.int32)
+        junction_grid = np.full(self.shape, -1, dtype=np.int16)
+        # connecting lanes first, so that ordinary lanes win where they overlap a junction's edge
+        order = sorted(self.lanes, key=lambda lane: lane.junction is None)
+        for lane in order:
+            poly = _lane_polygon(lane)
+            self._paint(lane_grid, poly, lane.index)
+        for j in self.junctions:
+            self._paint(junction_grid, j.polygon, j.index)
+        self.lane_grid = lane_grid
+        self.junction_grid = junction_grid
+
+    def _paint(self, grid: np.ndarray, poly: shapely.Geometry, value: int) -> None:
+        x0, y0, x1, y1 = poly.bounds
+        i0, j0 = self._cell(np.array([x0, y0]))
+        i1, j1 = self._cell(np.array([x1, y1]))
+        i0, j0 = max(i0, 0), max(j0, 0)
+        i1, j1 = min(i1 + 1, self.shape[0] - 1), min(j1 + 1, self.shape[1] - 1)
+        ii, jj = np.meshgrid(np.arange(i0, i1 + 1), np.arange(j0, j1 + 1), indexing="ij")
+        cx = self.origin[0] + (ii + 0.5) * GRID_RES
+        cy = self.origin[1] + (jj + 0.5) * GRID_RES
+        inside = shapely.contains_xy(poly, cx, cy)
+        grid[ii[inside], jj[inside]] = value
+
+    def _cell(self, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        ij = np.floor((xy - self.origin) / GRID_RES).astype(np.int64)
+        return ij[..., 0], ij[..., 1]
+
+    def lookup(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Lane index (-1 off-road) and junction index (-1 outside junctions) under each point."""
+        i, j = self._cell(np.stack([np.asarray(x), np.asarray(y)], axis=-1))
+        ok = (i >= 0) & (j >= 0) & (i < self.shape[0]) & (j < self.shape[1])
+        i = np.where(ok, i, 0)
+        j = np.where(ok, j, 0)
+        lane = np.where(ok, self.lane_grid[i, j], -1)
+        junction = np.where(ok, self.junction_grid[i, j], -1)
+        return lane, junction
+
+    def lane_at(self, x: float, y: float, yaw: float | None = None) -> Lane | None:
+        """The lane under a point; with `yaw`, prefer a lane whose direction matches it."""
+        lane_idx, _ = self.lookup(np.array([x]), np.array([y]))
+        candidates = [self.lanes[int(lane_idx[0])]] if lane_idx[0] >= 0 else []
+        point = shapely.Point(x, y)
+        if yaw is not None or not candidates:
+            near = [lane for lane in self.lanes if _lane_polygon(lane).distance(point) < 0.5]
+            candidates = near or candidates
+        if not candidates:
+            return None
+        if yaw is None:
+            return candidates[0]
+        return max(candidates, key=lambda lane: math.cos(_heading_near(lane, x, y) - yaw)
+                   - 0.05 * _lateral_distance(lane, x, y))
+
+    # ---------------------------------------------------------------- routes
+    def route(self, lane_uid: str, intent: str = "straight", min_length: float = 400.0) -> Route:
+        """The route from the start of lane `lane_uid`, taking `intent` at its first junction.
+
+        Later junctions go straight when they can. The route stops where the map ends.
+        `intent` "u_turn" uses a U-turn manoeuvre when the map has one, else a
+        synthetic half circle into the opposite lane.
+        """
+        key = (lane_uid, intent, round(min_length))
+        if key in self._routes:
+            return self._routes[key]
+        if lane_uid not in self.by_uid:
+            raise SimulationError(f"{self.path}: no lane {lane_uid!r} in the map")
+        pieces: list[tuple[np.ndarray, int]] = []
+        entries: list[JunctionEntry] = []
+        lane = self.by_uid[lane_uid]
+        length = 0.0
+        first_junction = True
+        seen = set()
+        while lane is not None and length < min_length and lane.uid not in seen:
+            seen.add(lane.uid)
+            pieces.append((lane.points, lane.index))
+            length += lane.length
+            nxt = None
+            if lane.maneuvers and lane.junction is None:
+                want = intent if first_junction else "straight"
+                choice = _choose_maneuver(lane.maneuvers, want)
+                if choice is not None:
+                    token, connecting, end, junction_uid = choice
+                    entries.append(JunctionEntry(length, self.junction_by_uid[junction_uid].index, token,
+                                                 lane.road, lane.uid))
+                    conn = self.by_uid[connecting]
+                    pieces.append((conn.points, conn.index))
+                    length += conn.length
+                    seen.add(conn.uid)
+                    nxt = self.by_uid.get(end)
+                first_junction = False
+            elif intent == "u_turn" and first_junction and lane.opposite is not None:
+                pieces.append((_half_circle(lane, self.by_uid[lane.opposite]), -1))
+                length += math.pi * abs(lane.centerline_offset)
+                first_junction = False
+                opp = self.by_uid[lane.opposite]
+                pieces.append((_from_point(opp, pieces[-1][0][-1]), opp.index))
+                length += opp.length
+                nxt = self.by_uid.get(opp.successor) if opp.successor else None
+                if nxt is None:
+                    nxt = self._straight_next(opp)
+                seen.add(opp.uid)
+                lane = nxt
+                continue
+            else:
+                nxt = self.by_uid.get(lane.successor) if lane.successor else None
+            lane = nxt
+        route = self._assemble(key, pieces, entries)
+        self._routes[key] = route
+        return route
+
+    def _straight_next(self, lane: Lane) -> Lane | None:
+        if lane.maneuvers:
+            choice = _choose_maneuver(lane.maneuvers, "straight")
+            return self.by_uid.get(choice[1]) if choice else None
+        return None
+
+    def _assemble(self, key: tuple, pieces: list[tuple[np.ndarray, int]], entries: list[JunctionEntry]) -> Route:
+        pts: list[np.ndarray] = []
+        owner: list[np.ndarray] = []
+        for arr, idx in pieces:
+            if pts and np.hypot(*(arr[0] - pts[-1][-1])) < 0.05:
+                arr = arr[1:]
+            if len(arr) == 0:
+                continue
+            pts.append(arr)
+            owner.append(np.full(len(arr), idx))
+        xy = np.concatenate(pts)
+        own = np.concatenate(owner)
+        keep = np.concatenate([[True], np.hypot(*np.diff(xy, axis=0).T) > 1e-6])
+        xy, own = xy[keep], own[keep]
+        cum = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(xy, axis=0).T))])
+        # junction entries were measured on raw lane lengths; re-measure on the stitched polyline
+        raw_len = 0.0
+        lane_starts = {}
+        for arr, idx in pieces:
+            lane_starts.setdefault(idx, raw_len)
+            raw_len += float(np.sum(np.hypot(*np.diff(arr, axis=0).T)))
+        scale = cum[-1] / raw_len if raw_len > 0 else 1.0
+        for entry in entries:
+            entry.s *= scale
+        s = np.arange(0.0, cum[-1] + 1e-9, ROUTE_DS)
+        rx = np.interp(s, cum, xy[:, 0])
+        ry = np.interp(s, cum, xy[:, 1])
+        # a segment belongs to the piece of its end point (each piece's first point was dropped when shared)
+        seg_idx = np.clip(np.searchsorted(cum, s, side="right"), 1, len(own) - 1)
+        lane_idx = own[seg_idx]
+        rxy = np.stack([rx, ry], axis=1)
+        yaw = _smooth_yaw(rxy)
+        curv = np.gradient(np.unwrap(yaw), ROUTE_DS) if len(yaw) > 2 else np.zeros_like(yaw)
+        junction = np.array([self.junction_by_uid[self.lanes[i].junction].index
+                             if i >= 0 and self.lanes[i].junction else -1 for i in lane_idx], dtype=np.int32)
+        offset = np.array([self.lanes[i].centerline_offset if i >= 0 else math.nan for i in lane_idx])
+        speed = np.array([self.lanes[i].speed_limit if i >= 0 else math.nan for i in lane_idx])
+        return Route(key, rxy, yaw, curv, lane_idx.astype(np.int32), junction, offset, speed, entries)
+
+
+# -------------------------------------------------------------------- helpers
+def _same_direction(section, neighbour) -> str | None:
+    """The neighbour's lane uid when it runs in the same direction (Scenic's laneToLeft may be oncoming)."""
+    if neighbour is None or neighbour.isForward != section.isForward:
+        return None
+    return neighbour.lane.uid
+
+
+def _dedupe(pts: np.ndarray) -> np.ndarray:
+    keep = np.concatenate([[True], np.hypot(*np.diff(pts, axis=0).T) > 1e-6])
+    return pts[keep]
+
+
+def _lane_polygon(lane: Lane) -> shapely.Geometry:
+    cached = getattr(lane, "_poly", None)
+    if cached is None:
+        cached = shapely.LineString(lane.points).buffer(lane.width / 2, cap_style="flat")
+        object.__setattr__(lane, "_poly", cached)
+    return cached
+
+
+def _heading_near(lane: Lane, x: float, y: float) -> float:
+    d = np.hypot(lane.points[:, 0] - x, lane.points[:, 1] - y)
+    k = int(np.argmin(d))
+    k2 = min(k + 1, len(lane.points) - 1)
+    k1 = k2 - 1
+    dx, dy = lane.points[k2] - lane.points[k1]
+    return math.atan2(dy, dx)
+
+
+def _lateral_distance(lane: Lane, x: float, y: float) -> float:
+    return float(shapely.LineString(lane.points).distance(shapely.Point(x, y)))
+
+
+def _opposite(lane, pts: np.ndarray) -> tuple[str | None, float]:
+    """The nearest opposite-direction lane and the offset [m] to the centre line between them."""
+    group = lane.group
+    if group is None or group._opposite is None:
+        return None, math.nan
+    opp_lanes = group._opposite.lanes
+    if not opp_lanes:
+        return None, math.nan
+    mid = shapely.Point(*pts[len(pts) // 2])
+    nearest = min(opp_lanes, key=lambda other: shapely.LineString(
+        np.asarray(other.centerline.points)[:, :2]).distance(mid))
+    edge = shapely.LineString(np.asarray(group.leftEdge.points)[:, :2])
+    offset = float(edge.distance(mid))
+    return nearest.uid, offset
+
+
+_FALLBACK = {"u_turn": ("u_turn", "left", "straight", "right"), "left": ("left", "straight", "right"),
+             "right": ("right", "straight", "left")}
+
+
+def _choose_maneuver(maneuvers: list[tuple[str, str, str, str]], want: str) -> tuple[str, str, str, str] | None:
+    """The manoeuvre matching `want`, else the closest one the junction offers."""
+    for pref in _FALLBACK.get(want, ("straight", "right", "left", "u_turn")):
+        for m in maneuvers:
+            if m[0] == pref:
+                return m
+    return None
+
+
+def _half_circle(lane: Lane, opposite: Lane) -> np.ndarray:
+    """A U-turn arc from the end of `lane` into `opposite` (synthetic, for roads without a U-turn manoeuvre)."""
+    end = lane.points[-1]
+    yaw = math.atan2(*(lane.points[-1] - lane.points[-2])[::-1])
+    dist = float(shapely.LineString(opposite.points).distance(shapely.Point(*end)))
+    radius = max(dist / 2, 2.0)
+    centre = end + radius * np.array([-math.sin(yaw), math.cos(yaw)])
+    angles = yaw - math.pi / 2 + np.linspace(0, math.pi, 24)
+    return centre + radius * np.stack([np.cos(angles), np.sin(angles)], axis=1)
+
+
+def _from_point(lane: Lane, point: np.ndarray) -> np.ndarray:
+    """The part of `lane` downstream of its point nearest to `point`."""
+    d = np.hypot(lane.points[:, 0] - point[0], lane.points[:, 1] - point[1])
+    k = int(np.argmin(d))
+    return lane.points[k:] if k < len(lane.points) - 1 else lane.points[-2:]
+
+
+def _smooth_yaw(xy: np.ndarray) -> np.ndarray:
+    if len(xy) < 2:
+        return np.zeros(len(xy))
+    fwd = np.empty_like(xy)
+    fwd[1:-1] = xy[2:] - xy[:-2]
+    fwd[0] = xy[1] - xy[0]
+    fwd[-1] = xy[-1] - xy[-2]
+    return np.arctan2(fwd[:, 1], fwd[:, 0])
+
+
+def _center_markers(path: Path) -> dict[str, str]:
+    """Road uid -> centre-line marker token, read from the OpenDRIVE file (Scenic drops road marks)."""
+    markers: dict[str, str] = {}
+    try:
+        root = ET.parse(path).getroot()
+    except ET.ParseError as exc:
+        raise SimulationError(f"{path}: not valid XML: {exc}") from exc
+    for road in root.iter("road"):
+        mark = road.find("./lanes/laneSection/center/lane/roadMark")
+        if mark is not None:
+            token = _MARK_TYPES.get((mark.get("type") or "").strip().lower(), "not_mentioned")
+            markers[f"road{road.get('id')}"] = token
+    return markers

@@ -1,0 +1,63 @@
+"""Routes and lookups from Scenic's parsed road network (crashscene.simulate.roads)."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from crashscene.simulate.backend import SimulationError
+from crashscene.simulate.roads import ROUTE_DS, RoadMap
+
+from .conftest import LANE, TOWN02
+
+
+def test_four_way_lanes_and_manoeuvres(four_way_map):
+    roadmap = RoadMap.load(four_way_map)
+    lane = roadmap.by_uid["road1_lane0"]
+    assert lane.junction is None and lane.left is None  # the lane to its left runs the other way
+    assert lane.opposite == "road1_lane1"
+    assert lane.centerline_offset == pytest.approx(LANE / 2, abs=0.05)
+    assert sorted(m[0] for m in lane.maneuvers) == ["left", "right", "straight"]
+
+
+@pytest.mark.parametrize("intent, end_heading", [("straight", 0.0), ("left", math.pi / 2), ("right", -math.pi / 2)])
+def test_route_takes_the_intended_manoeuvre(four_way_map, intent, end_heading):
+    roadmap = RoadMap.load(four_way_map)
+    route = roadmap.route("road1_lane0", intent)
+    assert len(route.entries) == 1 and route.entries[0].maneuver == intent
+    assert route.entries[0].s == pytest.approx(150.0, abs=1.0)
+    assert math.cos(route.yaw[-1] - end_heading) > 0.99
+    assert np.all(np.hypot(*np.diff(route.xy, axis=0).T) < ROUTE_DS + 1e-6)
+    inside = route.junction >= 0
+    assert inside.any() and not inside[0] and not inside[-1]
+    # lanes along the route: the approach lane, a connecting lane, the exit lane
+    names = [roadmap.lanes[i].uid for i in dict.fromkeys(route.lane.tolist())]
+    assert names[0] == "road1_lane0" and roadmap.lanes[route.lane[-1]].junction is None and len(names) == 3
+
+
+def test_project_and_lookup(four_way_map):
+    roadmap = RoadMap.load(four_way_map)
+    route = roadmap.route("road1_lane0", "straight")
+    s, d = route.project(50.0, 0.0)
+    assert s == pytest.approx(50.0, abs=0.01) and d == pytest.approx(LANE / 2, abs=0.01)
+    lane, junction = roadmap.lookup(np.array([50.0, 50.0, 162.0, 50.0]), np.array([-1.75, 1.75, 0.0, 30.0]))
+    assert [roadmap.lanes[k].uid if k >= 0 else None for k in lane[[0, 1, 3]]] == ["road1_lane0", "road1_lane1", None]
+    assert junction[2] >= 0 and junction[0] == -1
+    assert roadmap.lane_at(50.0, 1.75, math.pi).uid == "road1_lane1"
+
+
+def test_town02_parses_with_signals_and_routes():
+    roadmap = RoadMap.load(TOWN02)
+    assert len(roadmap.lanes) > 50 and any(j.signalised for j in roadmap.junctions)
+    route = roadmap.route(roadmap.lanes[0].uid, "right", min_length=300)
+    assert route.length >= 300 and route.entries
+
+
+def test_centre_line_marker_is_read_from_the_file(straight_map):
+    assert RoadMap.load(straight_map).by_uid["road1_lane0"].marker == "double_solid_line"
+
+
+def test_missing_map_is_a_clear_error(tmp_path):
+    with pytest.raises(SimulationError, match="map file not found"):
+        RoadMap.load(tmp_path / "nope.xodr")
