@@ -240,6 +240,8 @@ def scene_result(scene: SampledScene, tracks: dict[str, Track], dt: float, map_f
 ROUTE_INTENTS = ("straight", "left", "right", "u_turn")  # intents RoadMap.route turns at junctions
 LOST_GRIP = 0.8 * 9.81  # [m/s2] lateral acceleration beyond dry-road friction: the actor is skidding
 LANE_CHANGE_RATE = 0.3  # [m/s] lateral speed across the lane above which an actor counts as changing lanes
+# render's `controlled_by` (the DSL sign on the actor's approach) -> traces.CONTROLS
+CONTROL_OF_DEVICE = {"traffic_light": "signal", "stop_sign": "stop", "yield_sign": "yield"}
 
 
 def map_columns(scene: SampledScene, tracks: dict[str, Track], dt: float, map_file) -> dict[str, list]:
@@ -255,8 +257,8 @@ def map_columns(scene: SampledScene, tracks: dict[str, Track], dt: float, map_fi
     road_map = RoadMap.load(map_file)
     out: dict[str, list] = {name: [] for name in (
         "lane_id", "route_s", "opposing_lane", "off_road", "centerline_marker", "centerline_intrusion",
-        "in_junction", "junction_id", "maneuver", "stop_line_dist", "speed_limit", "lane_change",
-        "target_lane_id", "lost_control")}
+        "in_junction", "junction_id", "maneuver", "control", "signal", "stop_line_dist", "speed_limit",
+        "lane_change", "target_lane_id", "lost_control")}
     for actor in scene.actors:
         for name, values in _actor_map_columns(road_map, actor, tracks[actor.role], dt).items():
             out[name].extend(values)
@@ -298,7 +300,8 @@ def _actor_map_columns(road_map, actor: SampledActor, track: Track, dt: float) -
     if route is None:  # no lane to start from (off the map): nothing along a route is known
         columns.update({"route_s": [math.nan] * n, "centerline_marker": [None] * n,
                         "centerline_intrusion": [math.nan] * n, "junction_id": junction_uid,
-                        "maneuver": ["none"] * n, "stop_line_dist": [math.nan] * n})
+                        "maneuver": ["none"] * n, "control": ["none"] * n, "signal": ["none"] * n,
+                        "stop_line_dist": [math.nan] * n})
         return columns
     s, d, k = project_track(route.xy, track.x, track.y)
     route_lane = route.lane[k]
@@ -307,17 +310,24 @@ def _actor_map_columns(road_map, actor: SampledActor, track: Track, dt: float) -
     rel_route = wrap_angle(track.yaw - route.yaw[k])
     reach = actor.length / 2 * np.abs(np.sin(rel_route)) + actor.width / 2 * np.abs(np.cos(rel_route))
     columns["centerline_intrusion"] = (d + reach - route.centerline_offset[k]).tolist()  # NaN on one-way roads
-    maneuver, stop_dist, approaching = ["none"] * n, [math.nan] * n, [None] * n
+    maneuver, control, stop_dist, approaching = ["none"] * n, ["none"] * n, [math.nan] * n, [None] * n
     exits = [_junction_exit(route, entry.s) for entry in route.entries]
+    # the DSL's sign governs the approach to the scenario's junction, the first on the route
+    first_control = CONTROL_OF_DEVICE.get(str(actor.properties.get("controlled_by")), "none")
     front = s + actor.length / 2
     for step in range(n):
-        for entry, exit_s in zip(route.entries, exits):
+        for number, (entry, exit_s) in enumerate(zip(route.entries, exits)):
             if s[step] - actor.length / 2 < exit_s:  # not yet clear of this junction
                 maneuver[step] = entry.maneuver
                 approaching[step] = road_map.junctions[entry.junction].uid
-                stop_dist[step] = float(entry.s - STOP_LINE_SETBACK - front[step])
+                control[step] = first_control if number == 0 else "none"
+                if control[step] != "none":  # a stop line only where a device governs the approach
+                    stop_dist[step] = float(entry.s - STOP_LINE_SETBACK - front[step])
                 break
     columns["maneuver"] = maneuver
+    columns["control"] = control
+    # Scenic's simulators have no signal states: unknown (null) on signalised approaches
+    columns["signal"] = [None if c == "signal" else "none" for c in control]
     columns["junction_id"] = [j if j is not None else a for j, a in zip(junction_uid, approaching)]
     columns["stop_line_dist"] = stop_dist
     return columns
