@@ -92,6 +92,7 @@ class _Vehicle:
     role: str  # ego, npc1, ...
     direction: str | None = None  # north|south|east|west
     lane_side: str | None = None  # left|right|middle lane of its direction
+    lane_number: int | None = None  # NHTSA "number two lane", counted from the right edge
     type: str = "car"
     behavior: str = "go_forward"
     behavior_quote: str | None = None
@@ -224,6 +225,9 @@ def _direction_of(state: _State, label: str) -> tuple[str | None, str | None]:
                 side = "left" if "left" in lane.group(1).lower() or lane.group(1).lower() == "inboard" else \
                     "right" if "right" in lane.group(1).lower() or lane.group(1).lower() == "outboard" else "middle"
             state.note(f"actors.{state.vehicles[label].role}.position", sentence)
+            number = re.search(rf"\bnumber\s+{_NUM}\b[^.]{{0,30}}?\blane", cut, re.I)
+            if number:
+                state.vehicles[label].lane_number = _count(number.group(1))
             return next(g for g in match.groups() if g).lower(), side
     return None, None
 
@@ -345,6 +349,8 @@ def _road_network(state: _State) -> dict:
         state.note("road_network.number_of_ways", _around(road_text, match) if match else "sketch: median")
     _traffic_controls(state)
     road_type, curve_direction = _road_type(state)
+    if road_type in ("intersection", "t_intersection"):
+        _sketch_devices(state)
     ways = _ways(state, road_text)
     lanes = _lanes(state, road_text, ways)
     speed = _speed_limit(state)
@@ -379,6 +385,13 @@ def _traffic_controls(state: _State) -> None:
                              r"\b(?:two|four|2|4)[- ]way stop", text, re.I):
         state.signs.add("stop_sign")
         state.note("road_network.traffic_signs", _around(text, match))
+        sentence = next((x for x in state.t.sentences if match.group(0) in x and re.search(
+            re.escape(text[max(0, match.start() - 20):match.end()]), x)), "")
+        approach = re.search(rf"\b{_DIR}bound\s+(?:roadway|road|approach|lanes?|traffic|leg|direction)", sentence, re.I)
+        if approach:
+            state.stop_controlled.update(v.label for v in state.vehicles.values()
+                                         if v.direction == approach.group(1).lower())
+            continue
         label = _label_at(text, match.start()) or _label_near_after(text, match.end())
         if label:
             state.stop_controlled.add(label)
@@ -389,6 +402,17 @@ def _traffic_controls(state: _State) -> None:
             label = _label_at(text, match.start())
             if label:
                 state.yield_controlled.add(label)
+
+
+def _sketch_devices(state: _State) -> None:
+    """Devices read on the sketch of a junction that crossing traffic uses (text wins when it names controls)."""
+    if state.no_controls or state.signs or not _has_cross_traffic(state):
+        return
+    for fact, sign in (("stop sign", "stop_sign"), ("yield sign", "yield_sign"), ("traffic signal", "traffic_light"),
+                       ("flashing red signal", "stop_sign")):
+        if state.fact_texts(fact):
+            state.signs.add(sign)
+            state.note("road_network.traffic_signs", f"sketch: {fact}")
 
 
 def _label_near_after(text: str, position: int) -> str | None:
@@ -450,7 +474,7 @@ def _as_ego_sees_it(state: _State, text: str, match: re.Match, side: str) -> str
     end = text.find(".", match.end())
     sentence = text[start: end if end > 0 else len(text)]
     ego = state.vehicles["V1"]
-    owner = re.search(r"\b(?:for|in)\s+(V[1-9])\b|\b(V[1-9])'s\b", sentence)
+    owner = re.search(r"\b(?i:for|in)\s+(V[1-9])\b|\b(V[1-9])'s\b", sentence)
     other = None
     if owner:
         other = state.vehicles.get(owner.group(1) or owner.group(2))
@@ -618,6 +642,21 @@ def _speed_limit(state: _State) -> int | None:
     return None
 
 
+def _on_ego_road(state: _State, pattern: str, text: str, window: int = 10_000) -> re.Match | None:
+    """The first match of `pattern` not in a sentence about the crossing road (another travel axis than V1's)."""
+    ego = state.vehicles["V1"].direction
+    axis = {"north": "ns", "south": "ns", "east": "ew", "west": "ew"}.get(ego or "")
+    for match in re.finditer(pattern, text, re.I):
+        start = max(text.rfind(". ", 0, match.start()), match.start() - window, 0)
+        head = text[start:match.start()]
+        named = re.findall(r"\b(north|south|east|west)(?:bound|[/-]|\s*&)", head, re.I)
+        axes = {"ns" if d.lower() in ("north", "south") else "ew" for d in named}
+        if axis and axes and axis not in axes:
+            continue
+        return match
+    return None
+
+
 def _marker(state: _State, road_text: str, ways: int) -> str:
     text = state.t.text
     sketch_text = " ".join(state.fact_texts("text: "))
@@ -630,9 +669,9 @@ def _marker(state: _State, road_text: str, ways: int) -> str:
         (r"no (?:cent(?:er|re) ?line|pavement|lane) markings?|unmarked|unpaved|gravel road|dirt road", "none"),
         (r"single solid (?:yellow )?(?:cent(?:er|re) ?)?line|solid (?:yellow )?cent(?:er|re) ?line", "solid_line"),
     ):
-        match = re.search(pattern, text, re.I) or re.search(pattern, sketch_text, re.I)
+        match = _on_ego_road(state, pattern, text) or _on_ego_road(state, pattern, sketch_text, window=80)
         if match:
-            source = text if re.search(pattern, text, re.I) else sketch_text
+            source = text if _on_ego_road(state, pattern, text) else sketch_text
             state.note("road_network.road_marker", _around(source, match) if source is text else f"sketch: {match.group(0)}")
             return token
     if ways == 1 and state.divided:
@@ -671,6 +710,9 @@ _LANE_CHANGE = r"(?:veer(?:ed|ing)?|mov(?:ed|ing)|chang(?:ed|ing) lanes|steer(?:
                r"middle|center|inside|outside|passing|(?:north|south|east|west)bound)\s*((?:north|south|east|west)bound)?"
 _LANE_CHANGE_SIDE = r"chang(?:e|ed|ing|es) lanes? (?:to|into) the (left|right)|lane change to the (left|right)|" \
                     r"(?:merge|merged|merging) (?:to the )?(left|right)"
+# entering a freeway from an on-ramp: ramps join from the right, so the merge is a change to the left
+_RAMP_MERGE = r"(?:attempt\w* to|began to|was)\s+(?:enter|merg\w*)\w*\s+(?:onto\s+|into\s+)?(?:the\s+)?(?:same\s+)?" \
+              r"(?:freeway|interstate|highway|expressway|traffic|travel lanes?)"
 _TURN_LEFT = r"turn(?:ed|ing|s)?\s+left|left[- ]turn(?:ing)?(?! lane)|make a left|making a left|initiat\w+ a left"
 _TURN_RIGHT = r"turn(?:ed|ing|s)?\s+right|right[- ]turn(?:ing)?(?! lane)|make a right|making a right"
 _U_TURN = r"\bu[- ]turn(?:ing|ed)?\b(?! lane)"
@@ -687,12 +729,14 @@ def _behaviors(state: _State) -> None:
     spans: dict[str, list[tuple[int, str, re.Match]]] = {label: [] for label in state.vehicles}
 
     leaders = [v.label for v in state.vehicles.values() if v.role != "ego" and re.search(
-        rf"\b{v.label}\b[^.]{{0,80}}\b(?:ahead of|in front of) (?:V1|him|her)\b", state.t.text, re.I)]
+        rf"\b{v.label}\b[^.]{{0,200}}\b(?:ahead of|in front of) (?:V1|him|her)\b", state.t.text, re.I)]
 
     def collect(pattern: str, token: str) -> None:
         for match in re.finditer(pattern, pre, re.I):
+            sentence_head = pre[max(pre.rfind(". ", 0, match.start()), pre.rfind("; ", 0, match.start()), 0):match.start()]
             clause = pre[max(pre.rfind(". ", 0, match.start()), pre.rfind(", ", 0, match.start()), 0):match.start()]
-            multi = re.search(r"((?:V[1-9](?:,\s*|\s+and\s+|,\s+and\s+))+V[1-9])\s+(?:also\s+|all\s+|both\s+)?$", clause)
+            multi = re.search(r"((?:V[1-9](?:,\s*|\s+and\s+|,\s+and\s+))+V[1-9])\s+(?:also\s+|all\s+|both\s+)?$",
+                              sentence_head)
             if multi:
                 for label in re.findall(r"V[1-9]", multi.group(1)):
                     if label in spans:
@@ -721,6 +765,8 @@ def _behaviors(state: _State) -> None:
     collect(_OVERTAKE, "overtake")
     collect(_LANE_CHANGE, "lane_change")
     collect(_LANE_CHANGE_SIDE, "lane_change_side")
+    if re.search(r"\b(?:entrance|on)[- ]ramp\b|\bacceleration lane\b", pre, re.I):
+        collect(_RAMP_MERGE, "ramp_merge")
     collect(_TURN_LEFT, "turn_left")
     collect(_TURN_RIGHT, "turn_right")
     collect(_U_TURN, "u_turn")
@@ -779,6 +825,9 @@ def _resolve(state: _State, vehicle: _Vehicle, found: list[tuple[int, str, re.Ma
             if side in ("left", "right"):
                 first_event = (f"change_lane_{side}", match)
                 break
+        if token == "ramp_merge":
+            first_event = ("change_lane_left", match)
+            break
         if token == "lane_change_side":
             first_event = (f"change_lane_{next(g for g in match.groups() if g).lower()}", match)
             break
@@ -897,6 +946,14 @@ def _npc_position(state: _State, ego: _Vehicle, npc: _Vehicle, devices: set[str]
 
 def _same_direction_relation(state: _State, ego: _Vehicle, npc: _Vehicle, text: str) -> str:
     label = npc.label
+    if npc.behavior == "static" and re.search(rf"\b{label}\b[^.]{{0,120}}\b(?:parked|stopped|disabled)\b[^.]{{0,40}}"
+                                              rf"\b(?:shoulder|curb|roadside|side of the road)", text, re.I):
+        side = re.search(rf"\b{label}\b[^.]{{0,160}}\b(left|median|inside)\b[^.]{{0,10}}shoulder", text, re.I)
+        return "left" if side else "right"
+    if ego.lane_number and npc.lane_number and ego.lane_number != npc.lane_number:
+        return "left" if npc.lane_number > ego.lane_number else "right"
+    if npc.behavior in ("change_lane_left", "change_lane_right") and not (ego.lane_side and npc.lane_side):
+        return "right" if npc.behavior == "change_lane_left" else "left"  # it comes from the side it leaves
     if ego.lane_side and npc.lane_side and ego.lane_side != npc.lane_side and "middle" not in (ego.lane_side,
                                                                                                npc.lane_side):
         if not re.search(rf"{label}\b[^.]{{0,60}}\bbehind|behind V1|following V1", text, re.I) or \
@@ -1015,26 +1072,39 @@ def _yield_approaches(state: _State) -> set[str]:
             ("from_left", "from_right")}
 
 
+_NO_LABEL = r"(?:(?!\bV[1-9]\b)[^.]){0,100}?"  # words that name no other vehicle
+_STRIKE = r"(?:struck|strikes?|striking|impacted|rear-ended|hit|contacted)"
+_REAR = r"(?:the\s+)?(?:rear|back)(?:\s+(?:plane|corner|end|bumper))?\s+of\s+(V[1-9])"
+
+
 def _rear_end_oracle(state: _State, actors: dict, add) -> None:
+    """Striking the back of a moving vehicle -> CVC_21703, of a stopped one -> CVC_22350 (convention 9).
+
+    Only an impact the striker drives into counts: one it is pushed into ("caused V1 to strike") is an outcome.
+    """
     text = state.t.text
     for label, vehicle in state.vehicles.items():
-        match = re.search(rf"(?:(?:front|side|corner)(?: plane)? of {label}\b[^.]{{0,30}}(?:struck|impacted|hit|contacted)\s+"
-                          rf"(?:the\s+)?(?:rear|back)(?: plane| corner| end)? of (V[1-9])|\b{label}\b[^.]{{0,100}}(?:struck|striking|strike|impacted|rear-ended|hit)\s+"
-                          rf"(?:the\s+)?(?:rear|back)(?: plane| end)? of (V[1-9]))", text, re.I)
-        if not match:
-            continue
-        struck_label = match.group(1) or match.group(2)
-        struck = state.vehicles.get(struck_label)
-        if struck is None:
-            continue
-        if struck.behavior in ("stop", "static") or re.search(rf"{struck_label}\b[^.]{{0,60}}stopped|stopped {struck_label}",
-                                                              state.t.text, re.I):
-            add("CVC_22350", "unsafe_speed", vehicle.role,
-                f"{label} struck the stopped {struck_label} from behind: too fast for the traffic ahead.",
-                _around(text, match))
-        else:
-            add("CVC_21703", "following_too_closely", vehicle.role, f"{label} struck the moving {struck_label} from behind.",
-                _around(text, match))
+        if vehicle.behavior in ("leave_road", "lose_control", "static"):
+            continue  # off the road or out of control: not a following-distance or speed-in-traffic case
+        for match in re.finditer(rf"(?:(?:front|side|corner)(?:\s+plane)?\s+of\s+{label}\b{_NO_LABEL}{_STRIKE}\s+{_REAR}|"
+                                 rf"\b{label}\b{_NO_LABEL}{_STRIKE}\s+{_REAR})", text, re.I):
+            head = text[max(0, match.start() - 40):match.start()]
+            if re.search(r"\b(?:caus\w+|push\w*|forc\w+|redirect\w*|propell\w+)\s+(?:\w+\s+)?$", head, re.I):
+                continue
+            struck_label = match.group(1) or match.group(2)
+            struck = state.vehicles.get(struck_label)
+            if struck is None or struck_label == label:
+                continue
+            stopped = struck.behavior in ("stop", "static") or re.search(
+                rf"{struck_label}\b[^.]{{0,60}}\bstopped|stopped {struck_label}", text, re.I)
+            if stopped:
+                add("CVC_22350", "unsafe_speed", vehicle.role,
+                    f"{label} struck the stopped {struck_label} from behind: too fast for the traffic ahead.",
+                    _around(text, match))
+            else:
+                add("CVC_21703", "following_too_closely", vehicle.role,
+                    f"{label} struck the moving {struck_label} from behind.", _around(text, match))
+            break
 
 
 # ---------------------------------------------------------------- summary
