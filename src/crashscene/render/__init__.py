@@ -1,0 +1,214 @@
+"""Render a DSL scenario into a Scenic 3.1 program (`scenario.scenic`) and its map (`map.xodr`).
+
+One universal Jinja2 template (templates/scenario.scenic.j2) with a fixed
+prelude of placement helpers; the converter's plan supplies only tokens and
+numbers. Every value printed into code goes through `py` (closed-vocabulary
+tokens and finite numbers only, else RenderError); free text goes through
+`comment` (one escaped ASCII line) and only into comments.
+"""
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import jinja2
+
+from crashscene.convert import (
+    BLUEPRINT_DIMS,
+    Placement,
+    Range,
+    RenderError,
+    RenderPlan,
+    convert,
+    placement_order,
+    scenario_hash,
+    speed_range,
+)
+from crashscene.dsl.model import Scenario
+
+__all__ = ["Rendered", "RenderError", "render", "render_program"]
+
+PROGRAM_NAME = "scenario.scenic"
+MAP_NAME = "map.xodr"
+SAFE_TOKEN = re.compile(r"^[A-Za-z0-9_.,\-]{0,200}$")  # tokens, blueprint ids, comma-joined code lists
+LOSS_STEER = (-0.6, 0.6)  # [-] steering held after losing control
+
+
+@dataclass(frozen=True)
+class Rendered:
+    program: Path
+    map: Path
+    scenario_hash: str
+    town: str | None = None
+
+
+def py(value: Any) -> str:
+    """Print a value as a Python literal, refusing anything but tokens, numbers, None and containers of them."""
+    if value is None or isinstance(value, bool):
+        return repr(value)
+    if isinstance(value, int):
+        return repr(value)
+    if isinstance(value, float):
+        if not math.isfinite(value):
+            raise RenderError(f"non-finite number {value!r} cannot be rendered")
+        return repr(round(value, 6))
+    if isinstance(value, str):
+        if not SAFE_TOKEN.match(value):
+            raise RenderError(f"value {value!r} is not a closed-vocabulary token; refusing to render it into code")
+        return repr(value)
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(py(v) for v in value) + "]"
+    if isinstance(value, dict):
+        return "{" + ", ".join(f"{py(str(k))}: {py(v)}" for k, v in value.items()) + "}"
+    raise RenderError(f"cannot render a {type(value).__name__} into code")
+
+
+def comment(value: Any) -> str:
+    """Free text as one inert comment line: printable ASCII, escapes for everything else, Jinja kept literal."""
+    text = "" if value is None else str(value)
+    text = text.encode("unicode_escape").decode("ascii")
+    return "".join(ch if 32 <= ord(ch) < 127 else "?" for ch in text)[:500]
+
+
+def rng(value: Range | dict) -> str:
+    """A sampled parameter as Scenic code: Range(low, high), or a constant when low == high."""
+    low, high = (value["low"], value["high"]) if isinstance(value, dict) else (value.low, value.high)
+    if low == high:
+        return py(float(low))
+    return f"Range({py(float(low))}, {py(float(high))})"
+
+
+_ENV = jinja2.Environment(loader=jinja2.PackageLoader("crashscene.render", "templates"), autoescape=False,
+                          undefined=jinja2.StrictUndefined, keep_trailing_newline=True)
+_ENV.filters.update(py=py, comment=comment, rng=rng)
+
+
+def _behavior_call(actor: dict[str, Any]) -> str:
+    p = "globalParameters." + actor["prefix"]
+    b = actor["behavior"]
+    if b == "static":
+        return "CsStatic()"
+    if b == "stop":
+        return f"CsStop({p}_STOP_DURATION, {p}_PROCEED_SPEED)"
+    if b == "decelerate":
+        return f"CsDecelerate({p}_SPEED, {p}_MANEUVER_TIME)"
+    if b in ("change_lane_left", "change_lane_right"):
+        return f"CsChangeLane({p}_SPEED, {p}_MANEUVER_TIME, {py(b.rsplit('_', 1)[1])})"
+    if b == "cross_centerline":
+        return f"CsCrossCenterline({p}_SPEED, {p}_MANEUVER_TIME, 0)"
+    if b == "overtake":
+        return f"CsCrossCenterline({p}_SPEED, {p}_MANEUVER_TIME, 3)"
+    if b == "lose_control":
+        return f"CsLoseControl({p}_SPEED, {p}_MANEUVER_TIME, {p}_LOSS_STEER)"
+    if b == "leave_road":
+        return f"CsLeaveRoad({p}_SPEED, {p}_MANEUVER_TIME)"
+    return f"CsCruise({p}_SPEED)"  # go_forward, turn_left, turn_right, u_turn
+
+
+def _needs(actor, actors) -> dict[str, int]:
+    """Lanes an actor's start lane must offer: same-direction lanes left/right, an oncoming lane."""
+    left = right = 0
+    oncoming = actor.behavior in ("cross_centerline", "overtake")
+    if actor.behavior == "change_lane_left":
+        left = 1
+    if actor.behavior == "change_lane_right":
+        right = 1
+    for other in actors:
+        if other.placement_ref != actor.role or other.role == actor.role:
+            continue
+        if other.placement is Placement.SIDE_LEFT:
+            left = max(left, 1)
+        elif other.placement is Placement.SIDE_RIGHT:
+            right = max(right, 1)
+        elif other.placement is Placement.ONCOMING:
+            oncoming = True
+    return {"left": left, "right": right, "oncoming": int(oncoming)}
+
+
+def render_program(plan: RenderPlan, *, scenario_hash_value: str, summary: str | None = None,
+                   carla_town: str | None = None, map_name: str = MAP_NAME) -> str:
+    """The Scenic program text for a plan (pure: no files touched)."""
+    from crashscene import __version__ as version
+
+    actors = []
+    lengths = {}
+    for actor in placement_order(plan.actors):
+        prefix = "EGO" if actor.role == "ego" else actor.role
+        pool = actor.blueprints
+        for bp in pool:
+            if bp not in BLUEPRINT_DIMS:
+                raise RenderError(f"blueprint {bp!r} has no dimensions in convert.BLUEPRINT_DIMS")
+        if len(pool) == 1:
+            bp_expr = py(pool[0])
+            length_expr, width_expr = py(BLUEPRINT_DIMS[pool[0]][0]), py(BLUEPRINT_DIMS[pool[0]][1])
+        else:
+            bp_expr = f"_bp_{actor.role}"
+            length_expr, width_expr = f"_dim({bp_expr}, 0)", f"_dim({bp_expr}, 1)"
+        lengths[actor.role] = max(BLUEPRINT_DIMS[bp][0] for bp in pool)
+        data = actor.model_dump()
+        data.update(
+            prefix=prefix, blueprint_expr=bp_expr, length_expr=length_expr, width_expr=width_expr,
+            blueprint_pool=pool,
+            gap=0.5 * (lengths[actor.role] + lengths.get(actor.placement_ref, lengths[actor.role])),
+            oncoming_sign=-1.0 if actor.along == "behind" else 1.0,
+            cruise_speed=_cruise(actor, plan), loss_steer=Range(low=LOSS_STEER[0], high=LOSS_STEER[1]),
+            placement=actor.placement.value)
+        data["behavior_call"] = _behavior_call(data)
+        actors.append(data)
+    actor_specs = [{"role": a["role"], "placement": a["placement"], "ref": a["placement_ref"],
+                    "heading": a["relative_heading"], "maneuver": a["maneuver"], "behavior": a["behavior"],
+                    "needs": _needs(next(x for x in plan.actors if x.role == a["role"]), plan.actors)}
+                   for a in actors]
+    text = _ENV.get_template("scenario.scenic.j2").render(
+        plan=plan, actors=actors, actor_specs=actor_specs, notes=plan.notes, summary=summary,
+        scenario_id=plan.scenario_id, scenario_hash=scenario_hash_value, version=version,
+        map_name=map_name, carla_town=carla_town, ego_roads=[] if carla_town else ["road1"],
+        anchor_hint=float(plan.map.back_length) if carla_town is None else 40.0,
+        curve_sign=1 if (plan.map.curve_direction or "left") == "left" else -1)
+    pools = {a["role"]: a["blueprint_pool"] for a in actors if len(a["blueprint_pool"]) > 1}
+    if pools:
+        head, marker, tail = text.partition("# ---- actors ----\n")
+        dims = {bp: list(BLUEPRINT_DIMS[bp]) for pool in pools.values() for bp in pool}
+        extra = [f"_DIMS = {py(dims)}  # [m] (length, width) per blueprint", "",
+                 "@_distributionFunction", "def _dim(bp, index):", "    return _DIMS[bp][index]", ""]
+        extra += [f"_bp_{role} = Uniform(*{py(pool)})" for role, pool in pools.items()]
+        text = head + marker + "\n".join(extra) + "\n" + tail
+    return text
+
+
+def _cruise(actor, plan: RenderPlan) -> Range:
+    """[m/s] speed a stopped actor proceeds at."""
+    if actor.speed.high > 0:
+        return actor.speed
+    limit = plan.speed_limit or 10.0
+    return Range(low=round(max(2.0, 0.5 * limit - 2.0), 3), high=round(0.5 * limit + 2.0, 3))
+
+
+def render(scenario: Scenario, out_dir: Path, map_mode: str = "generated", carla_maps: Path | None = None,
+           cache_dir: Path | None = None, town_override: dict[str, str] | None = None) -> Rendered:
+    """Write out_dir/scenario.scenic and out_dir/map.xodr for the scenario."""
+    from crashscene.maps import install_map, prepare_map
+
+    out_dir = Path(out_dir)
+    plan = convert(scenario)
+    cached, town = prepare_map(plan, map_mode, carla_maps, cache_dir, town_override)
+    digest = scenario_hash(scenario, map_mode=map_mode, town=town or "")
+    text = render_program(plan, scenario_hash_value=digest, summary=scenario.summary, carla_town=town)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    map_path = install_map(cached, out_dir, MAP_NAME)
+    program = out_dir / PROGRAM_NAME
+    program.write_text(text, encoding="utf-8")
+    (out_dir / "render.json").write_text(_meta_json(plan, digest, map_mode, town), encoding="utf-8")
+    return Rendered(program=program, map=map_path, scenario_hash=digest, town=town)
+
+
+def _meta_json(plan: RenderPlan, digest: str, map_mode: str, town: str | None) -> str:
+    import json
+
+    return json.dumps({"scenario_hash": digest, "map_mode": map_mode, "town": town, "program": PROGRAM_NAME,
+                       "map": MAP_NAME, "plan": plan.model_dump(mode="json")}, indent=2, sort_keys=True) + "\n"
+
+

@@ -1,0 +1,381 @@
+"""Placement helpers imported by every rendered Scenic program (`from crashscene.render.scenic_support import *`).
+
+Routes are lane chains; an actor stands at arc length s [m] along its route.
+Candidate placements (which lanes, which junction manoeuvres) are enumerated
+once, when the program is compiled; sampling picks one candidate and evaluates
+a few arc-length lookups, so scenes are cheap. These live in a Python module
+rather than in each program because Scenic's parser is slow on long programs
+(~1 s per 400 lines) and turns classes defined in programs into Scenic classes.
+
+Scenic conventions here: headings 0 = +y, counter-clockwise [rad]; lengths [m].
+"""
+import math as _math
+import shapely as _shapely
+from scenic.core.distributions import distributionFunction as _distributionFunction
+from scenic.core.vectors import Vector
+from scenic.domains.driving.roads import ManeuverType as _ManeuverType
+
+_MIN_LANE = 30.0  # [m] shortest lane an actor may start on
+_LEAD_IN = 60.0  # [m] route length wanted before a junction entry or curve start
+
+
+from types import SimpleNamespace as _NS
+
+
+def _route(lanes, anchor):
+    """A chain of lanes: centreline, arc-length offset of each lane, anchor arc length [m]."""
+    lanes = tuple(lanes)
+    coords, starts, total = [], [], 0.0
+    for lane in lanes:
+        pts = [tuple(p[:2]) for p in lane.centerline.lineString.coords]
+        if coords and _math.dist(coords[-1], pts[0]) < 1e-6:
+            pts = pts[1:]
+        starts.append(total)
+        total += lane.centerline.length
+        coords.extend(pts)
+    line = _shapely.LineString(coords)
+    return _NS(lanes=lanes, starts=starts, line=line, length=line.length, anchor=anchor)
+
+
+def _clamp(route, s, margin=3.0):
+    return min(max(s, margin), max(margin, route.length - margin))
+
+
+def _r_xy(route, s):
+    p = route.line.interpolate(_clamp(route, s))
+    return Vector(p.x, p.y)
+
+
+def _r_heading(route, s):
+    s = _clamp(route, s)
+    a = route.line.interpolate(max(0.0, s - 1.0))
+    b = route.line.interpolate(min(route.length, s + 1.0))
+    return _math.atan2(-(b.x - a.x), b.y - a.y)  # Scenic heading: 0 = +y, counter-clockwise
+
+
+def _r_lane_at(route, s):
+    s = _clamp(route, s)
+    index = 0
+    for i, start in enumerate(route.starts):
+        if s >= start:
+            index = i
+    return route.lanes[index]
+
+
+def _r_project(route, point):
+    return route.line.project(_shapely.Point(point[0], point[1]))
+
+
+def _end_heading(lane):
+    pts = lane.centerline.lineString.coords
+    (x0, y0), (x1, y1) = tuple(pts[-2])[:2], tuple(pts[-1])[:2]
+    return _math.atan2(-(x1 - x0), y1 - y0)
+
+
+def _angle_diff(a, b):
+    return (a - b + _math.pi) % (2 * _math.pi) - _math.pi
+
+
+def _lead_in(lane, wanted=_LEAD_IN, connecting=frozenset()):
+    """Predecessor lanes (outside junctions) prepended until the chain is `wanted` [m] long."""
+    chain = [lane]
+    total = lane.centerline.length
+    seen = {lane}
+    while total < wanted:
+        prev = chain[0]._predecessor
+        if prev is None or prev in seen or not hasattr(prev, "centerline") or prev.road in connecting:
+            break
+        chain.insert(0, prev)
+        seen.add(prev)
+        total += prev.centerline.length
+    return chain
+
+
+def _follow_on(lanes, wanted):
+    """Successor lanes appended until the chain extends `wanted` [m] past its last element."""
+    chain = list(lanes)
+    total = 0.0
+    seen = set(chain)
+    while total < wanted:
+        nxt = chain[-1]._successor
+        if nxt is None or nxt in seen or not hasattr(nxt, "centerline"):
+            break
+        chain.append(nxt)
+        seen.add(nxt)
+        total += nxt.centerline.length
+    return chain
+
+
+def _section(lane, s_local):
+    point = lane.centerline.lineString.interpolate(min(max(s_local, 0.0), lane.centerline.length))
+    sec = lane.sectionAt(Vector(point.x, point.y))
+    return sec if sec is not None else lane.sections[0]
+
+
+def _side_lane(lane, s_local, side, steps=1):
+    """Same-direction lane `steps` lanes to the left/right of `lane`, or None."""
+    sec = _section(lane, s_local)
+    for _ in range(steps):
+        nxt = sec._laneToLeft if side == "left" else sec._laneToRight
+        if nxt is None or nxt.isForward != sec.isForward:
+            return None
+        sec = nxt
+    return sec.lane
+
+
+def _oncoming_lane(lane):
+    """The opposite-direction lane nearest the centre line of the lane's road, or None."""
+    group = lane.group
+    opposite = group.opposite if group is not None else None
+    if opposite is None or not opposite.lanes:
+        return None
+    return opposite.lanes[-1]
+
+
+def _same_dir_count(lane, s_local, side):
+    n = 0
+    while _side_lane(lane, s_local, side, n + 1) is not None:
+        n += 1
+    return n
+
+
+def _ego_lane_ok(lane, ego_roads):
+    """Generated maps pin the ego to its designed road and direction (ego_roads empty: any lane)."""
+    if not ego_roads:
+        return True
+    return lane.road.uid in ego_roads and lane.group is lane.road.forwardLanes
+
+
+def _road_lanes(network):
+    connecting = set(network.connectingRoads)
+    return [lane for lane in network.lanes if lane.road not in connecting]
+
+
+def _curve_start(lane, sign, min_turn):
+    """Arc length where `lane` starts turning towards `sign` (+1 left, -1 right) by `min_turn` [rad], or None."""
+    coords = [tuple(p[:2]) for p in lane.centerline.lineString.coords]
+    if len(coords) < 3:
+        return None
+    headings, lengths = [], [0.0]
+    for (x0, y0), (x1, y1) in zip(coords, coords[1:]):
+        headings.append(_math.atan2(-(x1 - x0), y1 - y0))
+        lengths.append(lengths[-1] + _math.hypot(x1 - x0, y1 - y0))
+    turn = 0.0
+    start = None
+    for i in range(1, len(headings)):
+        d = _angle_diff(headings[i], headings[i - 1]) * sign
+        if d > 1e-3 and start is None:
+            start = lengths[i]
+        turn += d
+    if turn < min_turn or start is None:
+        return None
+    return start
+
+
+def _maneuvers(lane, kind):
+    wanted = getattr(_ManeuverType, kind)
+    found = [m for m in lane.maneuvers if m.type is wanted]
+    if not found and kind == "LEFT_TURN":
+        found = [m for m in lane.maneuvers if m.type is _ManeuverType.U_TURN]
+    return found
+
+
+def _maneuver_route(lane, man, follow, connecting=frozenset()):
+    lead = _lead_in(lane, _LEAD_IN, connecting)
+    chain = lead + [man.connectingLane, man.endLane] if man.connectingLane is not None else lead + [man.endLane]
+    chain = _follow_on(chain, follow)
+    entry = sum(l.centerline.length for l in lead)
+    return _route(chain, entry)
+
+
+@_distributionFunction
+def _xy(combo, role, s):
+    return _r_xy(combo.routes[role], s)
+
+
+@_distributionFunction
+def _heading(combo, role, s):
+    return _r_heading(combo.routes[role], s)
+
+
+@_distributionFunction
+def _lane_uid(combo, role, s):
+    return _r_lane_at(combo.routes[role], s).uid
+
+
+@_distributionFunction
+def _anchor_s(combo, role, dist, relation):
+    route = combo.routes[role]
+    if relation == "front":
+        return route.anchor + combo.passed + dist
+    return route.anchor - dist
+
+
+@_distributionFunction
+def _follow_s(combo, ref_s, dist, relation):
+    return ref_s + dist if relation == "front" else ref_s - dist
+
+
+@_distributionFunction
+def _project_s(combo, role, ref, ref_s, along):
+    """Arc length on `role`'s route of the point `along` [m] ahead of the reference (negative: behind)."""
+    return _r_project(combo.routes[role], _r_xy(combo.routes[ref], ref_s + along))
+
+
+@_distributionFunction
+def _approach_s(combo, role, dist):
+    return combo.routes[role].anchor - dist
+
+
+@_distributionFunction
+def _pick(combo, role):
+    return combo.routes[role]
+
+
+def _combo_ns(routes, passed=0.0, meta=None):
+    """One candidate placement: role -> route, the ego's junction crossing length [m], junction facts."""
+    return _NS(routes=dict(routes), passed=passed, meta=dict(meta or {}))
+
+
+def _needs_ok(actor, route, s_local_lane, lane):
+    need = actor["needs"]
+    if need.get("left", 0) and _same_dir_count(lane, s_local_lane, "left") < need["left"]:
+        return False
+    if need.get("right", 0) and _same_dir_count(lane, s_local_lane, "right") < need["right"]:
+        return False
+    if need.get("oncoming") and _oncoming_lane(lane) is None:
+        return False
+    return True
+
+
+def _local(route, s):
+    lane = _r_lane_at(route, s)
+    return lane, max(0.0, _clamp(route, s) - route.starts[route.lanes.index(lane)])
+
+
+def _relative_routes(actor, combo, ref_route):
+    """Candidate routes for an actor placed beside / oncoming to / behind its reference (roads and junctions)."""
+    kind = actor["placement"]
+    if kind == "follow":
+        return [ref_route]
+    lane, s_local = _local(ref_route, ref_route.anchor)
+    if kind in ("side_left", "side_right"):
+        other = _side_lane(lane, s_local, "left" if kind == "side_left" else "right")
+    else:
+        other = _oncoming_lane(lane)
+    if other is None:
+        return []
+    chain = _follow_on(_lead_in(other, _LEAD_IN + 200.0, combo.meta.get("connecting", frozenset())), 200.0)
+    route = _route(chain, 0.0)
+    route.anchor = _r_project(route, _r_xy(ref_route, ref_route.anchor))
+    other_lane, other_local = _local(route, route.anchor)
+    if not _needs_ok(actor, route, other_local, other_lane):
+        return []
+    return [route]
+
+
+def _expand(actors, base, approach_candidates, cap):
+    """Cartesian product of every NPC's candidates, in placement order, capped."""
+    combos = [base]
+    for actor in actors[1:]:
+        grown = []
+        for combo in combos:
+            ref_route = combo.routes[actor["ref"]]
+            if actor["placement"] == "approach":
+                options = approach_candidates(actor, combo)
+            else:
+                options = _relative_routes(actor, combo, ref_route)
+            for route in options[:3]:
+                routes = dict(combo.routes)
+                routes[actor["role"]] = route
+                grown.append(_combo_ns(routes, combo.passed, combo.meta))
+                if len(grown) >= cap:
+                    break
+        combos = grown
+    return combos
+
+
+def _road_combos(network, actors, topology, hint, curve_sign, ego_roads, cap=400):
+    ego_spec = actors[0]
+    combos = []
+    connecting = frozenset(network.connectingRoads)
+    for lane in _road_lanes(network):
+        if lane.centerline.length < _MIN_LANE or not _ego_lane_ok(lane, ego_roads):
+            continue
+        if topology == "curve":
+            start = _curve_start(lane, curve_sign, 0.5)
+            if start is None:
+                continue
+            lead = _lead_in(lane, _LEAD_IN, connecting)
+            route = _route(_follow_on(lead, 200.0), sum(l.centerline.length for l in lead[:-1]) + start)
+        else:
+            route = _route(_follow_on([lane], 200.0), min(hint, 0.5 * lane.centerline.length))
+        lane0, s_local = _local(route, route.anchor)
+        if not _needs_ok(ego_spec, route, s_local, lane0):
+            continue
+        combos.extend(_expand(actors, _combo_ns({"ego": route}, 0.0, {"connecting": connecting}), None, cap))
+        if len(combos) >= cap:
+            break
+    return combos
+
+
+def _junction_combos(network, actors, legs, ego_roads, cap=400):
+    ego_spec = actors[0]
+    combos = []
+    connecting = frozenset(network.connectingRoads)
+
+    def approach_candidates(actor, combo):
+        ego_route = combo.routes["ego"]
+        ego_lane, ego_man, inter = combo.meta["lane"], combo.meta["man"], combo.meta["inter"]
+        found, conflicting = [], []
+        for lane in inter.incomingLanes:
+            if lane is ego_lane:
+                continue
+            rel = _angle_diff(_end_heading(lane), _end_heading(ego_lane))
+            if abs(_angle_diff(rel, actor["heading"])) > 0.7:
+                continue
+            for man in _maneuvers(lane, actor["maneuver"]) or list(lane.maneuvers):
+                route = _maneuver_route(lane, man, 200.0, connecting)
+                if man in ego_man.conflictingManeuvers or man.endLane is ego_man.endLane:
+                    conflicting.append(route)
+                else:
+                    found.append(route)
+        return conflicting or found
+
+    for inter in network.intersections:
+        if (legs == 4 and not inter.is4Way) or (legs == 3 and not inter.is3Way):
+            continue
+        for lane in inter.incomingLanes:
+            if not _ego_lane_ok(lane, ego_roads):
+                continue
+            for man in _maneuvers(lane, ego_spec["maneuver"]):
+                route = _maneuver_route(lane, man, 200.0, connecting)
+                lane0, s_local = _local(route, route.anchor - 1.0)
+                if not _needs_ok(ego_spec, route, s_local, lane0):
+                    continue
+                passed = man.connectingLane.centerline.length if man.connectingLane is not None else 0.0
+                base = _combo_ns({"ego": route}, passed, {"lane": lane, "man": man, "inter": inter,
+                                                              "connecting": connecting})
+                for combo in _expand(actors, base, approach_candidates, cap):
+                    combos.append(combo)
+        if len(combos) >= cap:
+            break
+    return combos[:cap]
+
+
+def candidates(network, actors, topology, hint, curve_sign, ego_roads=(), map_name="map"):
+    """Every placement candidate of the program's actors on `network` (compile time)."""
+    if topology in ("intersection", "t_intersection"):
+        found = _junction_combos(network, actors, 4 if topology == "intersection" else 3, ego_roads)
+    else:
+        found = _road_combos(network, actors, topology, hint, curve_sign, ego_roads)
+    if not found:
+        raise RuntimeError(f"crashscene: no place on map {map_name!r} fits this {topology} "
+                           f"scenario (lanes, junction legs or manoeuvres missing)")
+    return found
+
+
+place_xy, place_heading, lane_uid, anchor_s, follow_s, project_s, approach_s, route_of = (
+    _xy, _heading, _lane_uid, _anchor_s, _follow_s, _project_s, _approach_s, _pick)
+__all__ = ["candidates", "place_xy", "place_heading", "lane_uid", "anchor_s", "follow_s", "project_s",
+           "approach_s", "route_of"]

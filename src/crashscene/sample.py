@@ -1,0 +1,146 @@
+"""Compile a rendered Scenic program once and sample scenes from it, index-deterministically.
+
+Scene i depends only on (program, seed, i): before drawing it, Scenic's sources
+of randomness (Python's `random` and numpy's global generator) are reseeded
+from `numpy.random.SeedSequence([seed, i])`, and their previous states are
+restored afterwards so nothing leaks into the caller. A campaign can therefore
+sample [0, 100), [100, 200), ... and get exactly the scenes of one n = 2000 call.
+
+Parameters use Scenic's `Range`, not `VerifaiRange`: VerifAI's samplers (Halton
+by default) keep their own sequence state inside the compiled scenario, so a
+scene would depend on how many scenes were drawn before it.
+"""
+from __future__ import annotations
+
+import json
+import math
+import random
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from crashscene.convert import RenderError
+from crashscene.scene import SampledActor, SampledScene
+
+CARLA_MODEL = "scenic.simulators.carla.model"
+NEWTONIAN_MODEL = "scenic.simulators.newtonian.driving_model"
+MAX_ITERATIONS = 2000  # rejection-sampling attempts per scene before giving up
+_SKIP_PARAMS = {"map", "map_options", "render", "use2DMap", "verifaiSamplerType", "verifaiSamplerParams",
+                "snapToGroundDefault", "address", "port", "timeout", "timestep", "debugRender"}
+
+
+class SampleError(RenderError):
+    """A program cannot be compiled or sampled (part of the render stage's exception family)."""
+
+
+def compile_program(program: Path, map_path: Path | None = None, model: str | None = None) -> Any:
+    """Compile a rendered program in Scenic's 2D mode; `map_path` overrides its `param map`."""
+    import scenic
+
+    program = Path(program)
+    if not program.is_file():
+        raise SampleError(f"program {program} not found (render it first: crashscene render FILE.yaml -o DIR)")
+    params: dict[str, Any] = {"render": False}
+    if map_path is not None:
+        params["map"] = str(map_path)
+    try:
+        return scenic.scenarioFromFile(str(program), params=params, mode2D=True, model=model)
+    except Exception as exc:  # Scenic raises many types (syntax, runtime, invalid scenario)
+        raise SampleError(f"{program}: Scenic could not compile the program: {type(exc).__name__}: {exc}") from exc
+
+
+def scene_seed(seed: int, index: int) -> tuple[int, int]:
+    """(python random seed, numpy seed) for scene `index` of a batch seeded with `seed`."""
+    state = np.random.SeedSequence([int(seed) & 0xFFFFFFFFFFFFFFFF, int(index)]).generate_state(2, dtype=np.uint32)
+    return int(state[0]), int(state[1])
+
+
+def sample_scenes(program: Path, n: int, seed: int, first: int = 0, scenario: Any = None,
+                  map_path: Path | None = None, model: str | None = None) -> list[SampledScene]:
+    """Scenes for variation indices first .. first+n-1 (pass a compiled `scenario` to skip compiling)."""
+    program = Path(program)
+    if n < 0 or first < 0:
+        raise SampleError(f"n and first must be >= 0 (got n={n}, first={first})")
+    if scenario is None:
+        scenario = compile_program(program, map_path, model)
+    meta = _render_meta(program)
+    digest = meta.get("scenario_hash") or _program_hash(program)
+    map_file = str(map_path) if map_path is not None else str(program.parent / meta.get("map", "map.xodr"))
+    py_state, np_state = random.getstate(), np.random.get_state()
+    scenes = []
+    try:
+        for index in range(first, first + n):
+            py_seed, np_seed = scene_seed(seed, index)
+            random.seed(py_seed)
+            np.random.seed(np_seed)
+            try:
+                scene, _ = scenario.generate(maxIterations=MAX_ITERATIONS, verbosity=0)
+            except Exception as exc:
+                raise SampleError(f"{program}: scene {index} (seed {seed}) could not be sampled: "
+                                  f"{type(exc).__name__}: {exc}") from exc
+            scenes.append(to_sampled_scene(scene, index, seed, digest, map_file))
+    finally:
+        random.setstate(py_state)
+        np.random.set_state(np_state)
+    return scenes
+
+
+def to_sampled_scene(scene: Any, index: int, seed: int, digest: str, map_file: str) -> SampledScene:
+    """Convert a Scenic scene into the render -> simulate contract."""
+    actors = [_actor(obj) for obj in scene.objects if getattr(obj, "cs_role", None)]
+    params: dict[str, float | int | str] = {}
+    for key, value in scene.params.items():
+        if key in _SKIP_PARAMS:
+            continue
+        if isinstance(value, (bool, np.bool_)):
+            params[key] = int(value)
+        elif isinstance(value, (int, np.integer)):
+            params[key] = int(value)
+        elif isinstance(value, (float, np.floating)):
+            params[key] = float(value)
+        elif isinstance(value, str):
+            params[key] = value
+    if "npc1_INIT_DIST" in params:
+        params.setdefault("NPC_INIT_DIST", params["npc1_INIT_DIST"])
+    return SampledScene(index=index, seed=seed, scenario_hash=digest, map_file=map_file, params=params,
+                        actors=actors)
+
+
+def _actor(obj: Any) -> SampledActor:
+    yaw = math.remainder(float(obj.heading) + math.pi / 2, 2 * math.pi)  # Scenic 0 = +y -> OpenDRIVE 0 = +x
+    codes = str(obj.cs_dispositions or "")
+    props = {key: _scalar(getattr(obj, key)) for key in ("cs_placement", "cs_maneuver", "cs_controlled_by",
+                                                         "cs_target_speed")}
+    props = {key[3:]: value for key, value in props.items()}
+    return SampledActor(
+        role=obj.cs_role, label=obj.cs_label, type=obj.cs_type, blueprint=str(obj.blueprint),
+        behavior=obj.cs_behavior, x=float(obj.position.x), y=float(obj.position.y), yaw=yaw,
+        speed=max(0.0, float(obj.speed)), length=float(obj.length), width=float(obj.width),
+        lane_id=str(obj.cs_lane_id) if obj.cs_lane_id is not None else None, route_intent=obj.cs_route_intent,
+        reference=obj.cs_reference, relation=obj.cs_relation, heading_relation=obj.cs_heading_relation,
+        dispositions=[c for c in codes.split(",") if c], properties=props)
+
+
+def _scalar(value: Any) -> float | int | str | bool | None:
+    if value is None or isinstance(value, (bool, int, float, str)):
+        return value
+    if isinstance(value, np.generic):
+        return value.item()
+    return str(value)
+
+
+def _render_meta(program: Path) -> dict[str, Any]:
+    meta = program.parent / "render.json"
+    if meta.is_file():
+        try:
+            return json.loads(meta.read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            return {}
+    return {}
+
+
+def _program_hash(program: Path) -> str:
+    import hashlib
+
+    return hashlib.sha256(program.read_bytes()).hexdigest()[:16]
