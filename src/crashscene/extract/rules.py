@@ -109,6 +109,7 @@ class _State:
     vehicles: dict[str, _Vehicle] = field(default_factory=dict)
     pre_crash: str = ""
     crash_sentence: str = ""
+    between: str = ""  # after the first impact, up to the next one: a manoeuvre leading to the second impact
     junction: str | None = None  # intersection | t_intersection
     divided: bool = False
     signs: set[str] = field(default_factory=set)
@@ -265,7 +266,8 @@ _SUMMARY_SENTENCE = re.compile(r"\b(?:crash|collision|case|investigation)\s+(?:i
 def _split_pre_crash(state: _State) -> None:
     """Text before the first harmful event, without the summary lead and avoidance manoeuvres."""
     kept = []
-    for sentence in state.t.sentences:
+    sentences = state.t.sentences
+    for index, sentence in enumerate(sentences):
         if _SUMMARY_SENTENCE.search(sentence) and not re.search(r"\bV[1-9]\b.*\b(?:travel|driv|turn)", sentence):
             continue
         impact = _IMPACT.search(sentence)
@@ -273,6 +275,13 @@ def _split_pre_crash(state: _State) -> None:
             head = sentence[: impact.start()]
             kept.append(head)
             state.crash_sentence = sentence
+            between = []
+            for later in sentences[index + 1:]:
+                second = _IMPACT.search(later)
+                between.append(later[: second.start()] if second else later)
+                if second:
+                    break
+            state.between = " ".join(between)
             break
         kept.append(sentence)
     pre = " ".join(kept)
@@ -778,12 +787,28 @@ def _behaviors(state: _State) -> None:
     for label, vehicle in state.vehicles.items():
         found = sorted(spans[label], key=lambda item: item[0])
         vehicle.behavior, quote = _resolve(state, vehicle, found)
+        if vehicle.behavior in ("go_forward", "decelerate") and state.between:
+            # "V1 struck V2's rear ... V3 saw V1 enter the eastbound lane" then V1 and V3 collide head-on
+            entered = _entered_opposing(state, vehicle)
+            if entered:
+                vehicle.behavior, quote = "cross_centerline", entered
         if quote:
             vehicle.behavior_quote = quote
             state.note(f"actors.{vehicle.role}.behavior", quote)
         vehicle.flags = {token for _, token, _ in found}
         if any(token == "into_lane" and _opposing_lane(vehicle, match.group(0)) for _, token, match in found):
             vehicle.flags.add("cross_centerline")
+
+
+def _entered_opposing(state: _State, vehicle: _Vehicle) -> str | None:
+    text = state.between
+    for match in re.finditer(rf"\b{vehicle.label}\s+(?:then\s+)?(?:enter\w*|mov\w+|swerv\w+|veer\w+|drift\w+)\s+"
+                             rf"(?:\w+\s+){{0,3}}?(?:into\s+)?the\s+({_DIR})bound\s+(?:travel\s+)?lane", text, re.I):
+        if vehicle.direction and (COMPASS[match.group(1).lower()] - COMPASS[vehicle.direction]) % 360 == 180:
+            return _around(text, match, 80)
+    match = re.search(rf"\b{vehicle.label}\b(?:(?!\b(?:pushed|caused|redirected|forced)\b)[^.]){{0,60}}(?:{_CROSS})",
+                      text, re.I)
+    return _around(text, match, 80) if match else None
 
 
 def _last_subject_before(state: _State, text: str, position: int) -> str | None:
@@ -999,7 +1024,9 @@ def _oracle(state: _State, road: dict, actors: dict) -> list[dict]:
             add("CVC_21650", "wrong_side", role, f"{label} entered the opposing lanes of the two-way roadway.", quote)
             if marker == "double_solid_line" and behavior != "overtake":
                 add("CVC_21460", "double_line_crossing", role, f"{label} crossed the double solid centre line.", quote)
-        if behavior.startswith("change_lane"):
+        at_fault_other = any(v.behavior in ("lose_control", "cross_centerline", "leave_road")
+                             for v in state.vehicles.values() if v is not vehicle)
+        if behavior.startswith("change_lane") and not at_fault_other:
             add("CVC_22107", "unsafe_lane_change", role, f"{label} changed lanes into the path of another vehicle.",
                 quote)
         speeding = re.search(rf"\b{label}\b[^.]{{0,80}}(?:speeding|exceed(?:ed|ing) the (?:posted )?speed limit|"
