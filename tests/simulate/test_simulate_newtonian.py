@@ -251,3 +251,68 @@ def test_benchmark_hook_times_k_runs(rear_end_run, straight_map, scenario):
                                 settings=settings, program=REAR_END_PROGRAM)
     seconds = time_newtonian_runs(request, k=2)
     assert 0 < seconds < 60
+
+
+# ------------------------------------------------------------------ slow: rendered CIREN cases
+
+# One case per topology; each its own test. Two scenes each keep the set within the time budget.
+REAL_CASES = ["100237", "119489", "109176", "3-C1-2017-010"]
+
+
+@pytest.fixture(scope="module")
+def case_runs(tmp_path_factory):
+    """case -> (scenario, scenes, result) of two reproduce-mode variations, run once per module."""
+    cache: dict[str, tuple] = {}
+    map_cache = tmp_path_factory.mktemp("map-cache")
+
+    def run(case: str):
+        if case not in cache:
+            render = pytest.importorskip("crashscene.render")
+            sample = pytest.importorskip("crashscene.sample")
+            scenario = load_file(EXAMPLES / case / "golden.yaml")
+            rendered = render.render(scenario, tmp_path_factory.mktemp(case), cache_dir=map_cache)
+            scenes = sample.sample_scenes(rendered.program, 2, seed=3)
+            with NewtonianSimulator(SimulationSettings(mode="reproduce")) as simulator:
+                result = simulator.simulate(SimulationRequest(
+                    scenario=scenario, scenes=scenes, map_file=Path(rendered.map),
+                    program=Path(rendered.program).read_text()))
+            cache[case] = (scenario, scenes, result)
+        return cache[case]
+
+    return run
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("case", REAL_CASES)
+def test_rendered_case_runs_from_the_sampled_scenes(case, case_runs):
+    scenario, scenes, result = case_runs(case)
+    variations = result.tables["variations"].to_pylist()
+    assert [v["invalid_reason"] for v in variations] == [None] * len(scenes)
+    traces = result.tables["traces"]
+    assert traces.num_rows == len(scenes) * len(scenario.actors) * (SimulationSettings().steps + 1)
+    rows = traces.to_pylist()
+    for scene in scenes:
+        for actor in scene.actors:
+            track = [r for r in rows if r["variation"] == scene.index and r["actor"] == actor.role]
+            assert (track[0]["x"], track[0]["y"]) == pytest.approx((actor.x, actor.y))
+            assert track[0]["lane_id"] == actor.lane_id
+            if actor.behavior != "static":
+                assert math.dist((track[0]["x"], track[0]["y"]), (track[-1]["x"], track[-1]["y"])) > 5.0
+            assert all(r["control"] in ("none", "signal", "stop", "yield") for r in track)
+
+
+@pytest.mark.slow
+def test_junction_columns_on_a_yield_controlled_crossing(case_runs):
+    # 100237: V1 (ego) straight through a 4-leg junction, V2 (npc1) from the right on a yield-controlled arm
+    _, scenes, result = case_runs("100237")
+    rows = result.tables["traces"].to_pylist()
+    for scene in scenes:
+        npc = [r for r in rows if r["variation"] == scene.index and r["actor"] == "npc1"]
+        ego = [r for r in rows if r["variation"] == scene.index and r["actor"] == "ego"]
+        assert {r["control"] for r in npc} == {"yield"} and {r["control"] for r in ego} == {"none"}
+        assert {r["maneuver"] for r in npc + ego} == {"straight"}
+        assert {r["junction_id"] for r in npc + ego} == {npc[0]["junction_id"]} != {None}
+        before = [r["stop_line_dist"] for r in npc if not r["in_junction"] and r["stop_line_dist"] > 0]
+        assert before and before == sorted(before, reverse=True)  # the yield line comes closer
+        assert all(math.isnan(r["stop_line_dist"]) for r in ego)  # no device on the ego's approach
+        assert all(r["signal"] == "none" for r in npc + ego)
