@@ -25,6 +25,7 @@ def main() -> None:
     parser.add_argument("--subset", choices=("all", "odd", "even"), default="all")
     parser.add_argument("--out", type=Path, help="write <case>.yaml predictions here")
     parser.add_argument("--diffs", action="store_true", help="print per-case diffs and the confusion table")
+    parser.add_argument("--no-sketch", action="store_true", help="narrative only: no sketch facts")
     args = parser.parse_args()
     cases = sorted(p.name for p in CIREN.iterdir() if p.is_dir())
     if args.subset == "odd":
@@ -35,7 +36,7 @@ def main() -> None:
     for case in cases:
         report = load_report(CIREN / case)
         start = time.perf_counter()
-        facts = sketch_facts(report.sketch) if report.sketch else []
+        facts = sketch_facts(report.sketch) if report.sketch and not args.no_sketch else []
         ocr_times.append(time.perf_counter() - start)
         start = time.perf_counter()
         scenario = extract_rules(report, facts)
@@ -46,7 +47,7 @@ def main() -> None:
             (args.out / f"{case}.yaml").write_text(dumps(scenario), encoding="utf-8")
     result = evaluate(pairs)
     print(format_result(result, diffs=args.diffs, confusion=args.diffs))
-    print(f"\n{len(cases)} cases ({args.subset}); rules: mean {1000 * statistics.mean(rule_times):.1f} ms, "
+    print(f"\n{len(cases)} cases ({args.subset}{', narrative only' if args.no_sketch else ''}); rules: mean {1000 * statistics.mean(rule_times):.1f} ms, "
           f"max {1000 * max(rule_times):.1f} ms per case; sketch facts (OCR, cached after first run): "
           f"mean {statistics.mean(ocr_times):.2f} s, max {max(ocr_times):.2f} s")
 
