@@ -153,25 +153,29 @@ def build_arrays(tables: dict[str, pa.Table]) -> TraceArrays:
     vi = np.searchsorted(variations, traces.column("variation").to_numpy(zero_copy_only=False))
     ai = _role_indices(traces.column("actor"), role_index)
 
+    shape = (n_var, n_act, n_steps)
+    flat = (vi * n_act + ai) * n_steps + steps
+    # traces written in (variation, actor, step) order and complete: a reshape, no scatter
+    dense = len(flat) == n_var * n_act * n_steps and bool(np.all(flat[1:] > flat[:-1]))
+
+    def place(values: np.ndarray, fill, dtype) -> np.ndarray:
+        if dense:
+            return np.array(values, dtype=dtype).reshape(shape)
+        arr = np.full(n_var * n_act * n_steps, fill, dtype=dtype)
+        arr[flat] = values
+        return arr.reshape(shape)
+
     floats: dict[str, np.ndarray] = {}
     for name in FLOAT_COLUMNS:
-        arr = np.full((n_var, n_act, n_steps), np.nan)
-        arr[vi, ai, steps] = _np_float(pc.fill_null(traces.column(name), np.nan))
-        floats[name] = arr
+        floats[name] = place(_np_float(pc.fill_null(traces.column(name), np.nan)), np.nan, np.float64)
     for name in BOOL_COLUMNS:
-        arr = np.full((n_var, n_act, n_steps), np.nan)
-        arr[vi, ai, steps] = _np_bool_as_float(traces.column(name))
-        floats[name] = arr
+        floats[name] = place(_np_bool_as_float(traces.column(name)), np.nan, np.float64)
     codes: dict[str, np.ndarray] = {}
     for name, vocab in VOCAB_COLUMNS.items():
-        arr = np.full((n_var, n_act, n_steps), -1, dtype=np.int32)
-        arr[vi, ai, steps] = _vocab_codes(traces.column(name), vocab)
-        codes[name] = arr
+        codes[name] = place(_vocab_codes(traces.column(name), vocab), -1, np.int32)
     id_codes, id_values = _id_codes([traces.column(name) for name in ID_COLUMNS])
     for name, values in zip(ID_COLUMNS, id_codes):
-        arr = np.full((n_var, n_act, n_steps), -1, dtype=np.int32)
-        arr[vi, ai, steps] = values
-        codes[name] = arr
+        codes[name] = place(values, -1, np.int32)
 
     alive = np.isfinite(floats["x"]) & np.isfinite(floats["y"])
     # Headings and speeds a backend left empty are derived from positions, so geometry still works.
@@ -234,13 +238,11 @@ def _batch_dt(traces: pa.Table, variations_table: pa.Table | None) -> float:
 def _fill_kinematics(floats: dict[str, np.ndarray], alive: np.ndarray, dt: float) -> None:
     """Derive yaw [rad] and speed [m/s] from positions where a backend left them empty."""
     x, y = floats["x"], floats["y"]
-    if x.shape[2] < 2:
+    missing_speed = alive & ~np.isfinite(floats["speed"])
+    missing_yaw = alive & ~np.isfinite(floats["yaw"])
+    if x.shape[2] < 2 or not (missing_speed.any() or missing_yaw.any()):
         return
-    dx = np.gradient(np.where(alive, x, np.nan), axis=2) if x.shape[2] > 1 else np.zeros_like(x)
-    dy = np.gradient(np.where(alive, y, np.nan), axis=2) if y.shape[2] > 1 else np.zeros_like(y)
-    speed = np.hypot(dx, dy) / dt
-    missing = alive & ~np.isfinite(floats["speed"])
-    floats["speed"][missing] = speed[missing]
-    missing = alive & ~np.isfinite(floats["yaw"])
-    if missing.any():
-        floats["yaw"][missing] = np.arctan2(dy, dx)[missing]
+    dx = np.gradient(np.where(alive, x, np.nan), axis=2)
+    dy = np.gradient(np.where(alive, y, np.nan), axis=2)
+    floats["speed"][missing_speed] = (np.hypot(dx, dy) / dt)[missing_speed]
+    floats["yaw"][missing_yaw] = np.arctan2(dy, dx)[missing_yaw]

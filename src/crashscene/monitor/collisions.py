@@ -63,17 +63,18 @@ def footprint_contacts(arrays: TraceArrays) -> tuple[np.ndarray, np.ndarray, np.
         return ia, ib, first
     f = arrays.floats
     x = np.where(arrays.alive, f["x"], np.nan)
-    box = corners(x, f["y"], f["yaw"], arrays.length[..., None], arrays.width[..., None])
+    y, yaw = f["y"], f["yaw"]
+    diag = np.hypot(arrays.length, arrays.width) / 2
     for p, (a, b) in enumerate(zip(ia, ib)):
-        # cheap distance gate before the separating-axis test
-        reach = (np.hypot(arrays.length[:, a], arrays.width[:, a]) + np.hypot(arrays.length[:, b], arrays.width[:, b])) / 2
+        # cheap distance gate, then the separating-axis test on the few candidate steps
         with np.errstate(invalid="ignore"):
-            near = np.hypot(x[:, a] - x[:, b], f["y"][:, a] - f["y"][:, b]) <= reach[:, None]
+            near = np.hypot(x[:, a] - x[:, b], y[:, a] - y[:, b]) <= (diag[:, a] + diag[:, b])[:, None]
         overlap = np.zeros((n_var, n_steps), dtype=bool)
         if near.any():
             vv, tt = np.nonzero(near)
-            overlap[vv, tt] = rectangles_overlap(box[vv, a, tt], box[vv, b, tt], f["yaw"][vv, a, tt],
-                                                 f["yaw"][vv, b, tt])
+            box_a = corners(x[vv, a, tt], y[vv, a, tt], yaw[vv, a, tt], arrays.length[vv, a], arrays.width[vv, a])
+            box_b = corners(x[vv, b, tt], y[vv, b, tt], yaw[vv, b, tt], arrays.length[vv, b], arrays.width[vv, b])
+            overlap[vv, tt] = rectangles_overlap(box_a, box_b, yaw[vv, a, tt], yaw[vv, b, tt])
         first[:, p] = first_index(overlap)
     return ia, ib, first
 
