@@ -75,12 +75,15 @@ def test_bad_case_is_reported_and_others_run(tmp_path, two_cases):
     bad = tmp_path / "cases" / "broken"
     bad.mkdir(parents=True)
     (bad / "golden.yaml").write_text("environment: {weather: sunny_with_lasers}\n", encoding="utf-8")
-    summary = run_campaign([*two_cases, bad], tmp_path / "out", CampaignConfig(n=2, workers=1, dsl_name="golden.yaml"),
-                           worker=fake_chunk, quiet=True)
+    third = two_cases[0].parent / "3-C1-2017-001"
+    # four cases: prepared in the process pool
+    summary = run_campaign([*two_cases, third, bad], tmp_path / "out",
+                           CampaignConfig(n=2, workers=2, dsl_name="golden.yaml"), worker=fake_chunk, quiet=True)
     assert not summary.complete
-    broken = next(c for c in summary.cases if c["case_id"] == "broken")
-    assert broken["status"] == "error" and "golden.yaml" in broken["error"]
-    assert {r.case_id for r in summary.runs} == {"120013", "100237"}
+    assert [c["case_id"] for c in summary.cases] == ["120013", "100237", "3-C1-2017-001", "broken"]
+    broken = summary.cases[-1]
+    assert broken["status"] == "error" and "golden.yaml" in broken["error"] and "weather" in broken["error"]
+    assert {r.case_id for r in summary.runs} == {"120013", "100237", "3-C1-2017-001"}
 
 
 def test_worker_rows_outside_its_chunk_fail_that_chunk(tmp_path, two_cases):

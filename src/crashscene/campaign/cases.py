@@ -42,6 +42,26 @@ class PreparedCase(BaseModel):
     seconds: float = 0.0
 
 
+class PrepareTask(BaseModel):
+    """One case to prepare in a worker process (cases are prepared in parallel on the local engine)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    path: Path
+    out_dir: Path
+    options: SimOptions
+    extract_backend: str = "rules"
+    dsl_name: str | None = None
+
+    @property
+    def key(self) -> str:
+        return f"case {self.path}"
+
+
+def prepare_task(task: PrepareTask) -> PreparedCase:
+    return prepare_case(task.path, task.out_dir, task.options, task.extract_backend, task.dsl_name)
+
+
 def is_case_folder(path: Path) -> bool:
     return path.is_dir() and any((path / name).is_file() for name in NARRATIVES)
 

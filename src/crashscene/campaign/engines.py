@@ -47,8 +47,9 @@ class LocalEngine:
         tasks = list(tasks)
         if not tasks:
             return
-        self._pool = ProcessPoolExecutor(max_workers=min(self.workers, len(tasks)),
-                                         mp_context=mp.get_context("spawn"), initializer=_die_with_parent)
+        if self._pool is None:
+            self._pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=mp.get_context("spawn"),
+                                             initializer=_die_with_parent)
         pending: dict[Future, ChunkTask] = {self._pool.submit(worker, t): t for t in tasks}
         while pending:
             done, _ = wait(pending, return_when=FIRST_COMPLETED)
@@ -57,7 +58,7 @@ class LocalEngine:
                 try:
                     yield task, fut.result()
                 except BrokenProcessPool as exc:
-                    raise CampaignError(f"a worker process died while running chunk {task.key} "
+                    raise CampaignError(f"a worker process died while running {task.key} "
                                         "(out of memory or killed?); rerun with --resume") from exc
                 except Exception as exc:  # noqa: BLE001  (a chunk's failure is data, not a crash)
                     yield task, exc

@@ -18,13 +18,14 @@ from pathlib import Path
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from crashscene.campaign.cases import PreparedCase, discover_cases, prepare_case
+from crashscene.campaign.cases import PreparedCase, PrepareTask, case_id_of, discover_cases, prepare_task
 from crashscene.campaign.engines import make_engine
 from crashscene.campaign.errors import CampaignError
 from crashscene.campaign.model import MODES, ChunkResult, ChunkTask, SimOptions
 from crashscene.campaign.progress import CampaignProgress
 from crashscene.campaign.store import Store
 
+PARALLEL_PREPARE_MIN = 4  # cases from which preparation runs in the process pool
 DEFAULT_CHUNK = 250  # variations per chunk: big enough to batch well, small enough to lose little on a kill
 
 
@@ -108,7 +109,7 @@ def run_campaign(cases: str | Path | Sequence[str | Path], out_dir: str | Path, 
                                 "or choose another --out")
         engine = make_engine(config.engine, config.workers, config.address)
         session = store.start_session(shlex.join(sys.argv), engine.name, engine.workers)
-        prepared = [prepare_case(p, out, config.sim, config.extract_backend, config.dsl_name) for p in paths]
+        prepared = _prepare_all(paths, out, config, engine)
         tasks, skipped = _plan(store, prepared, config, out)
         for case in prepared:
             store.put_case(case.case_id, case.case_dir, case.status, case.error, case.scenario_hash,
@@ -147,6 +148,23 @@ def run_campaign(cases: str | Path | Sequence[str | Path], out_dir: str | Path, 
             cases=[c.model_dump(include={"case_id", "status", "error", "scenario_hash", "extract_backend"})
                    for c in prepared],
             runs=summarize_runs(store), complete=failed == 0 and all(c.status == "ok" for c in prepared))
+
+
+def _prepare_all(paths: list[Path], out: Path, config: CampaignConfig, engine) -> list[PreparedCase]:
+    """Extract/validate/render every case: in the local pool when there are several, else in the driver."""
+    tasks = [PrepareTask(path=p, out_dir=out, options=config.sim, extract_backend=config.extract_backend,
+                         dsl_name=config.dsl_name) for p in paths]
+    # a pool worker pays ~3 s of imports (Scenic, OCR) first: worth it from a handful of cases on;
+    # Ray nodes may not share OUT, so with Ray the driver renders where the files are kept
+    if len(tasks) < PARALLEL_PREPARE_MIN or engine.name != "local":
+        return [prepare_task(t) for t in tasks]
+    done: dict[Path, PreparedCase] = {}
+    for task, outcome in engine.run(tasks, prepare_task):
+        if isinstance(outcome, BaseException):
+            outcome = PreparedCase(case_id=case_id_of(task.path), case_dir=str(task.path), work_dir="",
+                                   status="error", error=f"{type(outcome).__name__}: {outcome}")
+        done[task.path] = outcome
+    return [done[p] for p in paths]
 
 
 def _plan(store: Store, prepared: list[PreparedCase], config: CampaignConfig, out: Path) -> tuple[list[ChunkTask], int]:
