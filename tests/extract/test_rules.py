@@ -137,3 +137,33 @@ def test_with_real_sketch_facts(case, tmp_path, monkeypatch):
     s = extract_rules(report, sketch_facts(report.sketch))
     assert s.road_network.speed_limit_mph in (40, 55)
     assert s.road_network.road_marker.value in ("broken_line", "double_solid_line")
+
+
+def test_stated_travel_speeds_are_kept_and_speeding_is_a_violation():
+    s = _text("V1 was traveling north in the northbound lane of a two-lane, two-way road with a posted speed limit of "
+              "56 km/h (35 mph). V2 was traveling south at approximately 97 km/h (60 mph) and was speeding. V2 crossed "
+              "the centerline and the front of V2 struck the front of V1.")
+    assert s.actors["npc1"].speed_mph == 60
+    assert s.actors["ego"].speed_mph is None
+    assert s.road_network.speed_limit_mph == 35
+    assert {("CVC_22349", "npc1"), ("CVC_21650", "npc1")} <= {(o.code, o.actor) for o in s.oracle}
+
+
+def test_red_light_runner_at_a_signalised_intersection():
+    s = _text("V1 was traveling east approaching a 4-leg intersection controlled by traffic signals. V2 was traveling "
+              "south on the intersecting road. The driver of V2 failed to stop for the red light and entered the "
+              "intersection. The front of V2 struck the left side of V1.")
+    assert s.road_network.road_type.value == "intersection"
+    assert s.actors["ego"].position.reference == "traffic_light"
+    npc = s.actors["npc1"].position
+    assert (npc.reference, npc.relation.value, npc.heading.value) == ("traffic_light", "left", "from_left")
+    assert ("CVC_21453", "npc1") in {(o.code, o.actor) for o in s.oracle}
+
+
+def test_leaving_a_driveway_into_traffic():
+    s = _text("V1 was traveling west in the westbound lane of a two-lane, two-way road. V2 was exiting a private "
+              "driveway on the north side of the road and was turning left to travel east. It was daylight. "
+              "The front of V1 struck the left side of V2.")
+    assert s.road_network.road_type.value == "t_intersection"
+    assert s.actors["npc1"].behavior.value == "turn_left"
+    assert ("CVC_21804", "npc1") in {(o.code, o.actor) for o in s.oracle}

@@ -913,7 +913,39 @@ def _actors(state: _State, road: dict) -> dict:
             position = _npc_position(state, ego, vehicle, devices, at_junction, crash)
         actors[vehicle.role] = {"label": label, "type": vehicle.type, "behavior": vehicle.behavior,
                                 "position": position}
+        speed = _stated_speed(state, label)
+        if speed is not None:
+            actors[vehicle.role]["speed_mph"] = speed
     return actors
+
+
+_SPEED_VALUE = r"(\d{1,3})\s*(mph|mi/h|miles per hour|km/h|kmph|km/hr|kph)"
+
+
+def _stated_speed(state: _State, label: str) -> float | None:
+    """A travel speed the report states for the vehicle ('V2 was traveling at approximately 60 mph') [mph]."""
+    text = state.t.text
+    for match in re.finditer(rf"(?:travel(?:l?ing|l?ed)?|going|driving|driven|moving)\s+(?:(?:north|south|east|west)(?:bound)?\s+)?"
+                             rf"(?:at\s+)?(?:a\s+)?"
+                             rf"(?:(?:an\s+)?(?:estimated|approximate(?:ly)?|about|roughly|reported(?:ly)?|"
+                             rf"calculated|travel)\s+)*(?:speed\s+of\s+)?{_SPEED_VALUE}|"
+                             rf"(?:estimated|calculated|reported|pre-?crash|travel)\s+speed\s+(?:of\s+|was\s+)?"
+                             rf"(?:approximately\s+|about\s+)?{_SPEED_VALUE}", text, re.I):
+        if re.search(r"limit|posted", text[max(0, match.start() - 30):match.start()], re.I):
+            continue
+        if _label_at(text, match.start()) != label:
+            continue
+        number = int(match.group(1) or match.group(3))
+        unit = (match.group(2) or match.group(4)).lower()
+        if unit.startswith("k"):
+            after = re.match(r"\s*\((\d{1,3})\s*mph\)", text[match.end():])
+            mph = float(after.group(1)) if after else round(number / KMH_PER_MPH)
+        else:
+            mph = float(number)
+        if 0 < mph <= 200:
+            state.note(f"actors.{state.vehicles[label].role}.speed_mph", _around(text, match))
+            return mph
+    return None
 
 
 def _ego_reference(state: _State, road: dict, devices: set[str], at_junction: bool) -> tuple[str, str]:
@@ -1058,6 +1090,10 @@ def _junction_oracle(state: _State, road: dict, actors: dict, add) -> None:
                 re.search(r"(?:green|protected) (?:left[- ]turn )?arrow", text, re.I):
             add("CVC_21801", "left_turn_yield", role, f"{label} turned left across the path of oncoming traffic.",
                 vehicle.behavior_quote)
+        if _driveway_vehicle(state) == label:
+            add("CVC_21804", "driveway_yield", role, f"{label} left a driveway into the path of traffic.",
+                vehicle.behavior_quote)
+            continue
         if not any(h in ("from_left", "from_right") for h in heading_to.values()):
             continue
         ran_stop = re.search(rf"\b{label}\b[^.]{{0,80}}(?:fail(?:ed|ing) to stop|did not stop|ran the stop|"
@@ -1077,9 +1113,6 @@ def _junction_oracle(state: _State, road: dict, actors: dict, add) -> None:
                 add("CVC_21800", "intersection_right_of_way", role,
                     f"{label} entered the uncontrolled intersection without yielding to the vehicle on its right.",
                     vehicle.behavior_quote)
-        if _driveway_vehicle(state) == label:
-            add("CVC_21804", "driveway_yield", role, f"{label} left a driveway into the path of traffic.",
-                vehicle.behavior_quote)
 
 
 def _stop_approaches(state: _State) -> set[str]:
