@@ -259,7 +259,7 @@ def _type_of(state: _State, label: str) -> str:
 
 
 _IMPACT = re.compile(r"\b(?:struck|strikes?|striking|impacted|collided|hit)\b", re.I)
-_SUMMARY_SENTENCE = re.compile(r"\b(?:crash|collision|case|investigation)\s+(?:involves|involved|occurred|focused)|"
+_SUMMARY_SENTENCE = re.compile(r"\b(?:crash|collision|case|investigation)\s+(?:involves|involved|focused)|"
                                r"primarily involved|sustained (?:a )?(?:frontal|side|moderate|serious)", re.I)
 
 
@@ -319,7 +319,7 @@ def _environment(state: _State) -> dict:
             break
     time_of_day = "not_mentioned"
     for pattern, token in ((r"\bpre-?dawn\b", "nighttime"), (r"\bdawn\b", "dawn"), (r"\bdusk\b", "dusk"),
-                           (r"\bdark\b|\bnight(?:time)?\b|\bevening hours \(dark", "nighttime"),
+                           (r"\bdark(?:ness)?\b|\bnight(?:time)?\b|\bevening hours \(dark", "nighttime"),
                            (r"\bdaylight\b|\bday ?time\b|\bdaylight hours\b|\bafternoon\b|\bmorning hours\b|\bmid-?day\b|\bnoon\b",
                             "daytime")):
         match = re.search(pattern, env_text, re.I)
@@ -834,6 +834,11 @@ def _resolve(state: _State, vehicle: _Vehicle, found: list[tuple[int, str, re.Ma
     if any(token == "static" for _, token, _ in found):
         match = next(m for _, token, m in found if token == "static")
         return "static", quote(match)
+    parked = re.search(rf"\b(?:parked|unoccupied|non-occupied|abandoned)\b[^.()]{{0,60}}\(\s*{vehicle.label}\s*\)|"
+                       rf"\(\s*{vehicle.label}\s*\)\s*(?:that|which)\s+was\s+(?:legally\s+)?(?:parked|unoccupied)|"
+                       rf"\b{vehicle.label}\b[^.]{{0,80}}\bwas\s+(?:legally\s+)?parked\b", state.t.text, re.I)
+    if parked:
+        return "static", _around(state.t.text, parked, 80)
     first_event = None
     for position, token, match in found:
         if token in ("lose_control", "cross_centerline", "leave_road", "overtake"):
@@ -873,9 +878,9 @@ def _resolve(state: _State, vehicle: _Vehicle, found: list[tuple[int, str, re.Ma
                 return "stop", quote(stop)
             return token, quote(match)
     if stop:
-        after = pre[stop.end(): stop.end() + 200]
-        if re.search(_PROCEED, after, re.I):
-            return "go_forward", quote(stop)
+        for proceed in re.finditer(_PROCEED, pre[stop.end():], re.I):
+            if _label_at(pre, stop.end() + proceed.start()) in (vehicle.label, None):
+                return "go_forward", quote(stop)  # stopped at the sign, then went on (convention 8)
         return "stop", quote(stop)
     decel = next((m for _, t, m in found if t == "decelerate"), None)
     if decel and vehicle.role != "ego" or decel and not re.search(r"avoid", pre[decel.start() - 60: decel.end()], re.I):
@@ -1054,7 +1059,7 @@ def _oracle(state: _State, road: dict, actors: dict) -> list[dict]:
                                                                   in flags)
         if crossed:
             add("CVC_21650", "wrong_side", role, f"{label} entered the opposing lanes of the two-way roadway.", quote)
-            if marker == "double_solid_line" and behavior != "overtake":
+            if marker == "double_solid_line":
                 add("CVC_21460", "double_line_crossing", role, f"{label} crossed the double solid centre line.", quote)
         at_fault_other = any(v.behavior in ("lose_control", "cross_centerline", "leave_road")
                              for v in state.vehicles.values() if v is not vehicle)
@@ -1134,7 +1139,7 @@ def _yield_approaches(state: _State) -> set[str]:
 
 _NO_LABEL = r"(?:(?!\bV[1-9]\b)[^.]){0,100}?"  # words that name no other vehicle
 _STRIKE = r"(?:struck|strikes?|striking|impacted|rear-ended|hit|contacted)"
-_REAR = r"(?:the\s+)?(?:rear|back)(?:\s+(?:plane|corner|end|bumper))?\s+of\s+(V[1-9])"
+_REAR = r"(?:the\s+)?(?:rear|back)(?:\s+(?:plane|corner|end|bumper))?\s+of\s+(?:(?:a|an|the)\s+[^.()]{0,60}?\(\s*)?(V[1-9])"
 
 
 def _rear_end_oracle(state: _State, actors: dict, add) -> None:
