@@ -167,3 +167,44 @@ def test_leaving_a_driveway_into_traffic():
     assert s.road_network.road_type.value == "t_intersection"
     assert s.actors["npc1"].behavior.value == "turn_left"
     assert ("CVC_21804", "npc1") in {(o.code, o.actor) for o in s.oracle}
+
+
+def test_stopped_at_the_sign_then_proceeded_is_go_forward():
+    s = _text("Vehicle #1 (V1), a 2010 Toyota Camry, was traveling south on a two-lane, two-way residential street and "
+              "was stopped at a stop sign at a four-leg intersection. Vehicle #2 (V2), a 2008 Honda CR-V, was traveling "
+              "east on the intersecting road. It was daylight and the weather was clear. V1 then proceeded into the "
+              "intersection and the front of V2 struck the left side of V1.")
+    assert s.actors["ego"].behavior.value == "go_forward"
+    assert s.actors["ego"].position.reference == "stop_sign"
+    assert [(o.code, o.actor) for o in s.oracle] == [("CVC_21802", "ego")]
+
+
+def test_location_sentence_box_truck_and_red_light():
+    s = _text("This crash occurred at a four-leg intersection controlled by a traffic signal. Vehicle #1, a 2003 Ford "
+              "Taurus, was eastbound in the outside lane. Vehicle #2, a 2007 Ford F-350 box truck, was northbound. The "
+              "driver of V2 ran the red light and the front of V2 struck the right side of V1. Conditions were "
+              "daylight, clear and dry.")
+    assert s.road_network.road_type.value == "intersection"
+    assert (s.actors["npc1"].type.value, s.actors["npc1"].position.heading.value) == ("truck", "from_right")
+    assert ("CVC_21453", "npc1") in {(o.code, o.actor) for o in s.oracle}
+
+
+def test_parked_vehicle_struck_from_behind():
+    s = _text("The case vehicle (V1) was traveling south on a residential street at night. V1 drifted to the right and "
+              "struck the rear of a parked 2001 Toyota Corolla (V2) that was parked along the west curb.")
+    npc = s.actors["npc1"]
+    assert (npc.behavior.value, npc.position.relation.value, npc.position.heading.value) == \
+        ("static", "right", "same_direction")
+    assert [(o.code, o.actor) for o in s.oracle] == [("CVC_22350", "ego")]
+
+
+def test_lane_change_on_a_one_way_street():
+    s = _text("V1 was traveling west in lane two of a three-lane one-way street. V2 was traveling west in lane three to "
+              "the left of V1. The driver of V2 changed lanes to the right and the right side of V2 struck the left "
+              "side of V1. It was foggy in the early morning darkness.")
+    road = s.road_network
+    assert (road.number_of_ways, road.number_of_lanes) == (1, 3)
+    assert (s.environment.weather.value, s.environment.time_of_day.value) == ("foggy", "nighttime")
+    npc = s.actors["npc1"]
+    assert (npc.behavior.value, npc.position.relation.value) == ("change_lane_right", "left")
+    assert [(o.code, o.actor) for o in s.oracle] == [("CVC_22107", "npc1")]
