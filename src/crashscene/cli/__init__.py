@@ -18,6 +18,7 @@ from crashscene.cli import run_commands  # noqa: E402,F401  (registers run)
 from crashscene.cli import campaign_commands  # noqa: E402,F401  (registers campaign)
 from crashscene.cli import report_commands  # noqa: E402,F401  (registers report)
 from crashscene.cli import monitor_commands  # noqa: E402,F401  (registers monitor)
+from crashscene.cli import simulate_commands  # noqa: E402,F401  (registers simulate)
 
 
 def main() -> None:

@@ -40,7 +40,8 @@ class ReferenceAdsParams(BaseModel):
     lane_change_time: float = Field(2.0, ge=0, description="[s] after which a lane change behaviour starts")
     lat_accel: float = Field(2.0, gt=0, description="[m/s2] lateral acceleration accepted in curves")
     yellow_decel: float = Field(3.5, gt=0, description="[m/s2] stops on yellow when that suffices")
-    respect_speed_limit: bool = Field(True, description="never cruise above the posted limit")
+    respect_speed_limit: bool = Field(True, description="never cruise above the posted limit times the "
+                                                       "condition factor (wet, fog, snow, night)")
 
 
 class ReferenceADS(Driver):
@@ -59,7 +60,7 @@ class ReferenceADS(Driver):
         c = self.config
         self.rules = LongitudinalRules(headway=c.headway, min_gap=c.min_gap, gap_time=c.gap_acceptance,
                                        yellow_decel=c.yellow_decel, brake_comfort=c.brake_comfort,
-                                       lat_accel=c.lat_accel)
+                                       lat_accel=min(c.lat_accel, 0.4 * ctx.friction * 9.81))
         self.state = LongitudinalState(ctx.n_variations)
         self.commands: deque = deque(maxlen=max(1, int(round(c.reaction_time / ctx.dt)) + 1))
         self.lane_changed = np.zeros(ctx.n_variations, dtype=bool)
@@ -68,7 +69,8 @@ class ReferenceADS(Driver):
         ctx = self.ctx
         cruise = ctx.cruise_speed
         if self.config.respect_speed_limit:
-            cruise = np.where(np.isnan(obs.speed_limit), cruise, np.minimum(cruise, obs.speed_limit))
+            safe = obs.speed_limit * ctx.condition_factor
+            cruise = np.where(np.isnan(safe), cruise, np.minimum(cruise, safe))
         accel = longitudinal_accel(obs, ctx, self.state, self.rules, desired_speed(obs, cruise, self.rules))
         self.commands.append(accel)
         delayed = self.commands[0]

@@ -55,6 +55,8 @@ class DriverContext:
     lateral_target: np.ndarray  # [m] d to reach by the manoeuvre (lane change, cross centre line, leave road)
     initial_offset: np.ndarray  # [m] d at spawn (a lane change starts off its target lane's centre)
     lane_width: np.ndarray  # [m] at spawn
+    condition_factor: float = 1.0  # [-] safe speed = posted limit x this (wet 0.85, fog 0.70, snow/ice 0.60, night 0.90)
+    friction: float = 0.8  # [-] tyre-road friction coefficient of the surface
     params: dict[str, float | int | str | bool] = field(default_factory=dict)  # scene params for this actor
     rng: np.random.Generator | None = None  # seeded per (seed, first variation, role): draw per-variation values only
 

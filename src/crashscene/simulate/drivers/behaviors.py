@@ -30,13 +30,25 @@ DECELERATE_TO = 0.25  # [-] decelerate: fraction of cruise speed it slows to
 DECELERATE_RATE = 4.0  # [m/s2]
 SPIN_RATE = 0.35  # [rad/s] yaw rate of a vehicle out of control
 OVERTAKE_TIME = 6.0  # [s] in the opposing lane during an overtake
+DRIFTING = ("cross_centerline", "overtake", "lose_control", "leave_road")
 LANE_CHANGE_GAP = 1.0  # [s] time gap a careful driver needs in the target lane
 
 
-def rules_for(dispositions: frozenset[str]) -> LongitudinalRules:
+SPEEDING_CODES = frozenset({"CVC_22350", "CVC_22349"})
+OVER_LIMIT = 3.0  # [m/s] a speeding driver's margin above the (condition-adjusted) limit
+G = 9.81  # [m/s2]
+
+
+def speed_factor(dispositions: frozenset[str]) -> float:
+    """Factor on the sampled speed of a speeding driver (also its initial speed)."""
+    return OVERSPEED if dispositions & SPEEDING_CODES else 1.0
+
+
+def rules_for(dispositions: frozenset[str], friction: float = 0.8) -> LongitudinalRules:
     """The longitudinal rules of a driver carrying these oracle codes."""
     careless = bool(dispositions & {"CVC_22350"})
     return LongitudinalRules(
+        lat_accel=min(2.5, 0.4 * friction * G),
         headway=CLOSE_HEADWAY if "CVC_21703" in dispositions else 1.5,
         obey_red="CVC_21453" not in dispositions,
         obey_stop="CVC_22450" not in dispositions,
@@ -63,15 +75,25 @@ class BehaviorDriver(Driver):
     def reset(self, ctx: DriverContext) -> None:
         super().reset(ctx)
         disp = ctx.dispositions
-        self.rules = rules_for(disp)
+        self.rules = rules_for(disp, ctx.friction)
+        self.speeding = bool(disp & SPEEDING_CODES)
+        self.careless = "CVC_22350" in disp
         self.state = LongitudinalState(ctx.n_variations)
         inattentive = bool(disp & {"CVC_21703", "CVC_22350"})
         self.perception = DelayedPerception(LATE_REACTION, ctx.dt) if inattentive else None
-        factor = OVERSPEED if disp & {"CVC_22350", "CVC_22349"} else 1.0
-        self.cruise = ctx.cruise_speed * factor
+        self.cruise = ctx.cruise_speed * speed_factor(disp)
         self.check_gap = "CVC_22107" not in disp
         self.lane_changed = np.zeros(ctx.n_variations, dtype=bool)
         self.stopping = np.zeros(ctx.n_variations, dtype=bool)
+
+    def _cruise(self, obs: Observation) -> np.ndarray:
+        """Desired speed [m/s]: the sampled one, capped at the condition-adjusted limit unless speeding."""
+        limit = obs.speed_limit
+        if self.speeding:
+            factor = self.ctx.condition_factor if self.careless else 1.0
+            floor = np.where(np.isnan(limit), 0.0, limit * factor + OVER_LIMIT)
+            return np.maximum(self.cruise, floor)
+        return np.where(np.isnan(limit), self.cruise, np.minimum(self.cruise, limit * self.ctx.condition_factor))
 
     def step(self, obs: Observation) -> Action:
         ctx = self.ctx
@@ -82,9 +104,14 @@ class BehaviorDriver(Driver):
             return Action(accel=np.full(n, -ctx.limits.brake_max))
 
         lead_gap, lead_speed = self.perception(obs) if self.perception else (None, None)
-        cruise = self.cruise
+        if behavior in DRIFTING:
+            # drifting across the centre line or off the road: the driver does not react to what is ahead
+            gap = obs.lead_gap if lead_gap is None else lead_gap
+            lead_gap = np.where(triggered, np.inf, gap)
+            lead_speed = np.where(triggered, np.nan, obs.lead_speed if lead_speed is None else lead_speed)
+        cruise = self._cruise(obs)
         if behavior == "decelerate":
-            cruise = np.where(triggered, self.cruise * DECELERATE_TO, cruise)
+            cruise = np.where(triggered, cruise * DECELERATE_TO, cruise)
         accel = longitudinal_accel(obs, ctx, self.state, self.rules, desired_speed(obs, cruise, self.rules),
                                    lead_gap, lead_speed)
         if behavior == "decelerate":

@@ -27,14 +27,13 @@ def relative_heading(yaw_a: np.ndarray, yaw_b: np.ndarray) -> np.ndarray:
     return np.abs(np.remainder(yaw_b - yaw_a + np.pi, 2 * np.pi) - np.pi)
 
 
-def classify(yaw_a: float, yaw_b: float, dx: float = 0.0, dy: float = 0.0, length_a: float = 4.5,
+def classify(yaw_a: float, yaw_b: float, dx: float | None = None, dy: float = 0.0, length_a: float = 4.5,
              length_b: float = 4.5) -> str:
     """Collision class by relative heading (rules.md): rear_end < 30 deg (struck from behind), head_on > 150 deg,
     angle 60-120 deg, sideswipe otherwise or when near-parallel vehicles touch side by side.
-    (dx, dy) is b's centre minus a's [m]. The monitor's classification replaces this when present."""
+    (dx, dy) is b's centre minus a's [m], if known. The monitor's classification replaces this when present."""
     deg = float(np.degrees(relative_heading(np.asarray(yaw_a), np.asarray(yaw_b))))
-    along = abs(dx * np.cos(yaw_a) + dy * np.sin(yaw_a))
-    side_by_side = along < 0.6 * (length_a + length_b) / 2
+    side_by_side = dx is not None and abs(dx * np.cos(yaw_a) + dy * np.sin(yaw_a)) < 0.6 * (length_a + length_b) / 2
     if deg < 30:
         return "sideswipe" if side_by_side else "rear_end"
     if deg > 150:

@@ -15,6 +15,7 @@ import numpy as np
 from crashscene.dsl import Scenario
 from crashscene.scene import SampledActor, SampledScene
 from crashscene.simulate.backend import SimulationError, SimulationSettings
+from crashscene.simulate.drivers.behaviors import speed_factor
 from crashscene.simulate.embedded import signals, timing
 from crashscene.simulate.embedded.vehicles import VehicleLimits, limits_for
 from crashscene.simulate.embedded.world import RouteArrays
@@ -75,6 +76,8 @@ class BatchSetup:
     hold_until: np.ndarray
     trigger_time: np.ndarray
     lateral_target: np.ndarray
+    condition_factor: float  # [-] safe speed / posted limit for the weather, surface and light
+    friction: float  # [-] tyre-road friction coefficient
     invalid: list[str | None]  # per variation, the first reason found at setup
     conflict_time: np.ndarray  # (V,) [s] the anchor's nominal arrival at its first conflict point, inf if none
     default_speed_limit: float  # [m/s] DSL posted limit, NaN if none
@@ -175,8 +178,9 @@ def build(scenario: Scenario, scenes: list[SampledScene], roadmap: RoadMap,
         rng = variation_rng(scene.seed, scene.index)
         _plan_variation(v, scene, rng, columns, anchor, arrays, route, s0, d0, speed, length, entry_control,
                         lateral_target, hold, trigger, scale, phase, conflict_time, runs_red, settings)
+    fast = np.array([speed_factor(c.dispositions) for c in columns])[None, :]
     cruise = speed * scale
-    speed0 = np.where(hold > 0, 0.0, speed * np.where(scale < 1, scale, 1.0))
+    speed0 = np.where(hold > 0, 0.0, speed * np.where(scale < 1, scale, 1.0) * fast)
     limit = scenario.road_network.speed_limit_mph
     road_names = sorted({lane.road for lane in roadmap.lanes})
     from crashscene.simulate.roads import MARKERS
@@ -186,6 +190,7 @@ def build(scenario: Scenario, scenes: list[SampledScene], roadmap: RoadMap,
         routes=arrays, route=route, x=x, y=y, yaw=yaw, speed=speed0, cruise=cruise, length=length, width=width,
         s0=s0, d0=d0, lane_width=lane_width, entry_control=entry_control, entry_group=entry_group,
         priority=priority, phase=phase, hold_until=hold, trigger_time=trigger, lateral_target=lateral_target,
+        condition_factor=condition_factor(scenario), friction=friction(scenario),
         invalid=invalid, conflict_time=conflict_time, default_speed_limit=limit * MPH if limit else math.nan,
         lane_width_table=lane_width_table,
         lane_road=np.array([road_names.index(lane.road) for lane in roadmap.lanes]),
@@ -463,7 +468,7 @@ def _plan_variation(v: int, scene: SampledScene, rng: np.random.Generator, colum
         conflict_time[v] = min(conflict_time[v], arrival_anchor)
     # signal phase: green for the anchor's axis at its nominal arrival at its first junction
     entries = arrays.entry_s[ra]
-    ahead = entries[entries > s0[v, anchor]]
+    ahead = entries[np.isfinite(entries) & (entries > s0[v, anchor])]
     t_junction = (ahead[0] - s0[v, anchor]) / va if len(ahead) else 5.0
     green = float(scene.params.get("SIGNAL_GREEN_REMAINING", draws["green"]))
     phase[v] = float(signals.phase_for(np.array(t_junction), np.array(green), runs_red))
@@ -508,3 +513,32 @@ def _relative(arrays: RouteArrays, r: int, s: float, x: float, y: float) -> tupl
     dx, dy = x - xy[k, 0], y - xy[k, 1]
     lateral = -math.sin(yaw) * dx + math.cos(yaw) * dy
     return k * ROUTE_DS - s, lateral
+
+
+def condition_factor(scenario: Scenario) -> float:
+    """Safe-speed factor on the posted limit (rules.md rule 6): wet 0.85, fog 0.70, snow/ice 0.60, night 0.90."""
+    env = scenario.environment
+    weather, surface, light = str(env.weather), str(env.road_surface), str(env.time_of_day)
+    factor = 1.0
+    if surface == "wet" or weather == "rainy":
+        factor *= 0.85
+    if weather == "foggy":
+        factor *= 0.70
+    if weather == "snowy" or surface in ("snowy", "icy"):
+        factor *= 0.60
+    if light == "nighttime":
+        factor *= 0.90
+    return factor
+
+
+def friction(scenario: Scenario) -> float:
+    """Tyre-road friction coefficient [-] of the scenario's surface."""
+    env = scenario.environment
+    weather, surface = str(env.weather), str(env.road_surface)
+    if surface == "icy":
+        return 0.15
+    if surface == "snowy" or weather == "snowy":
+        return 0.3
+    if surface == "wet" or weather == "rainy":
+        return 0.5
+    return 0.8

@@ -77,6 +77,7 @@ def make_drivers(batch: batch_setup.BatchSetup, settings: SimulationSettings) ->
             width=batch.width[:, a], cruise_speed=batch.cruise[:, a], trigger_time=batch.trigger_time[:, a],
             hold_until=batch.hold_until[:, a], lateral_target=batch.lateral_target[:, a],
             initial_offset=batch.d0[:, a], lane_width=batch.lane_width[:, a],
+            condition_factor=batch.condition_factor, friction=batch.friction,
             params={k: v for k, v in batch.scenes[0].params.items() if str(k).startswith(col.role)},
         )
         driver.reset(ctx)

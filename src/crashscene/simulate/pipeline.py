@@ -1,0 +1,148 @@
+"""`simulate_scenario`: render -> sample -> simulate -> monitor -> run directory, for one scenario.
+
+Run directory layout: scenario.yaml (canonical DSL), scenario.scenic, map.xodr,
+render.json, scenes.jsonl, traces.parquet, actors.parquet, collisions.parquet,
+variations.parquet, summary.json, and the monitor's outputs (rule_results.parquet,
+collisions_classified.parquet, verdicts.parquet, monitor.json) when
+`crashscene.monitor` is installed.
+"""
+from __future__ import annotations
+
+import json
+import time
+from collections import Counter
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import pyarrow as pa
+
+from crashscene.dsl import Scenario, dump_file
+from crashscene.simulate.backend import (
+    DEFAULT_DT,
+    DEFAULT_HORIZON,
+    MODES,
+    SimulationError,
+    SimulationRequest,
+    SimulationSettings,
+    check_ego_role,
+    create_simulator,
+)
+from crashscene.simulate.embedded.collisions import classify
+from crashscene.traces import write_table
+
+
+def simulate_scenario(scenario: Scenario, out_dir: Path, n: int, seed: int, first: int = 0, mode: str = "test",
+                      backend: str = "embedded", ego_role: str = "ego", map_mode: str = "generated",
+                      carla_maps: Path | None = None, ads: str | None = None,
+                      ads_params: dict[str, Any] | None = None, dt: float = DEFAULT_DT,
+                      horizon: float = DEFAULT_HORIZON, carla_host: str = "127.0.0.1", carla_port: int = 2000,
+                      monitor: bool = True, progress: Callable[[int], None] | None = None) -> dict[str, Any]:
+    """Simulate variations [first, first + n) of `scenario` and write the run directory `out_dir`.
+
+    Returns the JSON summary (also written to summary.json): variations, valid,
+    invalid (reason -> count), collisions (by class, by actor pair), seconds, and
+    the monitor's violations, verdicts and reproduced counts when it is available.
+    `progress` is called with the number of variations each time a chunk finishes.
+    """
+    if mode not in MODES:
+        raise SimulationError(f"mode {mode!r} is not allowed; allowed: {', '.join(MODES)}")
+    if n < 1 or first < 0:
+        raise SimulationError(f"n must be >= 1 and first >= 0 (got n={n}, first={first})")
+    settings = SimulationSettings(dt=dt, horizon=horizon, mode=mode, ego_role=ego_role, ads=ads,
+                                  ads_params=ads_params or {}, carla_host=carla_host, carla_port=carla_port)
+    check_ego_role(scenario, settings)
+    from crashscene.render import RenderError, render
+    from crashscene.sample import sample_scenes
+
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    timings: dict[str, float] = {}
+    start = time.perf_counter()
+    dump_file(scenario, out_dir / "scenario.yaml")
+    try:
+        rendered = render(scenario, out_dir, map_mode=map_mode, carla_maps=carla_maps)
+        timings["render"] = time.perf_counter() - start
+        t0 = time.perf_counter()
+        scenes = sample_scenes(rendered.program, n, seed, first=first)
+        timings["sample"] = time.perf_counter() - t0
+    except RenderError as exc:
+        raise SimulationError(f"render/sample failed: {exc}") from exc
+    with open(out_dir / "scenes.jsonl", "w", encoding="utf-8") as fh:
+        for scene in scenes:
+            fh.write(scene.model_dump_json() + "\n")
+
+    t0 = time.perf_counter()
+    request = SimulationRequest(scenario=scenario, scenes=scenes, map_file=Path(rendered.map), settings=settings,
+                                program=Path(rendered.program).read_text(encoding="utf-8"), progress=progress)
+    with create_simulator(backend, settings) as simulator:
+        result = simulator.simulate(request)
+    timings["simulate"] = time.perf_counter() - t0
+    for name, table in result.tables.items():
+        write_table(out_dir, name, table)
+
+    summary = summarize(result.tables)
+    summary.update({"backend": result.backend, "mode": mode, "ego_role": ego_role, "seed": seed, "first": first,
+                    "ads": ads or ("reference" if mode == "test" else None)})
+    if result.notes:
+        summary["notes"] = result.notes
+    if monitor:
+        t0 = time.perf_counter()
+        monitored = _monitor(result.tables, scenario, out_dir)
+        if monitored is not None:
+            mc = monitored.pop("monitor_collisions")
+            summary["collisions"].update(by_class=mc["by_class"], by_pair=mc["by_pair"])
+            summary.update(monitored)
+        timings["monitor"] = time.perf_counter() - t0
+    summary["seconds"] = round(time.perf_counter() - start, 3)
+    summary["timings"] = {k: round(v, 3) for k, v in timings.items()}
+    (out_dir / "summary.json").write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
+    return summary
+
+
+def summarize(tables: dict[str, pa.Table]) -> dict[str, Any]:
+    """Counts from the simulator's own tables (collision classes by relative heading until the monitor runs)."""
+    variations = tables["variations"].to_pydict()
+    valid = {v for v, ok in zip(variations["variation"], variations["valid"]) if ok}
+    invalid = Counter(r for r, ok in zip(variations["invalid_reason"], variations["valid"]) if not ok)
+    coll = tables["collisions"].to_pylist()
+    by_class: Counter = Counter()
+    by_pair: dict[str, Counter] = {}
+    for row in coll:
+        if row["variation"] not in valid:
+            continue
+        klass = classify(row["yaw_a"], row["yaw_b"])
+        by_class[klass] += 1
+        by_pair.setdefault(f"{row['actor_a']}-{row['actor_b']}", Counter())[klass] += 1
+    collided = {row["variation"] for row in coll if row["variation"] in valid}
+    return {
+        "collision_classes_by": "relative_heading",
+        "variations": len(variations["variation"]),
+        "valid": len(valid),
+        "invalid": dict(invalid),
+        "collisions": {"total": sum(by_class.values()), "variations_with_collision": len(collided),
+                       "by_class": dict(by_class), "by_pair": {k: dict(v) for k, v in sorted(by_pair.items())}},
+    }
+
+
+def _monitor(tables: dict[str, pa.Table], scenario: Scenario, out_dir: Path) -> dict[str, Any] | None:
+    """Run `crashscene.monitor` when installed; write its outputs; the summary keys it contributes."""
+    try:
+        from crashscene.monitor import evaluate
+        from crashscene.monitor.run import write_results
+    except ImportError:
+        return None
+    result = evaluate(tables, scenario)
+    write_results(out_dir, result)
+    s = result.summary()
+    by_class = {k: v for k, v in s.get("collisions", {}).items() if v}
+    return {
+        "violations": s.get("violations", {}),
+        "verdicts": s.get("verdicts", {}),
+        "reproduced": s.get("reproduced"),
+        "reproduction_rate": s.get("reproduction_rate"),
+        "collision_classes_by": "monitor",
+        "monitor_collisions": {"by_class": by_class, "by_pair": s.get("collision_pairs", {}),
+                               "total": sum(by_class.values())},
+        "expected_collision": s.get("expected_collision"),
+    }
