@@ -33,9 +33,9 @@ class PathConflicts:
 
     crossing: np.ndarray   # bool: a's path crosses or merges into b's path
     angle: np.ndarray      # [rad] heading difference where a enters b's path
-    enter: np.ndarray      # step at which a's centre enters b's path (NO_STEP if never in the trace)
-    exit: np.ndarray       # last step of that stay (NO_STEP if never)
-    s_enter: np.ndarray    # [m] a's arc length at that entry (extension included; NaN if none)
+    enter: np.ndarray      # step at which a's front bumper enters b's path (NO_STEP if never in the trace)
+    exit: np.ndarray       # last step before a's rear bumper has left it (NO_STEP if never entered)
+    s_enter: np.ndarray    # [m] a's arc length where its front bumper enters (extension included; NaN if none)
     s: np.ndarray          # (V, A, T) a's arc length along its recorded path [m]
 
 
@@ -123,40 +123,52 @@ def _sampled_paths(arrays: TraceArrays, s_full: np.ndarray, idx: np.ndarray, n_e
 
 def _pair(out: PathConflicts, arrays: TraceArrays, lo: int, hi: int, a: int, b: int, px, py, pyaw, ps,
           idx: np.ndarray, min_angle: float) -> None:
+    """Fill both orders (a, b) and (b, a): each actor's bumpers against the other's centre path."""
     sl = slice(lo, hi)
     n_real = idx.shape[2]
-    dx = px[sl, a, :, None] - px[sl, b, None, :]
-    dy = py[sl, a, :, None] - py[sl, b, None, :]
-    d2 = dx * dx + dy * dy
-    d2[~np.isfinite(d2)] = np.inf
-    r = (arrays.width[sl, a] + arrays.width[sl, b]) / 2
-    r2 = (r * r)[:, None].astype(np.float32)
-    near_a = d2.min(axis=2) < r2           # a's samples on b's path
-    near_b = d2.min(axis=1) < r2           # b's samples on a's path
-    for (me, other, near, nearest_axis) in ((a, b, near_a, 2), (b, a, near_b, 1)):
-        first_any = first_index(near)
-        has = first_any >= 0
-        rows = np.nonzero(has)[0]
+    # lateral overlap of a bumper with the other's swept path: within both half widths of its centre line
+    r = ((arrays.width[sl, a] + arrays.width[sl, b]) / 2).astype(np.float32)[:, None]
+    for me, other in ((a, b), (b, a)):
+        half = (arrays.length[sl, me] / 2).astype(np.float32)[:, None]
+        c, s_ = np.cos(pyaw[sl, me]).astype(np.float32), np.sin(pyaw[sl, me]).astype(np.float32)
+        ox, oy = px[sl, other][:, None, :], py[sl, other][:, None, :]
+
+        def closest(sign: float) -> tuple[np.ndarray, np.ndarray]:
+            qx = (px[sl, me] + sign * half * c)[:, :, None]
+            qy = (py[sl, me] + sign * half * s_)[:, :, None]
+            d2 = (qx - ox) ** 2 + (qy - oy) ** 2
+            d2[~np.isfinite(d2)] = np.inf
+            return d2.min(axis=2), d2.argmin(axis=2)
+
+        front_d2, front_j = closest(1.0)
+        rear_d2, _ = closest(-1.0)
+        front_in = front_d2 < r * r
+        rear_in = rear_d2 < r * r
+        first = first_index(front_in)
+        rows = np.nonzero(first >= 0)[0]
         if not len(rows):
             continue
         v = rows + lo
-        f = first_any[rows]
-        other_pt = (np.argmin(d2[rows, f, :], axis=1) if nearest_axis == 2 else np.argmin(d2[rows, :, f], axis=1))
+        f = first[rows]
+        other_pt = front_j[rows, f]
         angle = heading_difference(pyaw[v, me, f], pyaw[v, other, other_pt])
-        crossing = (angle >= min_angle) & (angle <= np.pi - min_angle)
-        out.crossing[v, me, other] = crossing
+        out.crossing[v, me, other] = (angle >= min_angle) & (angle <= np.pi - min_angle)
         out.angle[v, me, other] = angle
-        out.s_enter[v, me, other] = ps[v, me, f]
+        out.s_enter[v, me, other] = ps[v, me, f]   # centre arc length when the front bumper enters
+        positions = np.arange(front_in.shape[1])
+        # the rear bumper's stay on the other's path that follows the entry; its end is the exit
+        rear_after = rear_in[rows] & (positions[None, :] >= f[:, None])
+        rear_start = first_index(rear_after)
+        gone = ~rear_in[rows] & (positions[None, :] > rear_start[:, None]) & (rear_start[:, None] >= 0)
+        leave = first_index(gone)
+        real_pos = np.minimum(np.arange(n_real), n_real - 1)
+        last_real = np.where(idx[v, me] >= 0, real_pos[None, :], -1).max(axis=1)
+        exit_pos = np.where(leave >= 0, leave - 1, last_real)
+        exit_pos = np.clip(np.minimum(exit_pos, last_real), 0, n_real - 1)
         real = f < n_real
-        # Stay on the other's path: the contiguous run of near samples from the entry.
-        after = near[rows].copy()
-        positions = np.arange(near.shape[1])
-        after[positions[None, :] < f[:, None]] = True
-        leave = first_index(~after)
-        last_in = np.where(leave >= 0, leave - 1, near.shape[1] - 1)
-        last_in = np.clip(last_in, 0, n_real - 1)
         steps_me = idx[v, me]
-        enter_step = np.where(real, np.take_along_axis(steps_me, np.minimum(f, n_real - 1)[:, None], 1)[:, 0], NO_STEP)
-        exit_step = np.where(real, np.take_along_axis(steps_me, last_in[:, None], 1)[:, 0], NO_STEP)
+        enter_step = np.where(real, np.take_along_axis(steps_me, np.minimum(f, n_real - 1)[:, None], 1)[:, 0],
+                              NO_STEP)
+        exit_step = np.take_along_axis(steps_me, exit_pos[:, None], 1)[:, 0]
         out.enter[v, me, other] = enter_step
-        out.exit[v, me, other] = np.where(exit_step >= 0, exit_step, enter_step)
+        out.exit[v, me, other] = np.where(real, np.maximum(exit_step, enter_step), NO_STEP)

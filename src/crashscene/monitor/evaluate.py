@@ -3,6 +3,7 @@ from __future__ import annotations
 
 from typing import Literal
 
+import numpy as np
 import pyarrow as pa
 
 from crashscene.dsl.model import Scenario
@@ -17,21 +18,27 @@ from crashscene.monitor.verdicts import ExpectedCollision, ads_mask, expected_co
 
 def evaluate(tables: dict[str, pa.Table], scenario: Scenario | None, rulebook: Rulebook | None = None, *,
              expected: ExpectedCollision | None | Literal["auto"] = "auto",
-             stop_at_collision: bool = True) -> MonitorResult:
+             stop_at_collision: bool = True, after_collision: float = 0.5) -> MonitorResult:
     """Evaluate every actor of every variation in `tables` (see `crashscene.traces`).
 
     `scenario` supplies the environment (condition factors), the posted limit,
     the road layout and the oracle to reproduce. `expected` overrides the
     collision the report implies ("auto": derived from the DSL; None: none).
-    With `stop_at_collision`, an actor's rules see its trace up to its first
-    collision only: what a backend without contact physics does afterwards
-    (vehicles passing through each other) is not driving.
+    With `stop_at_collision`, an actor's rules see its trace up to
+    `after_collision` [s] past its first collision only: what a backend without
+    contact physics does afterwards (vehicles passing through each other) is
+    not driving.
     """
     rulebook = rulebook or Rulebook()
     full = build_arrays(tables)
     ads = ads_mask(full)
     collisions = classify_collisions(full, tables.get("collisions"), ads)
-    arrays = full.truncated(first_contact_steps(full, collisions)) if stop_at_collision else full
+    if stop_at_collision:
+        contact = first_contact_steps(full, collisions)
+        grace = int(round(after_collision / full.dt))
+        arrays = full.truncated(np.where(contact >= 0, contact + grace, -1))
+    else:
+        arrays = full
     ctx = EvalContext(arrays=arrays, scenario=scenario)
     outcomes = []
     for rule in rulebook.rules():
