@@ -109,7 +109,9 @@ class LeftTurnYield(Rule):
         s = pair_state(ctx)
         left = code_of("maneuver", "left")
         oncoming = self._oncoming(ctx)
-        qualifies = s.crossing & (s.maneuver_a == left) & oncoming
+        # no crossing-angle filter: a left turner's front reaches the oncoming lane early in its turn,
+        # still nearly anti-parallel to it
+        qualifies = (s.enter_a >= 0) & (s.maneuver_a == left) & oncoming
         applicable = (ctx.is_code("maneuver", "left") & ctx.arrays.flag("in_junction")).any(axis=2)
         return _ttr_outcome(ctx, qualifies, applicable, p.min_time_to_reach)
 
