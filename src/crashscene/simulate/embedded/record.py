@@ -68,10 +68,13 @@ class Recorder:
         i["junction"][step] = geo.junction
         i["lost"][step] = state.lost
 
-    def collision(self, hit: np.ndarray, a: int, b: int, t: float, state, initial: bool) -> None:
+    def collision(self, hit: np.ndarray, a: int, b: int, t, state, initial: bool) -> None:
+        """Record first contacts; `t` [s] is a scalar or a per-variation array (contact inside the step)."""
         batch = self.batch
         roles = [c.role for c in batch.columns]
+        times = np.broadcast_to(np.asarray(t, dtype=float), (batch.n_variations,))
         for v in np.nonzero(hit)[0]:
+            t = float(times[v])
             if initial:
                 self.spawn[v] = self.spawn[v] or f"spawn overlap: {roles[a]} and {roles[b]} overlap at t=0"
                 continue

@@ -15,7 +15,7 @@ import numpy as np
 from crashscene.dsl import Scenario
 from crashscene.scene import SampledActor, SampledScene
 from crashscene.simulate.backend import SimulationError, SimulationSettings
-from crashscene.simulate.drivers.behaviors import speed_factor
+from crashscene.simulate.drivers.behaviors import SPEEDING_CODES, speed_factor
 from crashscene.simulate.embedded import signals, timing
 from crashscene.simulate.embedded.vehicles import VehicleLimits, limits_for
 from crashscene.simulate.embedded.world import RouteArrays
@@ -86,6 +86,12 @@ class BatchSetup:
     lane_forward: np.ndarray  # (n_lanes,) bool
     lane_marker: np.ndarray  # (n_lanes,) marker ordinal
     notes: list[str] = field(default_factory=list)
+
+    @property
+    def lateral_rate(self) -> np.ndarray:
+        """(A,) [m/s] how fast each actor's lateral reference moves toward its commanded offset."""
+        return np.array([timing.lateral_rate(c.behavior) if not c.is_ads else timing.LATERAL_RATE
+                         for c in self.columns])
 
     @property
     def n_variations(self) -> int:
@@ -173,14 +179,16 @@ def build(scenario: Scenario, scenes: list[SampledScene], roadmap: RoadMap,
     scale = np.ones((n_v, n_a))
     phase = np.zeros(n_v)
     conflict_time = np.full(n_v, np.inf)
+    planned = np.zeros((n_v, n_a))
     runs_red = "CVC_21453" in columns[anchor].dispositions
     for v, scene in enumerate(scenes):
         rng = variation_rng(scene.seed, scene.index)
         _plan_variation(v, scene, rng, columns, anchor, arrays, route, s0, d0, speed, length, entry_control,
-                        lateral_target, hold, trigger, scale, phase, conflict_time, runs_red, settings)
+                        lateral_target, hold, trigger, scale, phase, conflict_time, runs_red,
+                        condition_factor(scenario), _mph(scenario.road_network.speed_limit_mph), planned)
     fast = np.array([speed_factor(c.dispositions) for c in columns])[None, :]
     cruise = speed * scale
-    speed0 = np.where(hold > 0, 0.0, speed * np.where(scale < 1, scale, 1.0) * fast)
+    speed0 = np.where(hold > 0, 0.0, np.minimum(speed * fast, planned) * np.where(scale < 1, scale, 1.0))
     limit = scenario.road_network.speed_limit_mph
     road_names = sorted({lane.road for lane in roadmap.lanes})
     from crashscene.simulate.roads import MARKERS
@@ -413,15 +421,17 @@ def _plan_variation(v: int, scene: SampledScene, rng: np.random.Generator, colum
                     arrays: RouteArrays, route: np.ndarray, s0: np.ndarray, d0: np.ndarray, speed: np.ndarray,
                     length: np.ndarray, entry_control: np.ndarray, lateral_target: np.ndarray, hold: np.ndarray,
                     trigger: np.ndarray, scale: np.ndarray, phase: np.ndarray, conflict_time: np.ndarray,
-                    runs_red: bool,
-                    settings: SimulationSettings) -> None:
+                    runs_red: bool, cond: float, default_limit: float, planned_out: np.ndarray) -> None:
     """Fill row v of the timing arrays (draws from rng in a fixed order)."""
     n_a = len(columns)
+    planned = [_planned_speed(arrays, route[v, a], s0[v, a], speed[v, a], columns[a], cond, default_limit)
+               for a in range(n_a)]
+    planned_out[v] = planned
     draws = {"offset": rng.normal(timing.ARRIVAL_OFFSET_MEAN, timing.ARRIVAL_OFFSET_SD, n_a),
              "lead": rng.uniform(0.3, 1.5, n_a), "trigger": rng.uniform(1.0, 4.0, n_a),
              "green": rng.uniform(3.0, 15.0), "spin": rng.choice([-1.0, 1.0], n_a)}
     ra = route[v, anchor]
-    va = max(speed[v, anchor], 0.5)
+    va = planned[anchor]
     anchor_col = columns[anchor]
     anchor_stop = _stop_dist(arrays, ra, s0[v, anchor], entry_control, anchor_col)
     arrival_anchor = None
@@ -429,13 +439,13 @@ def _plan_variation(v: int, scene: SampledScene, rng: np.random.Generator, colum
         r = route[v, a]
         params = scene.params
         offset = float(np.clip(draws["offset"][a], -timing.ARRIVAL_OFFSET_MAX, timing.ARRIVAL_OFFSET_MAX))
-        offset = float(params.get(f"{col.role}_ARRIVAL_OFFSET", offset))
+        offset = _param(params, col.role, ("ARRIVAL_OFFSET",), offset)
         if col.is_ads:
             continue
         if col.behavior in LATERAL_BEHAVIORS:
             partner = _partner(v, a, anchor, columns, scene, route, s0)
             if partner is None:
-                trigger[v, a] = float(params.get(f"{col.role}_TRIGGER_TIME", draws["trigger"][a]))
+                trigger[v, a] = _param(params, col.role, ("TRIGGER_TIME", "MANEUVER_TIME"), draws["trigger"][a])
                 if col.behavior == "lose_control":
                     lateral_target[v, a] = draws["spin"][a]
                 continue
@@ -446,11 +456,20 @@ def _plan_variation(v: int, scene: SampledScene, rng: np.random.Generator, colum
                 dist = 2.5
             else:
                 dist = lateral_target[v, a] - d0[v, a]
-            lead = float(params.get(f"{col.role}_LEAD_TIME", draws["lead"][a]))
-            trigger[v, a] = timing.lateral_trigger(gap, speed[v, a], speed[v, partner], opposite, dist, lead)
+            lead = _param(params, col.role, ("LEAD_TIME",), draws["lead"][a])
+            rate = timing.lateral_rate(col.behavior)
+            p_col = columns[partner]
+            if opposite and not p_col.is_ads and p_col.behavior not in LATERAL_BEHAVIORS and gap > 0:
+                # too close to swerve in time: the oncoming partner comes a little slower (within its range)
+                needed = abs(dist) / rate + lead
+                closing = gap / needed
+                if closing < planned[a] + planned[partner]:
+                    scale[v, partner] = max(timing.SPEED_SCALE[0], (closing - planned[a]) / planned[partner])
+                    planned[partner] *= scale[v, partner]
+            trigger[v, a] = timing.lateral_trigger(gap, planned[a], planned[partner], opposite, dist, lead, rate)
             continue
         if col.behavior in ("decelerate", "stop"):
-            trigger[v, a] = float(params.get(f"{col.role}_TRIGGER_TIME", draws["trigger"][a]))
+            trigger[v, a] = _param(params, col.role, ("TRIGGER_TIME", "MANEUVER_TIME"), draws["trigger"][a])
             continue
         if a == anchor or col.behavior == "static":
             continue
@@ -459,10 +478,12 @@ def _plan_variation(v: int, scene: SampledScene, rng: np.random.Generator, colum
         if np.isnan(cs_a) or cs_a <= s0[v, a] or cs_e <= s0[v, anchor]:
             continue
         if arrival_anchor is None:
-            arrival_anchor = timing.arrival_time(cs_e - s0[v, anchor], va, columns[anchor].limits.accel_max,
+            v_eff = _effective_speed(arrays, ra, s0[v, anchor], cs_e, va, anchor_col)
+            arrival_anchor = timing.arrival_time(cs_e - s0[v, anchor], v_eff, anchor_col.limits.accel_max,
                                                  stop_dist=anchor_stop)
         stop = _stop_dist(arrays, r, s0[v, a], entry_control, col)
-        sc, hd = timing.junction_plan(arrival_anchor + offset, cs_a - s0[v, a], max(speed[v, a], 0.5),
+        v_eff = _effective_speed(arrays, r, s0[v, a], cs_a, planned[a], col)
+        sc, hd = timing.junction_plan(arrival_anchor + offset, cs_a - s0[v, a], v_eff,
                                       col.limits.accel_max, stop_dist=stop)
         scale[v, a], hold[v, a] = sc, hd
         conflict_time[v] = min(conflict_time[v], arrival_anchor)
@@ -472,6 +493,41 @@ def _plan_variation(v: int, scene: SampledScene, rng: np.random.Generator, colum
     t_junction = (ahead[0] - s0[v, anchor]) / va if len(ahead) else 5.0
     green = float(scene.params.get("SIGNAL_GREEN_REMAINING", draws["green"]))
     phase[v] = float(signals.phase_for(np.array(t_junction), np.array(green), runs_red))
+
+
+def _param(params: dict, role: str, names: tuple[str, ...], default: float) -> float:
+    """A sampled scene parameter `<role>_<NAME>` (ego's spelled EGO_<NAME>), else `default`."""
+    for name in names:
+        for key in (f"{role}_{name}", f"{role.upper()}_{name}"):
+            if key in params:
+                try:
+                    return float(params[key])
+                except (TypeError, ValueError):
+                    break
+    return float(default)
+
+
+def _mph(value: float | None) -> float:
+    return value * MPH if value else math.nan
+
+
+def _planned_speed(arrays: RouteArrays, r: int, s0: float, speed: float, col: ActorColumn, cond: float,
+                   default_limit: float) -> float:
+    """The cruise speed [m/s] the actor's driver will hold (capped at the condition-adjusted limit unless speeding)."""
+    if col.dispositions & SPEEDING_CODES:
+        return max(speed * speed_factor(col.dispositions), 0.5)
+    limit = arrays.speed_limit[r, min(int(s0 / ROUTE_DS), arrays.speed_limit.shape[1] - 1)]
+    if np.isnan(limit):
+        limit = default_limit
+    return max(min(speed, limit * cond) if np.isfinite(limit) else speed, 0.5)
+
+
+def _effective_speed(arrays: RouteArrays, r: int, s0: float, s1: float, speed: float, col: ActorColumn) -> float:
+    """Average speed [m/s] from s0 to s1, slowing in curves as the driver will (not when careless)."""
+    if s1 <= s0 or "CVC_22350" in col.dispositions:
+        return speed
+    lat = 2.0 if col.is_ads else 2.5
+    return (s1 - s0) / max(arrays.travel_time(r, s0, s1, speed, lat), 1e-3)
 
 
 def _stop_dist(arrays: RouteArrays, r: int, s0: float, entry_control: np.ndarray, col: ActorColumn) -> float | None:

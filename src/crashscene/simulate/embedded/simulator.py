@@ -38,7 +38,6 @@ from crashscene.simulate.embedded.record import Recorder
 from crashscene.simulate.roads import STOP_LINE_SETBACK, RoadMap
 
 CHUNK = 500  # variations simulated together (bounds memory; results do not depend on it)
-LATERAL_RATE = 1.2  # [m/s] how fast the lateral reference moves toward the commanded offset
 LOOKAHEAD = (4.0, 25.0)  # [m] pure-pursuit lookahead range
 LOOKAHEAD_TIME = 0.9  # [s]
 SKID_DECEL = 3.0  # [m/s2] while out of control
@@ -154,6 +153,7 @@ class State:
         self.gone = np.zeros(self.x.shape, dtype=bool)  # reached the end of its route (left the map)
         self.gone_time = np.full(self.x.shape, np.nan)
         self.moved = np.zeros_like(self.x)  # [m] distance travelled
+        self.prev_x, self.prev_y, self.prev_yaw = self.x.copy(), self.y.copy(), self.yaw.copy()
 
 
 class Geometry:
@@ -171,12 +171,15 @@ def _geometry(batch: batch_setup.BatchSetup, state: State, t: float) -> Geometry
     g.route_lane = routes.lane[r, k]
     g.front = state.s + batch.length / 2
     entries = routes.entry_s[r]  # (V, A, J)
-    passed = np.sum(entries < g.front[..., None] - 0.5, axis=-1)
+    exits = routes.entry_exit[r]
+    rear = state.s - batch.length / 2
     g.in_junction_route = routes.junction[r, k] >= 0
     n_j = entries.shape[-1]
-    current = np.where(g.in_junction_route & (passed > 0), passed - 1, passed)
-    has = current < n_j
+    # the current junction is the first one the vehicle has not yet cleared
+    current = np.sum(exits <= rear[..., None], axis=-1)
+    has = (current < n_j)
     cur = np.minimum(current, n_j - 1)
+    has &= np.isfinite(np.take_along_axis(entries, cur[..., None], axis=-1)[..., 0])
     entry_s = np.take_along_axis(entries, cur[..., None], axis=-1)[..., 0]
     g.entry = np.where(has, cur, -1)
     g.junction_dist = np.where(has, entry_s - g.front, np.nan)
@@ -288,8 +291,10 @@ def _move(batch: batch_setup.BatchSetup, state: State, accel_cmd: np.ndarray, la
           t_next: float, accel_max, brake_max, steer_max, steer_rate, speed_max, wheelbase) -> None:
     routes, r = batch.routes, batch.route
     frozen = state.collided | state.gone
+    state.prev_x, state.prev_y, state.prev_yaw = state.x.copy(), state.y.copy(), state.yaw.copy()
     # lateral reference moves toward the command at a bounded rate
-    state.d_ref += np.clip(lat_cmd - state.d_ref, -LATERAL_RATE * dt, LATERAL_RATE * dt)
+    rate = batch.lateral_rate[None, :] * dt
+    state.d_ref += np.clip(lat_cmd - state.d_ref, -rate, rate)
     lookahead = np.clip(LOOKAHEAD_TIME * state.v + 3.0, *LOOKAHEAD)
     tx, ty, tyaw = routes.point(r, state.s + lookahead)
     px = tx - np.sin(tyaw) * state.d_ref
@@ -348,8 +353,44 @@ def _check_collisions(batch: batch_setup.BatchSetup, state: State, collided_pair
             if not hit.any():
                 continue
             collided_pairs[:, a, b] |= hit
-            recorder.collision(hit, a, b, t, state, initial)
             if initial:
+                recorder.collision(hit, a, b, t, state, initial)
                 continue  # a spawn overlap invalidates the variation; the vehicles are not stopped
+            frac = _back_to_contact(batch, state, hit, a, b)
+            recorder.collision(hit, a, b, t - (1.0 - frac) * batch.settings.dt, state, initial)
             state.collided[:, a] |= hit
             state.collided[:, b] |= hit
+
+
+def _back_to_contact(batch: batch_setup.BatchSetup, state: State, hit: np.ndarray, a: int, b: int) -> np.ndarray:
+    """Move the two vehicles of each hit variation back along their last step to the moment of first contact.
+
+    A 10 Hz step can carry two cars a metre or more into each other; resting them where they
+    first touched keeps the recorded contact geometry (and so its class) true. Returns, per
+    variation, the fraction of the step at which contact began (1 where nothing was moved).
+    """
+    idx = np.nonzero(hit & ~state.collided[:, a] & ~state.collided[:, b])[0]
+    frac = np.ones(batch.n_variations)
+    if len(idx) == 0:
+        return frac
+    lo, hi = np.zeros(len(idx)), np.ones(len(idx))
+
+    def pose(actor: int, f: np.ndarray):
+        yaw0, yaw1 = state.prev_yaw[idx, actor], state.yaw[idx, actor]
+        dyaw = np.remainder(yaw1 - yaw0 + np.pi, 2 * np.pi) - np.pi
+        return (state.prev_x[idx, actor] + f * (state.x[idx, actor] - state.prev_x[idx, actor]),
+                state.prev_y[idx, actor] + f * (state.y[idx, actor] - state.prev_y[idx, actor]), yaw0 + f * dyaw)
+
+    for _ in range(8):
+        mid = (lo + hi) / 2
+        xa, ya, ta = pose(a, mid)
+        xb, yb, tb = pose(b, mid)
+        touching = rectangles_overlap(xa, ya, ta, batch.length[idx, a], batch.width[idx, a], xb, yb, tb,
+                                      batch.length[idx, b], batch.width[idx, b])
+        hi = np.where(touching, mid, hi)
+        lo = np.where(touching, lo, mid)
+    for actor in (a, b):
+        x, y, yaw = pose(actor, hi)
+        state.x[idx, actor], state.y[idx, actor], state.yaw[idx, actor] = x, y, yaw
+    frac[idx] = hi
+    return frac

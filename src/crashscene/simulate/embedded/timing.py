@@ -20,7 +20,14 @@ SPEED_SCALE = (0.6, 1.4)  # [-] range of cruise-speed adjustment for timing
 ARRIVAL_OFFSET_SD = 0.3  # [s] default spread of the arrival offset
 ARRIVAL_OFFSET_MEAN = 0.25  # [s] the other actor arrives just after the anchor: it strikes the anchor's side
 ARRIVAL_OFFSET_MAX = 0.8  # [s]
-LATERAL_RATE = 1.2  # [m/s] lateral speed of a lane change / centre-line crossing
+LATERAL_RATE = 1.2  # [m/s] lateral speed of a lane change
+SWERVE_RATE = 2.0  # [m/s] lateral speed of a drift or swerve across the centre line or off the road
+SWERVE_BEHAVIORS = ("cross_centerline", "overtake", "leave_road", "lose_control")
+
+
+def lateral_rate(behavior: str) -> float:
+    """Lateral speed [m/s] of the behaviour's manoeuvre."""
+    return SWERVE_RATE if behavior in SWERVE_BEHAVIORS else LATERAL_RATE
 STOP_DWELL = 1.5  # [s] time stopped at a stop sign before proceeding
 
 
@@ -77,13 +84,13 @@ def junction_plan(t_target: float, dist: float, speed: float, accel: float,
 
 
 def lateral_trigger(gap: float, speed: float, partner_speed: float, opposite: bool, lateral_dist: float,
-                    lead_time: float) -> float:
+                    lead_time: float, rate: float = LATERAL_RATE) -> float:
     """Trigger time [s] of a lateral manoeuvre so that it is complete `lead_time` [s] before the meeting.
 
     gap: partner's station ahead along the actor's route minus the actor's [m] (negative: behind).
     opposite: the partner comes the other way (closing speed = sum of speeds).
     """
-    duration = abs(lateral_dist) / LATERAL_RATE
+    duration = abs(lateral_dist) / rate
     if opposite:
         closing = max(speed + partner_speed, 1.0)
         t_meet = max(gap, 0.0) / closing

@@ -34,6 +34,7 @@ class RouteArrays:
     entry_s: np.ndarray  # (R, J) [m] junction entries along the route, inf padded
     entry_junction: np.ndarray  # (R, J) junction index, -1 padded
     entry_maneuver: np.ndarray  # (R, J) MANEUVER code
+    entry_exit: np.ndarray  # (R, J) [m] station where the route leaves that junction, inf padded
     entry_road: list[list[str]]  # approach road uid per entry
     conflict_s: np.ndarray  # (R, R) [m] station on route i where it first meets route j, NaN if never
     conflict_angle: np.ndarray  # (R, R) [rad] heading of j minus heading of i at that point
@@ -54,6 +55,7 @@ class RouteArrays:
         entry_s = np.full((n, j_max), np.inf)
         entry_j = np.full((n, j_max), -1, dtype=np.int32)
         entry_m = np.zeros((n, j_max), dtype=np.int8)
+        entry_x = np.full((n, j_max), np.inf)
         entry_road: list[list[str]] = []
         for i, r in enumerate(routes):
             entry_road.append([e.approach_road for e in r.entries])
@@ -61,12 +63,18 @@ class RouteArrays:
                 entry_s[i, j] = e.s
                 entry_j[i, j] = e.junction
                 entry_m[i, j] = MANEUVER_CODES.index(e.maneuver)
+                k = int(e.s / ROUTE_DS) + 1
+                outside = np.flatnonzero(r.junction[k:] < 0)
+                inside = np.flatnonzero(r.junction[k:] >= 0)
+                start = inside[0] if len(inside) else 0
+                after = outside[outside > start]
+                entry_x[i, j] = (k + after[0]) * ROUTE_DS if len(after) else r.length
         conflict_s, conflict_angle = _conflicts(routes)
         return cls(routes, pad([r.xy for r in routes], float), pad([r.yaw for r in routes], float),
                    pad([r.curvature for r in routes], float), pad([r.lane for r in routes], np.int32),
                    pad([r.junction for r in routes], np.int32), pad([r.centerline_offset for r in routes], float),
                    pad([r.speed_limit for r in routes], float), np.array([r.length for r in routes]),
-                   entry_s, entry_j, entry_m, entry_road, conflict_s, conflict_angle)
+                   entry_s, entry_j, entry_m, entry_x, entry_road, conflict_s, conflict_angle)
 
     # ------------------------------------------------------------------ gathers
     def index(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -86,6 +94,16 @@ class RouteArrays:
     def sample(self, table: np.ndarray, r: np.ndarray, s: np.ndarray) -> np.ndarray:
         k, _ = self.index(s)
         return table[r, k]
+
+    def travel_time(self, r: int, s0: float, s1: float, speed: float, lat_accel: float) -> float:
+        """Nominal time [s] from s0 to s1 on route r at `speed`, slowing to sqrt(lat_accel/curvature) in curves."""
+        if s1 <= s0:
+            return 0.0
+        k0, k1 = int(s0 / ROUTE_DS), int(np.ceil(s1 / ROUTE_DS))
+        kappa = np.abs(self.curvature[r, k0:k1 + 1])
+        v = np.minimum(max(speed, 0.5), np.sqrt(lat_accel / np.maximum(kappa, 1e-4)))
+        v = np.maximum(v, 3.0)
+        return float(np.sum(ROUTE_DS / v[:-1])) if len(v) > 1 else (s1 - s0) / max(speed, 0.5)
 
     def max_abs_curvature(self, r: np.ndarray, s: np.ndarray, ahead: np.ndarray, n: int = 8) -> np.ndarray:
         """Largest |curvature| [1/m] on [s, s + ahead], sampled at n points."""
