@@ -32,6 +32,7 @@ import importlib
 import math
 import re
 import socket
+import time
 from pathlib import Path
 from typing import Any, Protocol, runtime_checkable
 
@@ -40,7 +41,6 @@ from crashscene.simulate import scenic_trace
 from crashscene.simulate.backend import (
     BackendUnavailable,
     BatchResult,
-    SceneResult,
     SimulationError,
     SimulationRequest,
     SimulationSettings,
@@ -235,7 +235,15 @@ class CarlaSimulator(Simulator):
                                       f"got --mode {self.settings.mode}")
             load_agent(self.settings.ads, self.settings.ads_params)  # fail before connecting, not mid-batch
         self.check_available()
-        result = super().simulate(request)
+        start = time.perf_counter()
+        scenes = list(request.scenes)
+        runs = []
+        for scene in scenes:
+            runs.append(self.run_scene(request, scene))
+            if request.progress is not None:
+                request.progress(1)
+        tables = scenic_trace.record_tables(request.scenario, scenes, runs, self.settings, request.map_file)
+        result = BatchResult(backend=self.name, tables=tables, seconds=time.perf_counter() - start)
         if self.settings.mode == "test" and self.settings.ads is None:
             result.notes.append(f"carla: no --ads given, the ADS role {self.settings.ego_role!r} runs the "
                                 f"program's Scenic behaviour")
@@ -274,8 +282,10 @@ class CarlaSimulator(Simulator):
             self._scenic_simulator.destroy()
             self._scenic_simulator, self._world_key = None, None
 
-    def simulate_scene(self, request: SimulationRequest, scene: SampledScene) -> SceneResult:
+    def run_scene(self, request: SimulationRequest, scene: SampledScene) -> scenic_trace.ScenicRun:
+        """Run one scene in CARLA: its tracks and footprint contacts, or why it is invalid."""
         settings = self.settings
+        steps = settings.steps
         program = request.program or ""
         scenario = self.compiled(program, request.map_file)
         with quiet_scenic():
@@ -287,6 +297,9 @@ class CarlaSimulator(Simulator):
             actor = by_role[role]
             pins.append((actor.x, actor.y, actor.yaw - scenic_trace.SCENIC_TO_YAW, actor.speed))
             drift = max(drift, math.hypot(float(obj.position[0]) - actor.x, float(obj.position[1]) - actor.y))
+        mismatch = placement_mismatch(scenic_scene, scene, drift)
+        if mismatch:
+            return scenic_trace.failed_run(scene, steps, mismatch)
         agent, agent_index = None, None
         if settings.ads is not None and settings.mode == "test":
             agent = load_agent(settings.ads, settings.ads_params)
@@ -300,25 +313,15 @@ class CarlaSimulator(Simulator):
         simulator.prepare(pins, agent_index, agent, agent_setup)
         try:
             with seeded_globals(scene.seed, scene.index):
-                simulation = simulator.simulate(scenic_scene, maxSteps=settings.steps, verbosity=0)
+                simulation = simulator.simulate(scenic_scene, maxSteps=steps, verbosity=0)
         except Exception as exc:  # a spawn or behaviour failure invalidates this variation only
-            return _invalid(scene, settings, f"carla run failed: {type(exc).__name__}: {exc}")
+            return scenic_trace.failed_run(scene, steps, f"carla run failed: {type(exc).__name__}: {exc}")
         finally:
             if agent is not None:
                 agent.teardown()
         if simulation is None:
-            return _invalid(scene, settings, "scenic rejected the simulation (a requirement was violated)")
-        tracks = scenic_trace.tracks_from_trajectory(simulation.result.trajectory, roles)
-        tracks = scenic_trace.pad_tracks(tracks, settings.steps + 1)
-        result = scenic_trace.scene_result(scene, tracks, settings.dt, request.map_file)
-        mismatch = placement_mismatch(scenic_scene, scene, drift)
-        if mismatch and result.valid:
-            result.valid, result.invalid_reason = False, mismatch
-        return result
-
-
-def _invalid(scene: SampledScene, settings: SimulationSettings, reason: str) -> SceneResult:
-    tracks = {a.role: scenic_trace.still_track(a, settings.steps + 1) for a in scene.actors}
-    result = scenic_trace.scene_result(scene, tracks, settings.dt, None)
-    result.valid, result.invalid_reason, result.collisions = False, reason, []
-    return result
+            return scenic_trace.failed_run(scene, steps, "scenic rejected the simulation (a requirement was violated)")
+        tracks = scenic_trace.pad_tracks(scenic_trace.tracks_from_trajectory(simulation.result.trajectory, roles),
+                                         steps + 1)
+        sizes = {actor.role: (actor.length, actor.width) for actor in scene.actors}
+        return scenic_trace.ScenicRun(tracks, contacts=scenic_trace.find_contacts(tracks, sizes, settings.dt))

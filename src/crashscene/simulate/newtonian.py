@@ -36,7 +36,6 @@ import numpy as np
 from crashscene.scene import SampledScene
 from crashscene.simulate.backend import (
     BatchResult,
-    SceneResult,
     SimulationError,
     SimulationRequest,
     SimulationSettings,
@@ -194,9 +193,10 @@ def _tracing_classes():
 class NewtonianSimulator(Simulator):
     """Runs rendered Scenic programs in Scenic's Newtonian simulator, one scene at a time.
 
-    Compiles each (program, map) once per simulator and reuses it for every scene.
-    In `test` mode the ego still runs the program's Scenic behaviour: a user ADS
-    (`--ads`) cannot be plugged into Scenic behaviours, so asking for one is an error.
+    Compiles each (program, map) once per simulator and reuses it for every
+    scene; the traces of a batch are then recorded together (`scenic_trace.record_tables`).
+    In `test` mode the ADS role still runs the program's Scenic behaviour: a user
+    ADS (`--ads`) cannot be plugged into Scenic behaviours, so asking for one is an error.
     """
 
     name = "newtonian"
@@ -206,6 +206,7 @@ class NewtonianSimulator(Simulator):
         self._compiled: dict[str, object] = {}
 
     def simulate(self, request: SimulationRequest) -> BatchResult:
+        check_ego_role(request.scenario, self.settings)
         if self.settings.ads is not None:
             raise SimulationError(f"--ads {self.settings.ads!r}: the newtonian backend runs the program's Scenic "
                                   f"behaviours and cannot host a user driver; use --backend embedded "
@@ -213,8 +214,16 @@ class NewtonianSimulator(Simulator):
         if not request.program:
             raise SimulationError("the newtonian backend needs the rendered Scenic program "
                                   "(SimulationRequest.program is empty)")
-        result = super().simulate(request)
-        result.notes.extend(NOTES)
+        start = time.perf_counter()
+        scenes = list(request.scenes)
+        runs = []
+        for scene in scenes:
+            runs.append(self.run_scene(request, scene))
+            if request.progress is not None:
+                request.progress(1)
+        tables = scenic_trace.record_tables(request.scenario, scenes, runs, self.settings, request.map_file)
+        result = BatchResult(backend=self.name, tables=tables, seconds=time.perf_counter() - start,
+                             notes=list(NOTES))
         if self.settings.mode == "test":
             result.notes.append(f"newtonian: the ADS role {self.settings.ego_role!r} runs the program's "
                                 f"Scenic behaviour, not the reference ADS")
@@ -227,42 +236,41 @@ class NewtonianSimulator(Simulator):
             self._compiled[key] = compile_program(program, map_file)
         return self._compiled[key]
 
-    def simulate_scene(self, request: SimulationRequest, scene: SampledScene) -> SceneResult:
-        check_ego_role(request.scenario, self.settings)
+    def run_scene(self, request: SimulationRequest, scene: SampledScene) -> scenic_trace.ScenicRun:
+        """Run one scene in the Newtonian simulator: its tracks and contacts, or why it is invalid."""
         scenario = self.compiled(request.program or "", request.map_file)
-        settings = self.settings
+        steps, dt = self.settings.steps, self.settings.dt
         with quiet_scenic():
             try:
                 scenic_scene = generate_scenic_scene(scenario, scene.seed, scene.index)
             except Exception as exc:  # RejectionException when no scene satisfies the requirements
-                return _invalid(scene, settings, f"scenic could not place the scene: {type(exc).__name__}: {exc}")
+                return scenic_trace.failed_run(scene, steps, f"scenic could not place the scene: "
+                                                             f"{type(exc).__name__}: {exc}")
             roles = scenic_trace.object_roles(scenic_scene.objects, scene)
             by_role = {actor.role: actor for actor in scene.actors}
             pins, sizes, drift = [], [], 0.0
             for obj, role in zip(scenic_scene.objects, roles):
                 actor = by_role[role]
-                heading = actor.yaw - scenic_trace.SCENIC_TO_YAW
-                pins.append((actor.x, actor.y, heading, actor.speed))
+                pins.append((actor.x, actor.y, actor.yaw - scenic_trace.SCENIC_TO_YAW, actor.speed))
                 sizes.append((actor.length, actor.width))
                 drift = max(drift, math.hypot(float(obj.position[0]) - actor.x, float(obj.position[1]) - actor.y))
+            mismatch = placement_mismatch(scenic_scene, scene, drift)
+            if mismatch:
+                return scenic_trace.failed_run(scene, steps, mismatch)
             simulator = _tracing_classes()(pins, sizes)
             try:
                 with seeded_globals(scene.seed, scene.index):
-                    simulation = simulator.simulate(scenic_scene, maxSteps=settings.steps, timestep=settings.dt,
-                                                    verbosity=0)
+                    simulation = simulator.simulate(scenic_scene, maxSteps=steps, timestep=dt, verbosity=0)
             except Exception as exc:  # a behaviour failing at run time invalidates this variation only
-                return _invalid(scene, settings, f"newtonian run failed: {type(exc).__name__}: {exc}")
+                return scenic_trace.failed_run(scene, steps, f"newtonian run failed: {type(exc).__name__}: {exc}")
             finally:
                 simulator.destroy()
         if simulation is None:
-            return _invalid(scene, settings, "scenic rejected the simulation (a requirement was violated)")
+            return scenic_trace.failed_run(scene, steps, "scenic rejected the simulation (a requirement was violated)")
         tracks = scenic_trace.tracks_from_trajectory(simulation.result.trajectory, roles)
-        tracks = scenic_trace.pad_tracks(tracks, settings.steps + 1)
-        result = scenic_trace.scene_result(scene, tracks, settings.dt, request.map_file)
-        mismatch = placement_mismatch(scenic_scene, scene, drift)
-        if mismatch and result.valid:
-            result.valid, result.invalid_reason = False, mismatch
-        return result
+        tracks = scenic_trace.pad_tracks(tracks, steps + 1)
+        sizes_by_role = {actor.role: (actor.length, actor.width) for actor in scene.actors}
+        return scenic_trace.ScenicRun(tracks, contacts=scenic_trace.find_contacts(tracks, sizes_by_role, dt))
 
 
 def placement_mismatch(scenic_scene, scene: SampledScene, drift: float) -> str | None:
@@ -282,14 +290,6 @@ def placement_mismatch(scenic_scene, scene: SampledScene, drift: float) -> str |
             return (f"scenic sampled parameter {key} = {ours!r} but the scene has {value!r}: "
                     f"the program and the scenes disagree (re-sample the scenes from this program)")
     return None
-
-
-def _invalid(scene: SampledScene, settings: SimulationSettings, reason: str) -> SceneResult:
-    """An invalid variation: the actors held at their sampled poses for every step, flagged with `reason`."""
-    tracks = {actor.role: scenic_trace.still_track(actor, settings.steps + 1) for actor in scene.actors}
-    result = scenic_trace.scene_result(scene, tracks, settings.dt, None)
-    result.valid, result.invalid_reason, result.collisions = False, reason, []
-    return result
 
 
 def time_newtonian_runs(request: SimulationRequest, k: int | None = None) -> float:

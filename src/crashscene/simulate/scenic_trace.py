@@ -1,12 +1,13 @@
-"""Turning a Scenic simulation (Newtonian, CARLA) into the trace columns of `crashscene.traces`.
+"""Turning Scenic simulations (Newtonian, CARLA) into the tables of `crashscene.traces`.
 
 Scenic keeps only positions in `result.trajectory`. `StateRecorder` is a mixin
 for any Scenic `Simulation` class whose `currentState()` records, per object and
 step, the centre, heading and speed; `tracks_from_trajectory` turns that into
-per-actor arrays, `find_contacts` detects footprint overlap (Scenic's
-simulators do not), and `scene_traces` lays out the TRACE_SCHEMA columns,
-map-derived ones (lane, junction, stop line...) included, through the embedded
-backend's road lookups so every backend describes the map the same way.
+per-actor arrays, and `find_contacts` detects footprint overlap (Scenic's
+simulators do not). `record_tables` then lays the tracks of a batch out with
+the embedded backend's own batch set-up and `Recorder` (its routes, junction
+entries, traffic control and signal plans, its lane lookups), so every column
+means the same whichever backend produced the trace.
 
 Angles: Scenic heading is 0 = +y, counter-clockwise; crashscene yaw is
 0 = +x (OpenDRIVE), so yaw = heading + pi/2, wrapped to (-pi, pi].
@@ -15,9 +16,10 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
+import pyarrow as pa
 
 from crashscene.scene import SampledActor, SampledScene
 from crashscene.simulate.backend import SimulationError
@@ -160,29 +162,30 @@ def find_contacts(tracks: dict[str, Track], sizes: dict[str, tuple[float, float]
     return rows
 
 
-# ---------------------------------------------------------------- kinematic columns
+# ---------------------------------------------------------------- recording through the embedded backend
 
-def longitudinal_accel(speed: np.ndarray, dt: float) -> np.ndarray:
-    """[m/s2] acceleration applied over each step (forward difference; the last step repeats the previous)."""
-    if speed.size < 2:
-        return np.zeros_like(speed)
-    accel = np.diff(speed) / dt
-    return np.append(accel, accel[-1])
+LOST_GRIP = 0.8 * 9.81  # [m/s2] lateral acceleration beyond dry-road friction: the actor is skidding
+LATERAL_MOVE = 0.3  # [m/s] lateral speed off the route above which a lane changer counts as changing
 
 
-def lateral_accel(speed: np.ndarray, yaw: np.ndarray, dt: float) -> np.ndarray:
-    """[m/s2] speed x yaw rate, the yaw rate by forward difference of the unwrapped yaw."""
-    if yaw.size < 2:
-        return np.zeros_like(yaw)
-    rate = np.diff(np.unwrap(yaw)) / dt
-    rate = np.append(rate, rate[-1])
-    return speed * rate
+@dataclass
+class ScenicRun:
+    """What one Scenic run of a scene produced: per-role tracks of steps + 1 states, or why it failed."""
+
+    tracks: dict[str, Track]
+    invalid_reason: str | None = None
+    contacts: list[dict] = field(default_factory=list)  # find_contacts rows (first contact per pair)
 
 
 def still_track(actor: SampledActor, n: int) -> Track:
     """A track holding the actor at its sampled pose, at rest, for `n` steps (for runs that never started)."""
     return Track(role=actor.role, x=np.full(n, actor.x), y=np.full(n, actor.y), yaw=np.full(n, actor.yaw),
                  speed=np.zeros(n))
+
+
+def failed_run(scene: SampledScene, steps: int, reason: str) -> ScenicRun:
+    """An invalid variation: every actor held at its sampled pose, flagged with `reason`."""
+    return ScenicRun({a.role: still_track(a, steps + 1) for a in scene.actors}, invalid_reason=reason)
 
 
 def pad_tracks(tracks: dict[str, Track], n: int) -> dict[str, Track]:
@@ -199,203 +202,103 @@ def pad_tracks(tracks: dict[str, Track], n: int) -> dict[str, Track]:
     return padded
 
 
-# ---------------------------------------------------------------- one scene's trace columns
+def record_tables(scenario, scenes: Sequence[SampledScene], runs: Sequence[ScenicRun], settings,
+                  map_file) -> dict[str, pa.Table]:
+    """The four tables of `crashscene.traces` for Scenic runs, laid out by the embedded backend's recorder.
 
-def scene_result(scene: SampledScene, tracks: dict[str, Track], dt: float, map_file=None):
-    """A `SceneResult` (trace columns + collisions) for one simulated scene, actors in the scene's order.
-
-    Kinematic columns come from the tracks; map columns (lane, junction, signal,
-    stop line...) from the embedded backend's road lookups on `map_file` when
-    given, else they stay null/NaN (the monitor marks the rules needing them
-    not_applicable).
+    The scenes get the embedded backend's batch set-up (its routes from each
+    actor's start lane and intent, junction entries, traffic control from the
+    DSL, signal phase plans from (seed, variation)), the Scenic tracks are
+    projected onto those routes step by step, and the embedded `Recorder`
+    derives every map column. So a trace means the same whichever backend
+    produced it; the one difference is that Scenic's vehicles do not react to
+    the signal states recorded for them.
     """
-    from crashscene.simulate.backend import SceneResult
-
-    actors: list[SampledActor] = list(scene.actors)
-    steps = next(iter(tracks.values())).x.size if tracks else 0
-    columns: dict[str, list | np.ndarray] = {}
-    parts: dict[str, list[np.ndarray]] = {name: [] for name in
-                                          ("actor", "step", "t", "x", "y", "yaw", "speed", "accel", "lat_accel")}
-    for actor in actors:
-        track = tracks[actor.role]
-        parts["actor"].append(np.full(steps, actor.role, dtype=object))
-        parts["step"].append(np.arange(steps, dtype=np.int32))
-        parts["t"].append(np.round(np.arange(steps) * dt, 9))
-        parts["x"].append(track.x)
-        parts["y"].append(track.y)
-        parts["yaw"].append(track.yaw)
-        parts["speed"].append(track.speed)
-        parts["accel"].append(longitudinal_accel(track.speed, dt))
-        parts["lat_accel"].append(lateral_accel(track.speed, track.yaw, dt))
-    for name, chunks in parts.items():
-        columns[name] = np.concatenate(chunks) if chunks else np.array([])
-    columns["actor"] = list(columns["actor"])
-    if map_file is not None and actors:
-        columns.update(map_columns(scene, tracks, dt, map_file))
-    sizes = {actor.role: (actor.length, actor.width) for actor in actors}
-    collisions = find_contacts({a.role: tracks[a.role] for a in actors}, sizes, dt)
-    return SceneResult(traces=columns, collisions=collisions)
-
-
-ROUTE_INTENTS = ("straight", "left", "right", "u_turn")  # intents RoadMap.route turns at junctions
-LOST_GRIP = 0.8 * 9.81  # [m/s2] lateral acceleration beyond dry-road friction: the actor is skidding
-LANE_CHANGE_RATE = 0.3  # [m/s] lateral speed across the lane above which an actor counts as changing lanes
-# render's `controlled_by` (the DSL sign on the actor's approach) -> traces.CONTROLS
-CONTROL_OF_DEVICE = {"traffic_light": "signal", "stop_sign": "stop", "yield_sign": "yield"}
-
-
-def map_columns(scene: SampledScene, tracks: dict[str, Track], dt: float, map_file) -> dict[str, list]:
-    """Map-derived TRACE_SCHEMA columns for the tracks, actors in the scene's order (see module doc).
-
-    Uses the embedded backend's `RoadMap` (lane/junction raster, routes in (s, d)),
-    so lane ids, stations and junction entries mean the same in every backend.
-    Each actor's route starts at the start of its sampled lane and takes its
-    route intent at the first junction, as the embedded backend's routes do.
-    """
+    from crashscene.simulate.embedded import setup as batch_setup
+    from crashscene.simulate.embedded.record import Recorder
+    from crashscene.simulate.embedded.simulator import _geometry
     from crashscene.simulate.roads import RoadMap
 
-    road_map = RoadMap.load(map_file)
-    out: dict[str, list] = {name: [] for name in (
-        "lane_id", "route_s", "opposing_lane", "off_road", "centerline_marker", "centerline_intrusion",
-        "in_junction", "junction_id", "maneuver", "control", "signal", "stop_line_dist", "speed_limit",
-        "lane_change", "target_lane_id", "lost_control")}
-    for actor in scene.actors:
-        for name, values in _actor_map_columns(road_map, actor, tracks[actor.role], dt).items():
-            out[name].extend(values)
-    return out
+    scenes = list(scenes)
+    roadmap = RoadMap.load(map_file)
+    recorder = Recorder(roadmap, settings)
+    if not scenes:
+        return recorder.tables(scenes)
+    batch = batch_setup.build(scenario, scenes, roadmap, settings)
+    for v, run in enumerate(runs):
+        if run.invalid_reason is not None:  # the Scenic failure is the first thing to fix
+            batch.invalid[v] = run.invalid_reason
+    roles = [column.role for column in batch.columns]
+    n_t, n_v, n_a = settings.steps + 1, len(scenes), len(roles)
+
+    def stack(attr: str) -> np.ndarray:  # (T, V, A)
+        return np.stack([np.stack([getattr(run.tracks[role], attr)[:n_t] for role in roles], axis=-1)
+                         for run in runs], axis=1)
+
+    x, y, yaw, speed = stack("x"), stack("y"), stack("yaw"), stack("speed")
+    accel = np.zeros_like(speed)
+    accel[1:] = np.diff(speed, axis=0) / settings.dt  # as recorded by the embedded backend: over the last step
+    yaw_rate = np.zeros_like(yaw)
+    yaw_rate[1:] = np.diff(np.unwrap(yaw, axis=0), axis=0) / settings.dt
+    lost = np.maximum.accumulate(np.abs(speed * yaw_rate) > LOST_GRIP, axis=0)
+    contact_step = np.full((n_v, n_a, n_a), -1)
+    for v, run in enumerate(runs):
+        for row in run.contacts:
+            a, b = roles.index(row["actor_a"]), roles.index(row["actor_b"])
+            contact_step[v, min(a, b), max(a, b)] = round(row["t"] / settings.dt)
+
+    state = _TrackState(batch)
+    recorder.begin(batch)
+    routes, r = batch.routes, batch.route
+    lateral_target = np.nan_to_num(batch.lateral_target)
+    for step in range(n_t):
+        t = step * settings.dt
+        state.advance(x[step], y[step], yaw[step], speed[step], accel[step], yaw_rate[step], lost[step], t,
+                      settings.dt)
+        for a in range(n_a):
+            for b in range(a + 1, n_a):
+                hit = contact_step[:, a, b] == step
+                if hit.any():
+                    recorder.collision(hit, a, b, t, state, step == 0)
+        moving = np.abs(state.d - state.d_prev) / settings.dt > LATERAL_MOVE if step else np.zeros_like(state.d, bool)
+        lat_cmd = np.where(moving, lateral_target, state.d)
+        recorder.record(step, t, state, _geometry(batch, state, t), lat_cmd)
+    state.finish(routes.length[r] - batch.length / 2 - 0.5)
+    recorder.end(batch, state)
+    return recorder.tables(scenes)
 
 
-def _actor_map_columns(road_map, actor: SampledActor, track: Track, dt: float) -> dict[str, list]:
-    from crashscene.simulate.roads import STOP_LINE_SETBACK
+class _TrackState:
+    """The embedded simulator's `State` fields, filled from recorded tracks instead of its dynamics."""
 
-    n = track.x.size
-    lane_idx, junction_idx = road_map.lookup(track.x, track.y)
-    lanes = road_map.lanes
-    in_junction = junction_idx >= 0
-    lane_yaw = np.full(n, np.nan)
-    for k in np.unique(lane_idx[lane_idx >= 0]):
-        mask = lane_idx == k
-        lane_yaw[mask] = _polyline_heading(lanes[k].points, track.x[mask], track.y[mask])
-    on_lane = lane_idx >= 0
-    rel = wrap_angle(track.yaw - np.where(on_lane, lane_yaw, track.yaw))
-    opposing = on_lane & ~in_junction & (np.cos(rel) < 0)
-    lateral_speed = track.speed * np.sin(rel)
-    changing = on_lane & ~in_junction & ~opposing & (np.abs(lateral_speed) > LANE_CHANGE_RATE)
-    target = [None] * n
-    for k in np.flatnonzero(changing):
-        lane = lanes[lane_idx[k]]
-        target[k] = lane.left if lateral_speed[k] > 0 else lane.right
-    route = _actor_route(road_map, actor)
-    columns: dict[str, list] = {
-        "lane_id": [lanes[k].uid if k >= 0 else None for k in lane_idx],
-        "opposing_lane": opposing.tolist(),
-        "off_road": (~on_lane & ~in_junction).tolist(),
-        "in_junction": in_junction.tolist(),
-        "speed_limit": [lanes[k].speed_limit if k >= 0 else math.nan for k in lane_idx],
-        "lane_change": [bool(c and t is not None) for c, t in zip(changing, target)],
-        "target_lane_id": [t if c else None for c, t in zip(changing, target)],
-        "lost_control": (np.abs(lateral_accel(track.speed, track.yaw, dt)) > LOST_GRIP).tolist(),
-    }
-    junction_uid = [road_map.junctions[j].uid if j >= 0 else None for j in junction_idx]
-    if route is None:  # no lane to start from (off the map): nothing along a route is known
-        columns.update({"route_s": [math.nan] * n, "centerline_marker": [None] * n,
-                        "centerline_intrusion": [math.nan] * n, "junction_id": junction_uid,
-                        "maneuver": ["none"] * n, "control": ["none"] * n, "signal": ["none"] * n,
-                        "stop_line_dist": [math.nan] * n})
-        return columns
-    s, d, k = project_track(route.xy, track.x, track.y)
-    route_lane = route.lane[k]
-    columns["route_s"] = s.tolist()
-    columns["centerline_marker"] = [lanes[i].marker if i >= 0 else None for i in route_lane]
-    rel_route = wrap_angle(track.yaw - route.yaw[k])
-    reach = actor.length / 2 * np.abs(np.sin(rel_route)) + actor.width / 2 * np.abs(np.cos(rel_route))
-    columns["centerline_intrusion"] = (d + reach - route.centerline_offset[k]).tolist()  # NaN on one-way roads
-    maneuver, control, stop_dist, approaching = ["none"] * n, ["none"] * n, [math.nan] * n, [None] * n
-    exits = [_junction_exit(route, entry.s) for entry in route.entries]
-    # the DSL's sign governs the approach to the scenario's junction, the first on the route
-    first_control = CONTROL_OF_DEVICE.get(str(actor.properties.get("controlled_by")), "none")
-    front = s + actor.length / 2
-    for step in range(n):
-        for number, (entry, exit_s) in enumerate(zip(route.entries, exits)):
-            if s[step] - actor.length / 2 < exit_s:  # not yet clear of this junction
-                maneuver[step] = entry.maneuver
-                approaching[step] = road_map.junctions[entry.junction].uid
-                control[step] = first_control if number == 0 else "none"
-                if control[step] != "none":  # a stop line only where a device governs the approach
-                    stop_dist[step] = float(entry.s - STOP_LINE_SETBACK - front[step])
-                break
-    columns["maneuver"] = maneuver
-    columns["control"] = control
-    # Scenic's simulators have no signal states: unknown (null) on signalised approaches
-    columns["signal"] = [None if c == "signal" else "none" for c in control]
-    columns["junction_id"] = [j if j is not None else a for j, a in zip(junction_uid, approaching)]
-    columns["stop_line_dist"] = stop_dist
-    return columns
+    def __init__(self, batch):
+        self.batch = batch
+        self.s, self.d = batch.s0.copy(), batch.d0.copy()
+        self.d_prev = self.d.copy()
+        self.moved = np.zeros_like(self.s)
+        self.gone_time = np.full(self.s.shape, np.nan)
+        self.collided = np.zeros(self.s.shape, dtype=bool)
+        self.x = self.y = self.yaw = self.v = self.a = self.yaw_rate = None
+        self.lost = np.zeros(self.s.shape, dtype=bool)
 
+    def advance(self, x, y, yaw, v, a, yaw_rate, lost, t: float, dt: float) -> None:
+        routes, r = self.batch.routes, self.batch.route
+        if self.x is not None:
+            self.moved = self.moved + np.hypot(x - self.x, y - self.y)
+            # follow the route from the last station: predict with the route heading, correct along the tangent
+            _, _, ryaw = routes.point(r, self.s)
+            s_pred = self.s + np.hypot(x - self.x, y - self.y) * np.cos(yaw - ryaw)
+            for _ in range(3):
+                qx, qy, qyaw = routes.point(r, s_pred)
+                s_pred = s_pred + (x - qx) * np.cos(qyaw) + (y - qy) * np.sin(qyaw)
+            self.s = np.clip(s_pred, 0.0, routes.length[r])
+            qx, qy, qyaw = routes.point(r, self.s)
+            self.d_prev = self.d
+            self.d = -(x - qx) * np.sin(qyaw) + (y - qy) * np.cos(qyaw)
+            end = routes.length[r] - self.batch.length / 2 - 0.5
+            self.gone_time = np.where(np.isnan(self.gone_time) & (self.s >= end) & ~lost, t, self.gone_time)
+        self.x, self.y, self.yaw, self.v, self.a, self.yaw_rate, self.lost = x, y, yaw, v, a, yaw_rate, lost
+        self.d_ref = self.d
 
-def _actor_route(road_map, actor: SampledActor):
-    """The embedded backend's route for the actor: from its sampled lane, its intent at the first junction."""
-    lane_uid = actor.lane_id if actor.lane_id in road_map.by_uid else None
-    if lane_uid is None:
-        lane = road_map.lane_at(actor.x, actor.y, actor.yaw)
-        if lane is None:
-            return None
-        lane_uid = lane.uid
-    intent = actor.route_intent if actor.route_intent in ROUTE_INTENTS else "straight"
-    return road_map.route(lane_uid, intent)
-
-
-def _junction_exit(route, entry_s: float) -> float:
-    """[m] station where the route leaves the junction it enters at `entry_s`."""
-    from crashscene.simulate.roads import ROUTE_DS
-
-    k = int(round(entry_s / ROUTE_DS))
-    inside = np.flatnonzero(route.junction[k:] >= 0)
-    if inside.size == 0:
-        return float(entry_s)
-    after = np.flatnonzero(route.junction[k + inside[0]:] < 0)
-    last = k + inside[0] + (after[0] if after.size else route.junction.size - k - inside[0])
-    return float(last * ROUTE_DS)
-
-
-def _polyline_heading(points: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """[rad] heading of the polyline segment nearest to each point."""
-    a, b = points[:-1], points[1:]
-    seg = b - a
-    rel = np.stack([x, y], axis=-1)[:, None, :] - a[None, :, :]
-    u = np.clip(np.einsum("tkj,kj->tk", rel, seg) / np.maximum(np.einsum("kj,kj->k", seg, seg), 1e-12), 0, 1)
-    foot = a[None] + seg[None] * u[..., None]
-    k = np.argmin(np.hypot(*(np.stack([x, y], axis=-1)[:, None, :] - foot).transpose(2, 0, 1)), axis=1)
-    return np.arctan2(seg[k, 1], seg[k, 0])
-
-
-def project_track(route_xy: np.ndarray, x: np.ndarray, y: np.ndarray, window: float = 15.0):
-    """Station s [m], lateral offset d [m] (left positive) and nearest route-sample index of each track point.
-
-    Follows the track along the route: each step searches only near the previous
-    station (within `window` [m] plus the distance moved), so a route that folds
-    back on itself (a U-turn) does not make the station jump.
-    """
-    from crashscene.simulate.roads import ROUTE_DS
-
-    a, seg = route_xy[:-1], np.diff(route_xy, axis=0)
-    seg_len2 = np.maximum(np.einsum("ij,ij->i", seg, seg), 1e-12)
-    n = x.size
-    s, d, nearest = np.empty(n), np.empty(n), np.empty(n, dtype=np.int64)
-    lo, hi = 0, len(seg)
-    for step in range(n):
-        if step:
-            moved = math.hypot(x[step] - x[step - 1], y[step] - y[step - 1])
-            reach = int((window + moved) / ROUTE_DS)
-            centre = int(s[step - 1] / ROUTE_DS)
-            lo, hi = max(0, centre - reach), min(len(seg), centre + reach + 1)
-        rel = np.array([x[step], y[step]]) - a[lo:hi]
-        u = np.clip(np.einsum("ij,ij->i", rel, seg[lo:hi]) / seg_len2[lo:hi], 0.0, 1.0)
-        off = rel - seg[lo:hi] * u[:, None]
-        dist = np.hypot(off[:, 0], off[:, 1])
-        j = int(np.argmin(dist))
-        cross = seg[lo + j, 0] * rel[j, 1] - seg[lo + j, 1] * rel[j, 0]
-        s[step] = (lo + j + u[j]) * ROUTE_DS
-        d[step] = math.copysign(dist[j], cross) if cross else 0.0
-        nearest[step] = min(lo + j + int(round(u[j])), len(route_xy) - 1)
-    return s, d, nearest
+    def finish(self, end: np.ndarray) -> None:
+        """Nothing to do: gone times are stamped while advancing (kept for symmetry with the embedded State)."""
