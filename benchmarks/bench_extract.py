@@ -47,7 +47,8 @@ def main() -> None:
             (args.out / f"{case}.yaml").write_text(dumps(scenario), encoding="utf-8")
     result = evaluate(pairs)
     print(format_result(result, diffs=args.diffs, confusion=args.diffs))
-    print(f"\n{len(cases)} cases ({args.subset}{', narrative only' if args.no_sketch else ''}); rules: mean {1000 * statistics.mean(rule_times):.1f} ms, "
+    scope = f"{args.subset}, narrative only" if args.no_sketch else args.subset
+    print(f"\n{len(cases)} cases ({scope}); rules: mean {1000 * statistics.mean(rule_times):.1f} ms, "
           f"max {1000 * max(rule_times):.1f} ms per case; sketch facts (OCR, cached after first run): "
           f"mean {statistics.mean(ocr_times):.2f} s, max {max(ocr_times):.2f} s")
 

@@ -170,10 +170,10 @@ def test_leaving_a_driveway_into_traffic():
 
 
 def test_stopped_at_the_sign_then_proceeded_is_go_forward():
-    s = _text("Vehicle #1 (V1), a 2010 Toyota Camry, was traveling south on a two-lane, two-way residential street and "
-              "was stopped at a stop sign at a four-leg intersection. Vehicle #2 (V2), a 2008 Honda CR-V, was traveling "
-              "east on the intersecting road. It was daylight and the weather was clear. V1 then proceeded into the "
-              "intersection and the front of V2 struck the left side of V1.")
+    s = _text("Vehicle #1 (V1), a 2010 Toyota Camry, was traveling south on a two-lane, two-way residential street "
+              "and was stopped at a stop sign at a four-leg intersection. Vehicle #2 (V2), a 2008 Honda CR-V, was "
+              "traveling east on the intersecting road. It was daylight and the weather was clear. V1 then proceeded "
+              "into the intersection and the front of V2 struck the left side of V1.")
     assert s.actors["ego"].behavior.value == "go_forward"
     assert s.actors["ego"].position.reference == "stop_sign"
     assert [(o.code, o.actor) for o in s.oracle] == [("CVC_21802", "ego")]
@@ -199,8 +199,8 @@ def test_parked_vehicle_struck_from_behind():
 
 
 def test_lane_change_on_a_one_way_street():
-    s = _text("V1 was traveling west in lane two of a three-lane one-way street. V2 was traveling west in lane three to "
-              "the left of V1. The driver of V2 changed lanes to the right and the right side of V2 struck the left "
+    s = _text("V1 was traveling west in lane two of a three-lane one-way street. V2 was traveling west in lane three "
+              "to the left of V1. The driver of V2 changed lanes to the right and the right side of V2 struck the left "
               "side of V1. It was foggy in the early morning darkness.")
     road = s.road_network
     assert (road.number_of_ways, road.number_of_lanes) == (1, 3)

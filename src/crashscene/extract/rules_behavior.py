@@ -1,0 +1,235 @@
+"""Rules extractor: each vehicle's primary pre-crash manoeuvre (dsl.md convention 8) from the phrases of
+the pre-crash text ("lost control", "crossed the centerline", "was stopped waiting to turn left").
+"""
+from __future__ import annotations
+
+import re
+
+from crashscene.extract.narrative import (
+    COMPASS,
+    DIR,
+    around,
+    label_at,
+    last_label_before,
+)
+from crashscene.extract.rules_state import RulesState, Vehicle
+
+
+def _any(*alternatives: str) -> str:
+    """One regex matching any of the phrasings."""
+    return "|".join(alternatives)
+
+
+_LOSE = _any(r"\blost control", r"\bloss of control", r"\blose control",
+             r"\bbegan (?:to )?(?:rotat|yaw|skid|spin|fishtail)", r"\bbegan a (?:\w+ )?(?:rotation|yaw|spin)",
+             r"\b(?:spun|yawed|fishtailed|hydroplaned)\b")
+_CROSS = _any(
+    r"cross(?:ed|ing|es)?\s+(?:over\s+)?the\s+(?:double\s+(?:yellow\s+)?|solid\s+|painted\s+)*"
+    r"(?:cent(?:er|re)[- ]?lines?|cent(?:er|re) lane lines|double (?:yellow )?lines?|yellow lines?)",
+    r"left[- ]of[- ]cent(?:er|re)",
+    r"into the (?:opposing|oncoming) (?:traffic )?(?:travel )?lane",
+    r"wrong[- ]way",
+    r"drift(?:ed|ing)? (?:across|over) the cent",
+    r"into (?:the )?(?:path of )?oncoming traffic",
+    r"encroach\w* (?:\w+ ){0,2}into V[1-9]'s (?:travel )?lane",
+    r"against the flow", r"in the wrong direction")
+_LEAVE = _any(
+    r"(?:depart(?:ed|ing|s)?|exit(?:ed|ing|s)?|ran|run|running|drove|went|veered|travel(?:ed|led)?)\s+(?:off\s+)?"
+    r"(?:of\s+)?the\s+(?:left|right|north|south|east|west)?\s*(?:side|edge)\s+of\s+the\s+"
+    r"(?:road|roadway|travel lane|highway|lane)",
+    r"ran off the road", r"off the roadway",
+    # "exited the roadway onto the exit ramp" is not leaving the road
+    r"(?:depart(?:ed|ing)?|exit(?:ed|ing)?|left) the (?:road|roadway)\b"
+    r"(?! onto the (?:single |one |\w+ )?(?:lane )?(?:exit |entrance )?ramp)",
+    r"onto the (?:left |right )?(?:shoulder|roadside)",
+    r"entered the (?:[\w-]+ ){0,4}?(?:edge of the )?(?:left |right )?shoulder",
+    r"drift(?:ed|ing)? (?:partially )?(?:off|to the (?:right|left) of) the (?:travel lane|road|roadway)")
+_OVERTAKE = _any(r"attempt(?:ed|ing)? to pass\b", r"\bpass(?:ed|ing)? (?:a |the )?(?:slower|V[1-9])", r"\bovertak\w+",
+                 r"to pass V[1-9]")
+# "veered to the left and into the left northbound lane": groups = side, target lane, its direction
+_LANE_CHANGE = (r"(?:veer(?:ed|ing)?|mov(?:ed|ing)|chang(?:ed|ing) lanes|steer(?:ed|ing)|swerv(?:ed|ing)|"
+                r"merg(?:ed|ing)|drift(?:ed|ing))\s+(?:\w+\s+){0,3}?(?:to\s+the\s+)?(left|right)?[^.]{0,40}?into the "
+                r"(left|right|adjacent|middle|center|inside|outside|passing|(?:north|south|east|west)bound)\s*"
+                r"((?:north|south|east|west)bound)?")
+_LANE_CHANGE_SIDE = _any(r"chang(?:e|ed|ing|es) lanes? (?:to|into) the (left|right)",
+                         r"lane change to the (left|right)", r"(?:merge|merged|merging) (?:to the )?(left|right)")
+# entering a freeway from an on-ramp: ramps join from the right, so the merge is a change to the left
+_RAMP_MERGE = (r"(?:attempt\w* to|began to|was)\s+(?:enter|merg\w*)\w*\s+(?:onto\s+|into\s+)?(?:the\s+)?(?:same\s+)?"
+               r"(?:freeway|interstate|highway|expressway|traffic|travel lanes?)")
+_TURN_LEFT = _any(r"turn(?:ed|ing|s)?\s+left", r"left[- ]turn(?:ing)?(?! lane)", r"make a left", r"making a left",
+                  r"initiat\w+ a left")
+_TURN_RIGHT = _any(r"turn(?:ed|ing|s)?\s+right", r"right[- ]turn(?:ing)?(?! lane)", r"make a right", r"making a right")
+_U_TURN = r"\bu[- ]turn(?:ing|ed)?\b(?! lane)"
+_STOPPED = _any(r"\b(?:brought|came|come|coming)\s+(?:\w+\s+){0,2}to a (?:stop|halt)",
+                r"\b(?:was|were|had|been|came to a|come to a) (?:stopped|stationary|stopping|slowing to a stop)",
+                r"\bstopped in (?:the )?(?:travel )?lane", r"\bwaiting (?:to|for)\b",
+                r"\bstopped (?:in|for|at|behind) (?:traffic|the|a)\b", r"\bstopped\b")
+_PARKED = _any(r"\bparked\b", r"\bdisabled\b", r"\bunoccupied\b", r"\babandoned\b")
+_DECEL = _any(r"\bslow(?:ed|ing)(?: down)?\b", r"\bbrak(?:ed|ing)\b", r"\bdecelerat\w+")
+_PROCEED = (r"\b(?:then |and )?(?:proceeded|pulled (?:out|into|forward)|entered|accelerated|"
+            r"began to (?:cross|proceed|move))")
+
+
+_INTO_LANE = (r"across the (?:north|south|east|west)bound (?:travel )?lanes?|(?:into|enter(?:ed|ing|s)?|in) the "
+              r"(?:north|south|east|west)bound (?:travel )?lanes?(?! of)")
+_RAMP = r"\b(?:entrance|on)[- ]ramp\b|\bacceleration lane\b"
+_PARKED_NAMED = (r"\b(?:parked|unoccupied|non-occupied|abandoned)\b[^.()]{{0,60}}\(\s*{label}\s*\)|"
+                 r"\(\s*{label}\s*\)\s*(?:that|which)\s+was\s+(?:legally\s+)?(?:parked|unoccupied)|"
+                 r"\b{label}\b[^.]{{0,80}}\bwas\s+(?:legally\s+)?parked\b")
+# phrase table: (pattern, token); a token names a behaviour or a clue the resolution reads
+PHRASES = (
+    (_LOSE, "lose_control"), (_CROSS, "cross_centerline"), (_LEAVE, "leave_road"), (_OVERTAKE, "overtake"),
+    (_LANE_CHANGE, "lane_change"), (_LANE_CHANGE_SIDE, "lane_change_side"), (_RAMP_MERGE, "ramp_merge"),
+    (_TURN_LEFT, "turn_left"), (_TURN_RIGHT, "turn_right"), (_U_TURN, "u_turn"), (_STOPPED, "stop"),
+    (_PARKED, "static"), (_DECEL, "decelerate"), (_INTO_LANE, "into_lane"),
+)
+# manoeuvres where the first one stated is the primary one (convention 8: crossed first -> cross_centerline)
+_EVENTS = ("lose_control", "cross_centerline", "leave_road", "overtake", "lane_change", "lane_change_side",
+           "ramp_merge", "into_lane")
+
+Phrase = tuple[int, str, re.Match]  # position in the pre-crash text, token, match
+
+
+def decide_behaviors(state: RulesState) -> None:
+    """Set each vehicle's `behavior` (with its quote) and `flags` (every clue token seen for it)."""
+    phrases = _phrases(state)
+    for label, vehicle in state.vehicles.items():
+        found = sorted(phrases[label], key=lambda item: item[0])
+        vehicle.behavior, quote = _resolve(state, vehicle, found)
+        if vehicle.behavior in ("go_forward", "decelerate") and state.between:
+            # "V1 struck V2's rear ... V3 saw V1 enter the eastbound lane" then V1 and V3 collide head-on
+            entered = _entered_opposing(state, vehicle)
+            if entered:
+                vehicle.behavior, quote = "cross_centerline", entered
+        if quote:
+            vehicle.behavior_quote = quote
+            state.note(f"actors.{vehicle.role}.behavior", quote)
+        vehicle.flags = {token for _, token, _ in found}
+        if any(token == "into_lane" and _opposing_lane(vehicle, match.group(0)) for _, token, match in found):
+            vehicle.flags.add("cross_centerline")
+
+
+def _phrases(state: RulesState) -> dict[str, list[Phrase]]:
+    """Every behaviour phrase of the pre-crash text, attributed to the vehicle(s) it describes."""
+    pre = state.pre_crash
+    phrases: dict[str, list[Phrase]] = {label: [] for label in state.vehicles}
+    leaders = [v.label for v in state.vehicles.values() if v.role != "ego" and re.search(
+        rf"\b{v.label}\b[^.]{{0,200}}\b(?:ahead of|in front of) (?:V1|him|her)\b", state.t.text, re.I)]
+    for pattern, token in PHRASES:
+        if token == "ramp_merge" and not re.search(_RAMP, pre, re.I):
+            continue
+        for match in re.finditer(pattern, pre, re.I):
+            for label in _described(state, pre, match, token, leaders):
+                if label in phrases:
+                    phrases[label].append((match.start(), token, match))
+    return phrases
+
+
+def _described(state: RulesState, pre: str, match: re.Match, token: str, leaders: list[str]) -> list[str]:
+    """The vehicles a phrase describes: a listed subject ("V1, V3, and V4 slowed"), the acting label, or none
+    when an unlabelled vehicle acts ("the vehicle in front of him was stopped"). Slowing traffic ahead is the
+    leaders' behaviour."""
+    start = match.start()
+    sentence_head = pre[max(pre.rfind(". ", 0, start), pre.rfind("; ", 0, start), 0):start]
+    clause = pre[max(pre.rfind(". ", 0, start), pre.rfind(", ", 0, start), 0):start]
+    listed = re.search(r"((?:V[1-9](?:,\s*|\s+and\s+|,\s+and\s+))+V[1-9])\s+(?:also\s+|all\s+|both\s+)?$",
+                       sentence_head)
+    if listed:
+        return re.findall(r"V[1-9]", listed.group(1))
+    if not re.search(r"\bV[1-9]\b", clause) and re.search(
+            r"\b(?:non-contact|another|other|third|lead|leading|a|the)\s+vehicle\b|\btraffic\b", clause, re.I):
+        slowing_traffic = token in ("decelerate", "stop") and re.search(r"\btraffic\b", clause, re.I)
+        return leaders if slowing_traffic else []
+    label = label_at(pre, start)
+    if label is None and len(state.vehicles) == 1:
+        label = "V1"
+    if label is None:
+        # "The driver failed to negotiate ..." after sentences about one vehicle
+        label = last_label_before(pre, start)
+    return [label] if label else []
+
+
+def _entered_opposing(state: RulesState, vehicle: Vehicle) -> str | None:
+    """A move into the opposing lanes between the first and the second impact, quoted, if the text states one."""
+    text = state.between
+    for match in re.finditer(rf"\b{vehicle.label}\s+(?:then\s+)?(?:enter\w*|mov\w+|swerv\w+|veer\w+|drift\w+)\s+"
+                             rf"(?:\w+\s+){{0,3}}?(?:into\s+)?the\s+({DIR})bound\s+(?:travel\s+)?lane", text, re.I):
+        if _opposite(vehicle, match.group(1)):
+            return around(text, match, 80)
+    match = re.search(rf"\b{vehicle.label}\b(?:(?!\b(?:pushed|caused|redirected|forced)\b)[^.]){{0,60}}(?:{_CROSS})",
+                      text, re.I)
+    return around(text, match, 80) if match else None
+
+
+def _opposite(vehicle: Vehicle, direction: str) -> bool:
+    return vehicle.direction is not None and (COMPASS[direction.lower()] - COMPASS[vehicle.direction]) % 360 == 180
+
+
+def _opposing_lane(vehicle: Vehicle, phrase: str) -> bool:
+    match = re.search(DIR + "bound", phrase, re.I)
+    return bool(match) and _opposite(vehicle, match.group(1))
+
+
+def _resolve(state: RulesState, vehicle: Vehicle, found: list[Phrase]) -> tuple[str, str | None]:
+    """The primary manoeuvre and its quote: parked, else the first lane-leaving event, else a turn (or the stop
+    before it), else a stop, else slowing, else go_forward."""
+    pre = state.pre_crash
+
+    def quote(match: re.Match) -> str:
+        return around(pre, match, 80)
+
+    static = next((m for _, token, m in found if token == "static"), None)
+    if static:
+        return "static", quote(static)
+    parked = re.search(_PARKED_NAMED.format(label=vehicle.label), state.t.text, re.I)
+    if parked:
+        return "static", around(state.t.text, parked, 80)
+    for _, token, match in found:
+        event = _event(vehicle, token, match) if token in _EVENTS else None
+        if event:
+            return event, quote(match)
+    stop = next((m for _, t, m in found if t == "stop"), None)
+    for token in ("u_turn", "turn_left", "turn_right"):
+        match = next((m for _, t, m in found if t == token), None)
+        if match:
+            return ("stop", quote(stop)) if _waiting_to_turn(pre, vehicle, stop, match) else (token, quote(match))
+    if stop:
+        for proceed in re.finditer(_PROCEED, pre[stop.end():], re.I):
+            if label_at(pre, stop.end() + proceed.start()) in (vehicle.label, None):
+                return "go_forward", quote(stop)  # stopped at the sign, then went on (convention 8)
+        return "stop", quote(stop)
+    decel = next((m for _, t, m in found if t == "decelerate"), None)
+    if decel and (vehicle.role != "ego" or not re.search(r"avoid", pre[decel.start() - 60: decel.end()], re.I)):
+        return "decelerate", quote(decel)
+    return "go_forward", None
+
+
+def _event(vehicle: Vehicle, token: str, match: re.Match) -> str | None:
+    """The behaviour a lane-leaving phrase means for this vehicle, or None when it does not apply."""
+    if token in ("lose_control", "cross_centerline", "leave_road", "overtake"):
+        return token
+    if token == "lane_change":
+        target = (match.group(2) or "").lower()
+        bound = (match.group(3) or match.group(2) or "").lower()
+        if bound.endswith("bound") and _opposite(vehicle, bound[:-5]):
+            return "cross_centerline"  # "veered left into the southbound lane" while northbound
+        side = (match.group(1) or (target if target in ("left", "right") else "") or "").lower()
+        return f"change_lane_{side}" if side in ("left", "right") else None
+    if token == "ramp_merge":
+        return "change_lane_left"
+    if token == "lane_change_side":
+        return f"change_lane_{next(g for g in match.groups() if g).lower()}"
+    if token == "into_lane" and _opposing_lane(vehicle, match.group(0)):
+        return "cross_centerline"
+    return None
+
+
+def _waiting_to_turn(pre: str, vehicle: Vehicle, stop: re.Match | None, turn: re.Match) -> bool:
+    """'was stopped ... waiting to turn left' with no later 'began to enter': the manoeuvre is the stop."""
+    if stop is None or stop.start() >= turn.start():
+        return False
+    intention = re.search(r"(?:waiting|preparing|intending|planning|about|signal(?:ing|led)?|so as)\b[^.;]{0,40}$",
+                          pre[max(0, turn.start() - 50):turn.start()], re.I)
+    proceeded = re.search(_PROCEED + r"|began to enter|with the intention of turning", pre[turn.end():], re.I)
+    went_on = proceeded and label_at(pre, turn.end() + proceeded.start()) == vehicle.label
+    return bool(intention) and not went_on

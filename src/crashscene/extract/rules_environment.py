@@ -1,0 +1,58 @@
+"""Rules extractor: weather, light and road surface from the narrative's condition sentences
+(and condition notes on the sketch: "Dusk, dry, clear skies", "DAYLIGHT/CLEAR/BT/DRY").
+
+Each field takes the first token of its table whose phrasing occurs, so the table order is the
+precedence: sleet before rain before fog ... before clear; "predawn" is night (dsl.md convention 4).
+"""
+from __future__ import annotations
+
+import re
+
+from crashscene.extract.narrative import around
+from crashscene.extract.rules_state import RulesState
+
+_CONDITION_SENTENCE = re.compile(
+    r"weather|sky|skies|\bhours\b|daylight|dark|dawn|dusk|night|rain|snow|sleet|fog|cloudy|overcast|conditions|"
+    r"surface|\b(?:dry|wet|icy)\b|roads were", re.I)
+_SKETCH_CONDITIONS = re.compile(r"daylight|dark|dusk|dawn|clear|rain|dry|wet", re.I)
+
+WEATHER = (
+    (r"\bsleet|\bsnow(?:ing|fall)?\b(?! (?:and ice )?covered)|\bblizzard", "snowy"),
+    (r"\brain(?:ing|y)?\b|\bdrizzl|\bshowers\b", "rainy"),
+    (r"\bfog(?:gy)?\b|\bmist\b", "foggy"),
+    (r"\bovercast\b", "overcast"),
+    (r"\bcloudy\b|\bclouds\b", "cloudy"),
+    (r"\bwindy\b|\bhigh winds?\b", "windy"),
+    (r"\bclear\b|no adverse|\bsunny\b|\bfair\b", "clear"),
+)
+TIME_OF_DAY = (
+    (r"\bpre-?dawn\b", "nighttime"),
+    (r"\bdawn\b", "dawn"),
+    (r"\bdusk\b", "dusk"),
+    (r"\bdark(?:ness)?\b|\bnight(?:time)?\b|\bevening hours \(dark", "nighttime"),
+    (r"\bdaylight\b|\bday ?time\b|\bafternoon\b|\bmorning hours\b|\bmid-?day\b|\bnoon\b", "daytime"),
+)
+ROAD_SURFACE = (
+    (r"\bic(?:y|e)\b|snow and ice|ice[- ]covered|snow[- ]covered", "icy"),  # "snow and ice covered" -> icy
+    (r"\bwet\b", "wet"),
+    (r"\bdry\b", "dry"),
+)
+
+
+def decide_environment(state: RulesState) -> dict:
+    """weather, time_of_day and road_surface; `not_mentioned` when neither text nor sketch says."""
+    sentences = [s for s in state.t.sentences if _CONDITION_SENTENCE.search(s)]
+    sketch = [f for f in state.fact_texts("text: ") if _SKETCH_CONDITIONS.search(f) and ("/" in f or "," in f)]
+    text = " ".join(sentences + sketch)
+    return {"weather": _first(state, "environment.weather", text, WEATHER),
+            "time_of_day": _first(state, "environment.time_of_day", text, TIME_OF_DAY),
+            "road_surface": _first(state, "environment.road_surface", text, ROAD_SURFACE)}
+
+
+def _first(state: RulesState, path: str, text: str, table: tuple[tuple[str, str], ...]) -> str:
+    for pattern, token in table:
+        match = re.search(pattern, text, re.I)
+        if match:
+            state.note(path, around(text, match))
+            return token
+    return "not_mentioned"

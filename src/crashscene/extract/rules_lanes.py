@@ -1,0 +1,104 @@
+"""Rules extractor: the number of through lanes of V1's roadway (dsl.md convention 3).
+
+Two-way roads count both directions; a divided or one-way roadway counts V1's carriageway. Turn-only lanes
+("the far-left lane being a U-turn lane", "a two-way left turn lane", the middle lane of a "five-lane" road)
+are not through lanes; an acceleration lane counts when a merge is part of the crash.
+"""
+from __future__ import annotations
+
+import re
+
+from crashscene.extract.narrative import DIR, NUM, around, count_word
+from crashscene.extract.rules_state import RulesState
+
+_PLAIN_WORD = r"(?!(?:north|south|east|west)bound\b)(?![\w-]*way\b)[\w-]+"  # not a direction, not "two-way"
+
+
+def count_lanes(state: RulesState, road_text: str, ways: int) -> int:
+    """Through lanes of V1's roadway: all directions when two-way, V1's carriageway when divided or one-way."""
+    ego = state.vehicles["V1"]
+    per_direction: dict[str, int] = {}
+    quote = None
+
+    def put(direction: str, number: int, match: re.Match, override: bool = False) -> None:
+        nonlocal quote
+        if number and (override or direction not in per_direction):
+            per_direction[direction] = number
+            quote = quote or around(road_text, match)
+
+    # "two lanes northbound ... two lanes southbound", "three northbound lanes and four southbound lanes"
+    for match in re.finditer(rf"\b{NUM}\s+(?:straight\s+)?(?:through\s+)?(?:travel\s+)?(?:lanes?\s+)?{DIR}bound"
+                             rf"(?:\s+(?:through\s+|travel\s+)?lanes?)?|\b{NUM}\s+(?:travel\s+)?lanes?\s+{DIR}bound",
+                             road_text, re.I):
+        groups = [g for g in match.groups() if g]
+        put(groups[1].lower(), count_word(groups[0]), match)
+    # "the southbound traffic-way consisted of a six-lane roadway", "the westbound roadway has three travel lanes"
+    for match in re.finditer(rf"(?<![/-]){DIR}(?:bound)?\s+(?:roadway|lanes|traffic-?way|carriageway|side)\b"
+                             rf"[^.]{{0,60}}?"
+                             rf"\b{NUM}[- ](?:{_PLAIN_WORD}\s+){{0,3}}?lanes?\b", road_text, re.I):
+        put(match.group(1).lower(), count_word(match.group(2)), match, override=True)
+    # "the two-way east/west roadway consisted of two travel lanes": a total for the road on V1's axis
+    axis = "north/south" if ego.direction in ("north", "south") else "east/west" if ego.direction else None
+    for match in re.finditer(rf"\b(north[/-]south|east[/-]west)\s+(?:roadway|road|street|highway|trafficway)\b"
+                             rf"[^.]{{0,60}}?\b{NUM}[- ](?:{_PLAIN_WORD}\s+){{0,3}}?lanes?\b", road_text, re.I):
+        if axis and match.group(1).lower().replace("-", "/") == axis and not any(
+                d in per_direction for d in axis.split("/")):
+            put("_axis", count_word(match.group(2)), match)
+    # explicit through-lane breakdowns and "three lanes continue westbound" override totals that hold turn lanes
+    for match in re.finditer(rf"{DIR}bound lanes (?:are|were) composed of ([^.]*)", road_text, re.I):
+        through = re.search(rf"{NUM}\s+(?:straight\s+)?through", match.group(2), re.I)
+        if through:
+            put(match.group(1).lower(), count_word(through.group(1)), match, override=True)
+            per_direction.setdefault("_breakdown", 0)
+    for match in re.finditer(rf"\b{NUM}\s+(?:through\s+)?lanes\s+continu\w*(?:[^.]{{0,30}}?{DIR})?", road_text, re.I):
+        direction = (match.group(2) or ego.direction or "").lower()
+        if direction:
+            put(direction, count_word(match.group(1)), match, override=True)
+    if "_breakdown" in per_direction:
+        del per_direction["_breakdown"]
+    else:
+        # "six southbound lanes, with the far-left lane being a U-turn lane and the adjacent one a left turn lane"
+        for turn in re.finditer(r"\b(?:being|is|was|as)\s+an?\s+(?:dedicated\s+)?(?:u-turn|left[- ]turn(?:[- ]only)?|"
+                                r"right[- ]turn(?:[- ]only)?)\s+lane", road_text, re.I):
+            direction = re.findall(rf"{DIR}bound", road_text[: turn.start()], re.I)
+            key = direction[-1].lower() if direction else None
+            if key in per_direction and per_direction[key] > 1:
+                per_direction[key] -= 1
+    each = re.search(r"one (?:travel )?lane in each direction|single lane in each direction", road_text, re.I)
+    if each:
+        per_direction = {"a": 1, "b": 1}
+        quote = around(road_text, each)
+    if axis:  # counts of the crossing road do not describe V1's roadway
+        per_direction = {d: n for d, n in per_direction.items() if d in axis.split("/") or d in ("a", "b", "_axis")}
+    lanes = None
+    if "_axis" in per_direction:
+        total = per_direction["_axis"]
+        lanes = total if ways == 2 else max(1, total // 2)
+    elif per_direction:
+        if ways == 1:
+            lanes = per_direction.get(ego.direction or "") or (
+                next(iter(per_direction.values())) if len(per_direction) == 1 else max(per_direction.values()))
+        else:
+            lanes = sum(per_direction.values()) if len(per_direction) > 1 else 2 * next(iter(per_direction.values()))
+    else:
+        match = re.search(rf"\b{NUM}[- ]lane\b", road_text, re.I)
+        if match:
+            total = count_word(match.group(1))
+            quote = around(road_text, match)
+            if ways == 2:
+                # an odd count on a two-way road holds a centre turn lane ("five-lane ... middle left-turn lane")
+                lanes = total - 1 if total >= 3 and total % 2 else total
+            elif state.divided and total >= 2 and not re.search(r"one[- ]way", road_text, re.I):
+                lanes = max(1, total // 2)
+            else:
+                lanes = total
+    if lanes is None:
+        lanes = 2 if ways == 2 else 1
+        quote = "no lane count stated: one lane per direction"
+    merge = re.search(r"\b(?:entrance|on)[- ]ramp\b|\bacceleration lane\b|\bmerg(?:e|ed|ing)\b",
+                      state.pre_crash + " " + state.crash_sentence, re.I)
+    if merge and ways == 1 and len(state.vehicles) > 1:
+        lanes += 1  # the acceleration lane counts when a merge is part of the crash (dsl.md convention 3)
+        quote = f"{quote}; + acceleration lane: {around(state.pre_crash + ' ' + state.crash_sentence, merge, 40)}"
+    state.note("road_network.number_of_lanes", quote or "lane count per direction")
+    return max(1, lanes)

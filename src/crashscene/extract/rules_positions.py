@@ -1,0 +1,137 @@
+"""Rules extractor: actor positions (dsl.md convention 7) from travel directions, lanes and devices,
+and stated travel speeds.
+"""
+from __future__ import annotations
+
+import re
+
+from crashscene.extract.narrative import KMH_PER_MPH, around, label_at
+from crashscene.extract.rules_state import RulesState, Vehicle, has_cross_traffic, relative_heading
+
+
+def decide_actors(state: RulesState, road: dict) -> dict:
+    """The `actors` mapping: ego = V1, npc1 = V2, ... with type, behaviour, position and any stated speed."""
+    ego = state.vehicles["V1"]
+    at_junction = road["road_type"] in ("intersection", "t_intersection")
+    devices = set(road["traffic_signs"]) - {"speed_limit_sign"}
+    actors: dict = {}
+    for label, vehicle in state.vehicles.items():
+        if vehicle.role == "ego":
+            reference, relation = _ego_reference(state, road, devices, at_junction)
+            position = {"reference": reference, "relation": relation}
+        else:
+            position = _npc_position(state, ego, vehicle, devices, at_junction, state.t.text)
+        actors[vehicle.role] = {"label": label, "type": vehicle.type, "behavior": vehicle.behavior,
+                                "position": position}
+        speed = _stated_speed(state, label)
+        if speed is not None:
+            actors[vehicle.role]["speed_mph"] = speed
+    return actors
+
+
+_SPEED_VALUE = r"(\d{1,3})\s*(mph|mi/h|miles per hour|km/h|kmph|km/hr|kph)"
+
+
+def _stated_speed(state: RulesState, label: str) -> float | None:
+    """A travel speed the report states for the vehicle ('V2 was traveling at approximately 60 mph') [mph]."""
+    text = state.t.text
+    for match in re.finditer(rf"(?:travel(?:l?ing|l?ed)?|going|driving|driven|moving)\s+"
+                             rf"(?:(?:north|south|east|west)(?:bound)?\s+)?(?:at\s+)?(?:a\s+)?"
+                             rf"(?:(?:an\s+)?(?:estimated|approximate(?:ly)?|about|roughly|reported(?:ly)?|"
+                             rf"calculated|travel)\s+)*(?:speed\s+of\s+)?{_SPEED_VALUE}|"
+                             rf"(?:estimated|calculated|reported|pre-?crash|travel)\s+speed\s+(?:of\s+|was\s+)?"
+                             rf"(?:approximately\s+|about\s+)?{_SPEED_VALUE}", text, re.I):
+        if re.search(r"limit|posted", text[max(0, match.start() - 30):match.start()], re.I):
+            continue
+        if label_at(text, match.start()) != label:
+            continue
+        number = int(match.group(1) or match.group(3))
+        unit = (match.group(2) or match.group(4)).lower()
+        if unit.startswith("k"):
+            after = re.match(r"\s*\((\d{1,3})\s*mph\)", text[match.end():])
+            mph = float(after.group(1)) if after else round(number / KMH_PER_MPH)
+        else:
+            mph = float(number)
+        if 0 < mph <= 200:
+            state.note(f"actors.{state.vehicles[label].role}.speed_mph", around(text, match))
+            return mph
+    return None
+
+
+def _ego_reference(state: RulesState, road: dict, devices: set[str], at_junction: bool) -> tuple[str, str]:
+    """The device controlling V1's approach, else the element V1 is at (approaching it: `behind`)."""
+    if at_junction:
+        if "traffic_light" in devices:
+            return "traffic_light", "behind"
+        if "stop_sign" in devices and ("V1" in state.stop_controlled or not (state.stop_controlled or
+                                                                            has_cross_traffic(state))):
+            return "stop_sign", "behind"
+        if "yield_sign" in devices and "V1" in state.yield_controlled:
+            return "yield_sign", "behind"
+        return "intersection", "behind"
+    if road["road_type"] == "curve":
+        return "curve", "behind"
+    return "road", "behind"
+
+
+def _npc_position(state: RulesState, ego: Vehicle, npc: Vehicle, devices: set[str], at_junction: bool,
+                  text: str) -> dict:
+    """Crossing traffic against the junction or its device (side from the travel directions); traffic on V1's
+    road against the ego (convention 7)."""
+    heading = relative_heading(ego, npc) or _guess_heading(ego, npc, at_junction, text)
+    label = npc.label
+    if heading in ("from_left", "from_right"):
+        side = "left" if heading == "from_left" else "right"
+        if "traffic_light" in devices:
+            reference = "traffic_light"
+        elif "stop_sign" in devices and (label in state.stop_controlled or "V1" not in state.stop_controlled):
+            reference = "stop_sign"
+        elif "yield_sign" in devices and (label in state.yield_controlled or "V1" not in state.yield_controlled):
+            reference = "yield_sign"
+        else:
+            reference = "intersection"
+        return {"reference": reference, "relation": side, "heading": heading}
+    if heading == "opposite_direction":
+        return {"reference": "ego", "relation": "front", "heading": heading}
+    relation = _same_direction_relation(state, ego, npc, text)
+    return {"reference": "ego", "relation": relation, "heading": heading}
+
+
+def _guess_heading(ego: Vehicle, npc: Vehicle, at_junction: bool, text: str) -> str:
+    """A heading when the report gives no travel direction: from the manoeuvres and the impact."""
+    label = npc.label
+    if npc.behavior in ("cross_centerline", "overtake") or ego.behavior == "cross_centerline":
+        return "opposite_direction"
+    rear_end = re.search(rf"(?:rear|back)(?: plane| end)? of {label}|{label}\b[^.]{{0,80}}\b(?:rear|back)[- ]end|"
+                         rf"front of {label} struck the (?:rear|back)|{label}\b[^.]{{0,40}}\bbehind", text, re.I)
+    if rear_end or npc.behavior in ("stop", "decelerate", "static"):
+        return "same_direction"
+    return "from_left" if at_junction else "opposite_direction"
+
+
+def _same_direction_relation(state: RulesState, ego: Vehicle, npc: Vehicle, text: str) -> str:
+    """Beside (lane sides, lane numbers, where it is parked, the side a lane changer leaves), behind, or ahead."""
+    label = npc.label
+    if npc.behavior == "static" and re.search(rf"\b{label}\b[^.]{{0,120}}\b(?:parked|stopped|disabled)\b[^.]{{0,40}}"
+                                              rf"\b(?:shoulder|curb|roadside|side of the road)", text, re.I):
+        side = re.search(rf"\b{label}\b[^.]{{0,160}}\b(left|median|inside)\b[^.]{{0,10}}shoulder", text, re.I)
+        return "left" if side else "right"
+    if ego.lane_number and npc.lane_number and ego.lane_number != npc.lane_number:
+        return "left" if npc.lane_number > ego.lane_number else "right"
+    if npc.behavior in ("change_lane_left", "change_lane_right") and not (ego.lane_side and npc.lane_side):
+        return "right" if npc.behavior == "change_lane_left" else "left"  # it comes from the side it leaves
+    if ego.lane_side and npc.lane_side and ego.lane_side != npc.lane_side and "middle" not in (ego.lane_side,
+                                                                                               npc.lane_side):
+        if not re.search(rf"{label}\b[^.]{{0,60}}\bbehind|behind V1|following V1", text, re.I) or \
+                ego.behavior.startswith("change_lane") or npc.behavior.startswith("change_lane"):
+            return npc.lane_side
+    behind = re.search(rf"\b{label}\b[^.]{{0,80}}\b(?:behind|following)\b[^.]{{0,20}}V1|"
+                       rf"\bfront (?:plane )?of {label}\b[^.]{{0,40}}\b(?:struck|impacted|contacted)\b[^.]{{0,20}}"
+                       rf"(?:rear|back)|"
+                       rf"(?:rear|back)(?: plane)? of V1\b[^.]{{0,40}}(?:struck|impacted) by[^.]{{0,30}}{label}|"
+                       rf"\b{label}\b[^.]{{0,100}}\b(?:struck|striking|strike|impacted|hit|rear-ended)\s+(?:the\s+)?"
+                       rf"(?:rear|back)(?:\s+plane|\s+end)?\s+of\s+V1|\b{label}\b[^.]{{0,80}}\bapproaching V1\b|"
+                       rf"\b{label}\b[^.]{{0,40}}slightly behind", text, re.I)
+    if behind:
+        return "behind"
+    return "front"

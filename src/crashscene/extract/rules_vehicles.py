@@ -1,0 +1,125 @@
+"""Rules extractor, step 1: the vehicles (labels, roles, directions of travel, body types) and the
+text before the first harmful event, which the behaviour rules read.
+"""
+from __future__ import annotations
+
+import re
+
+from crashscene.extract.narrative import DIR, NUM, count_word, subject_of
+from crashscene.extract.rules_state import RulesState, Vehicle
+
+
+def find_vehicles(state: RulesState) -> None:
+    """Every labelled vehicle (V1 always; only V1 in a single-vehicle crash), its direction, lane and body type."""
+    text = state.t.text
+    labels = sorted({int(n) for n in re.findall(r"\bV([1-9])\b", text)})
+    single = re.search(r"\bsingle[- ]vehicle\b|\bone[- ]vehicle\b", text, re.I)
+    if single or not labels:
+        labels = [1]
+    if 1 not in labels:
+        labels = [1, *labels]
+    for index, number in enumerate(labels):
+        label = f"V{number}"
+        state.vehicles[label] = Vehicle(label=label, role="ego" if index == 0 else f"npc{index}")
+    for label, vehicle in state.vehicles.items():
+        vehicle.direction, vehicle.lane_side = _direction_of(state, label)
+        vehicle.type = _type_of(state, label)
+
+
+def subject_sentences(state: RulesState, label: str) -> list[str]:
+    """Sentences (pre-crash first) whose grammatical subject is the vehicle."""
+    out = []
+    for sentence in state.t.sentences:
+        subject = subject_of(sentence)
+        if subject == label:
+            out.append(sentence)
+    return out
+
+
+def _direction_of(state: RulesState, label: str) -> tuple[str | None, str | None]:
+    """Travel direction and lane side from the first sentence the vehicle is the subject of."""
+    for sentence in subject_sentences(state, label):
+        cut = re.split(r"\b(?:struck|strike|striking|impacted|collided)\b", sentence)[0]
+        match = re.search(rf"(?:travel+ing|driven|heading|proceeding|going|traveled|travelled|was)\s+"
+                          rf"(?:in\s+(?:a|an|the)\s+)?{DIR}(?:bound|ward)?\b", cut, re.I)
+        if not match:
+            match = re.search(rf"\b{DIR}bound\b|\bfacing\s+{DIR}\b", cut, re.I)
+        if match:
+            lane = re.search(r"\b(left|right|middle|center|far[- ]left|far[- ]right|inboard|outboard)\b[^.]{0,30}?"
+                             rf"{DIR}bound\s+(?:travel\s+)?lane", cut, re.I)
+            side = _lane_side(lane.group(1).lower()) if lane else None
+            state.note(f"actors.{state.vehicles[label].role}.position", sentence)
+            number = re.search(rf"\bnumber\s+{NUM}\b[^.]{{0,30}}?\blane", cut, re.I)
+            if number:
+                state.vehicles[label].lane_number = count_word(number.group(1))
+            return next(g for g in match.groups() if g).lower(), side
+    return None, None
+
+
+def _lane_side(word: str) -> str:
+    if "left" in word or word == "inboard":
+        return "left"
+    if "right" in word or word == "outboard":
+        return "right"
+    return "middle"
+
+
+# pickups, vans and SUVs are cars (dsl.md aliases)
+_TRUCK = re.compile(r"tractor|semi\b|semi-trailer|\bbus\b|school bus|motorcoach|box truck|dump truck|straight truck|"
+                    r"delivery truck|garbage truck|cement|concrete mixer|tow truck|fire truck|flatbed|"
+                    r"commercial (?:truck|vehicle)|heavy truck|single[- ]unit truck|\bGVWR\b", re.I)
+_MOTORCYCLE = re.compile(r"motorcycle|motorbike|moped|scooter|\bHarley\b", re.I)
+
+
+def _type_of(state: RulesState, label: str) -> str:
+    """car, truck or motorcycle from the description beside the label (or the sketch's vehicle list)."""
+    texts = []
+    text = state.t.text
+    # "V2, a 2002 Ford F150 pickup truck was ...", "V2 - 2001 Volvo", "a 2013 Freightliner tractor/trailer (V2)"
+    after = re.search(rf"\b{label}\b\s*(?:\([^)]*\))?\s*[,:(-]\s*(?:the\s+|a\s+|an\s+)?([^.;]*?)"
+                      rf"(?:\b(?:was|were|is|had|driven|traveling|travelling)\b|[.;]|$)", text)
+    before = re.search(rf"(?:\b(?:a|an|the)\s+|,\s*)([^.;()]{{3,80}}?)\s*\(\s*{label}\s*\)", text)
+    for match in sorted((m for m in (after, before) if m), key=lambda m: m.start()):
+        texts.append(match.group(1))
+    texts += [t for t in state.fact_texts(f"vehicle {label}:")]
+    for descriptor in texts:
+        if _MOTORCYCLE.search(descriptor):
+            return "motorcycle"
+        if _TRUCK.search(descriptor):
+            state.note(f"actors.{state.vehicles[label].role}.type", descriptor)
+            return "truck"
+    return "car"
+
+
+_IMPACT = re.compile(r"\b(?:struck|strikes?|striking|impacted|collided|hit)\b", re.I)
+_SUMMARY_SENTENCE = re.compile(r"\b(?:crash|collision|case|investigation)\s+(?:involves|involved|focused)|"
+                               r"primarily involved|sustained (?:a )?(?:frontal|side|moderate|serious)", re.I)
+
+
+def split_pre_crash(state: RulesState) -> None:
+    """Text before the first harmful event, without the summary lead and avoidance manoeuvres."""
+    kept = []
+    sentences = state.t.sentences
+    for index, sentence in enumerate(sentences):
+        if _SUMMARY_SENTENCE.search(sentence) and not re.search(r"\bV[1-9]\b.*\b(?:travel|driv|turn)", sentence):
+            continue
+        impact = _IMPACT.search(sentence)
+        if impact:
+            head = sentence[: impact.start()]
+            kept.append(head)
+            state.crash_sentence = sentence
+            between = []
+            for later in sentences[index + 1:]:
+                second = _IMPACT.search(later)
+                between.append(later[: second.start()] if second else later)
+                if second:
+                    break
+            state.between = " ".join(between)
+            break
+        kept.append(sentence)
+    pre = " ".join(kept)
+    pre = re.sub(r"(?:in an? )?(?:attempt(?:ed|ing)?|tried|trying)\s+to\s+avoid[^.;]*", " ", pre, flags=re.I)
+    pre = re.sub(r"\bto avoid (?:a )?(?:collision|the crash|impact)[^.;]*", " ", pre, flags=re.I)
+    pre = re.sub(r"\breacted by[^.;]*|[^.;,]*\b(?:in avoidance|as an avoidance|avoidance maneuver|evasive)[^.;]*", " ",
+                 pre, flags=re.I)
+    state.pre_crash = pre
