@@ -41,6 +41,8 @@ def _line(text: str, score: float = 0.95) -> OcrLine:
     ("V2: 2001 Volvo S60", "vehicle V2: 2001 Volvo S60"),
     ("V1 - 2001 Chevrolet Monte Carlo, 2-dr coupe", "vehicle V1: 2001 Chevrolet Monte Carlo, 2-dr coupe"),
     ("Main Street", "street name: Main Street"),
+    ("I-95", "street name: I-95"),
+    ("Northbound lane grade = +3%", "text: Northbound lane grade = +3%"),
     ("Gravel shoulder", "text: Gravel shoulder"),
 ])
 def test_ocr_lines_become_short_facts(text, fact):

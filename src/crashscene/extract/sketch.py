@@ -158,9 +158,10 @@ _VEHICLE_LIST = re.compile(r"^\s*(?:V|Veh|Vehicle)\s*#?\s*([1-9])\s*[-:=.,]\s*(.
 _SPEED = re.compile(r"speed\s*limit", re.I)
 _MPH = re.compile(r"(\d{2,3})\s*(?:mph|m\.p\.h|mi/h)", re.I)
 _KMH = re.compile(r"(\d{2,3})\s*(?:kmph|km/h|km/hr|kph|kmh|km)", re.I)
-_STREET = re.compile(r"\b(street|st|road|rd|avenue|ave|av|boulevard|blvd|highway|hwy|route|drive|dr|lane|ln|"
-                     r"parkway|pkwy|pike|interstate|freeway|expressway|way|court|ct|place|pl|sr|us|i)\b[\s.-]*\d*",
-                     re.I)
+# "Main Street", "N. Oak Ave", "Route 9", "I-95", "US 1", "County Road 12": a capitalised name and a road word
+_STREET = re.compile(r"^(?:[A-Z0-9][\w.'-]*\s+){1,4}(?:Street|St|Road|Rd|Avenue|Ave|Boulevard|Blvd|Highway|Hwy|Drive|"
+                     r"Dr|Lane|Ln|Parkway|Pkwy|Pike|Way|Court|Ct|Place|Pl|Trail|Expressway|Freeway)\.?$|"
+                     r"^(?:I|US|SR|CR|Route|Rte|Highway|Hwy|State Route|County Road|Interstate)[- ]?\d{1,4}[A-Z]?$")
 _NORTH = re.compile(r"^\s*[-|^↑]*\s*N\s*[-|^↑]*\s*$")
 
 
@@ -203,7 +204,7 @@ def _classify(text: str) -> list[str]:
         out.append("traffic signal")
     if re.search(r"\b(flashing|blinking)\s+(red|yellow|amber)", folded):
         out.append(f"flashing {re.search(r'(red|yellow|amber)', folded).group(1)} signal")
-    if not out and _STREET.search(text) and len(text) <= 40 and not re.search(r"\d{4}", text):
+    if not out and _STREET.match(text):
         out.append(f"street name: {text}")
     if not out and len(text) >= 2:
         out.append(f"text: {text}")
