@@ -12,6 +12,7 @@ import multiprocessing as mp
 import os
 import signal
 import traceback
+import warnings
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
@@ -25,8 +26,15 @@ RAY_OBJECT_STORE = 100 * 1024 * 1024  # [bytes] chunk results are small; keep Ra
 _PR_SET_PDEATHSIG = 1
 
 
+def quiet_scenic_warnings() -> None:
+    """Scenic warns on import that `carla` is missing and that it cannot hook sys.excepthook: noise here."""
+    warnings.filterwarnings("ignore", message='the "carla" package is not installed')
+    warnings.filterwarnings("ignore", message="unable to install sys.excepthook")
+
+
 def _die_with_parent() -> None:
     """Pool initializer: a worker gets SIGKILL when its parent dies (a killed campaign leaves no orphans)."""
+    quiet_scenic_warnings()
     try:
         ctypes.CDLL("libc.so.6", use_errno=True).prctl(_PR_SET_PDEATHSIG, signal.SIGKILL)
     except OSError:  # not Linux: orphans finish their chunk and exit
@@ -70,6 +78,7 @@ class LocalEngine:
 
 
 def _ray_call(worker: Worker, task: ChunkTask) -> ChunkResult | BaseException:
+    quiet_scenic_warnings()
     try:
         return worker(task)
     except Exception as exc:  # noqa: BLE001  (returned so one failed chunk does not fail the campaign)

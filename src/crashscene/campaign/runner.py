@@ -19,7 +19,7 @@ from pathlib import Path
 from pydantic import BaseModel, ConfigDict, Field
 
 from crashscene.campaign.cases import PreparedCase, PrepareTask, case_id_of, discover_cases, prepare_task
-from crashscene.campaign.engines import make_engine
+from crashscene.campaign.engines import make_engine, quiet_scenic_warnings
 from crashscene.campaign.errors import CampaignError
 from crashscene.campaign.model import MODES, ChunkResult, ChunkTask, SimOptions
 from crashscene.campaign.progress import CampaignProgress
@@ -72,6 +72,7 @@ class CampaignSummary(BaseModel):
     chunks_failed: int
     variations_run: int
     throughput: float  # [variations/s] of this invocation
+    failures: list[dict] = []  # chunks that failed in this invocation: key, error
     cases: list[dict]
     runs: list[RunSummary]
     complete: bool
@@ -86,6 +87,7 @@ def run_campaign(cases: str | Path | Sequence[str | Path], out_dir: str | Path, 
                  worker: Callable[[ChunkTask], ChunkResult] | None = None, live: bool | None = None,
                  quiet: bool = False) -> CampaignSummary:
     """Run (or resume) a campaign over `cases` into `out_dir`; returns its summary."""
+    quiet_scenic_warnings()
     if worker is None:
         from crashscene.campaign.worker import simulate_chunk as worker
     bad_modes = [m for m in config.modes if m not in MODES]
@@ -115,6 +117,7 @@ def run_campaign(cases: str | Path | Sequence[str | Path], out_dir: str | Path, 
             store.put_case(case.case_id, case.case_dir, case.status, case.error, case.scenario_hash,
                            case.extract_backend, case.warnings, case.seconds)
         failed = ran = variations = 0
+        failures: list[dict] = []
         total = sum(t.count for t in tasks)
         try:
             with CampaignProgress(total, len(tasks), live=live, quiet=quiet) as progress:
@@ -133,6 +136,7 @@ def run_campaign(cases: str | Path | Sequence[str | Path], out_dir: str | Path, 
                         failed += 1
                         message = f"{type(outcome).__name__}: {outcome}"
                         store.write_chunk_error(task, session, message)
+                        failures.append({"chunk": task.key, "error": message})
                         progress.chunk_done(task.key, task.count, 0.0, failed=message)
                         continue
                     ran += 1
@@ -145,6 +149,7 @@ def run_campaign(cases: str | Path | Sequence[str | Path], out_dir: str | Path, 
             out_dir=str(out), database=str(store.path), engine=engine.name, workers=engine.workers,
             seconds=round(seconds, 3), chunks_run=ran, chunks_skipped=skipped, chunks_failed=failed,
             variations_run=variations, throughput=round(variations / seconds, 2) if seconds else 0.0,
+            failures=failures,
             cases=[c.model_dump(include={"case_id", "status", "error", "scenario_hash", "extract_backend"})
                    for c in prepared],
             runs=summarize_runs(store), complete=failed == 0 and all(c.status == "ok" for c in prepared))

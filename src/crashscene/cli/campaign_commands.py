@@ -46,7 +46,7 @@ def print_summary(summary, as_json: bool) -> None:
     if as_json:
         typer.echo(summary_json(summary))
         return
-    console = Console()
+    console = Console(width=None if Console().is_terminal else 120)
     table = Table(title=f"crashscene campaign: {summary.out_dir}")
     for col in ("case", "mode", "variations", "valid", "pass", "violation", "collision", "invalid", "reproduced"):
         table.add_column(col, justify="left" if col in ("case", "mode") else "right")
@@ -56,6 +56,10 @@ def print_summary(summary, as_json: bool) -> None:
         table.add_row(run.case_id, run.mode, str(run.variations), str(run.valid), str(v.get("pass", 0)),
                       str(v.get("violation", 0)), str(v.get("collision", 0)), str(v.get("invalid", 0)), rate)
     console.print(table)
+    for failure in summary.failures[:20]:
+        console.print(f"[red]chunk {failure['chunk']} failed:[/red] {failure['error'].splitlines()[0]}", soft_wrap=True)
+    if len(summary.failures) > 20:
+        console.print(f"... and {len(summary.failures) - 20} more failed chunks (table chunk_errors)")
     for case in summary.cases:
         if case["status"] != "ok":
             console.print(f"[red]case {case['case_id']} failed:[/red] {case['error']}", soft_wrap=True)

@@ -43,6 +43,9 @@ def data_uri(data: bytes, mime: str) -> str:
 
 def write_report(out_dir: str | Path, gifs: bool = True) -> WrittenReport:
     """Write OUT/report.html, OUT/results.json and OUT/junit.xml from OUT/campaign.duckdb."""
+    from crashscene.campaign.engines import quiet_scenic_warnings
+
+    quiet_scenic_warnings()
     start = time.perf_counter()
     out = Path(out_dir)
     if not (out / DB_NAME).exists():
@@ -220,6 +223,9 @@ def _impact_and_gifs(store: Store, out: Path, case: dict, fig: dict, gifs: bool)
     wanted = [("still", *pick)]
     if gifs and rep.get("first_reproducing") is not None:
         wanted.append(("gif_reproduce", "reproduce", rep["first_reproducing"], "first reproducing variation"))
+    elif gifs and rep.get("first_collision"):  # nothing reproduced: show what the re-enactment did instead
+        wanted.append(("gif_reproduce", "reproduce", rep["first_collision"]["v"],
+                       "no variation reproduced the report; first variation with a collision"))
     ads = modes.get("test", {}).get("first_ads_violation")
     if gifs and ads:
         wanted.append(("gif_ads", "test", ads["v"], f"first ADS violation ({ads['codes']})"))

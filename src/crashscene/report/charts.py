@@ -68,17 +68,23 @@ def verdict_bar(verdicts: dict[str, dict[str, int]]) -> bytes | None:
 
 
 def pick_axes(params: list[dict]) -> tuple[str, str] | None:
-    """Two parameters to plot: the first NPC's speed vs its start distance, else the two most varied numbers."""
+    """Two parameters that vary: preferably an NPC's speed and start distance, then the ego's speed, then the
+    sampled scenario parameters with the largest spread."""
     keys = sorted({k for p in params for k, v in p.items() if isinstance(v, (int, float)) and math.isfinite(v)})
-    if len(keys) < 2:
-        return None
-    npc_speed = next((k for k in keys if k.startswith("npc") and k.endswith(".speed")), None)
-    npc_dist = next((k for k in keys if k.startswith("npc") and k.endswith(".distance")), None)
-    if npc_speed and npc_dist:
-        return npc_speed, npc_dist
-    spread = {k: np.nanstd([p.get(k, np.nan) for p in params]) for k in keys}
-    ranked = sorted(keys, key=lambda k: -spread[k])
-    return ranked[0], ranked[1]
+    spread = {k: float(np.nanstd([p.get(k, np.nan) for p in params])) for k in keys}
+    varying = [k for k in keys if spread[k] > 1e-6]
+
+    def rank(key: str) -> tuple[int, float]:
+        if key.startswith("npc") and key.endswith(".speed"):
+            return 0, 0.0
+        if key.startswith("npc") and key.endswith(".distance"):
+            return 1, 0.0
+        if key.endswith(".speed"):
+            return 2, 0.0
+        return 3, -spread[key]
+
+    ranked = sorted(varying, key=rank)
+    return (ranked[0], ranked[1]) if len(ranked) >= 2 else None
 
 
 def failing_scatter(rows: list[dict], title: str) -> bytes | None:
