@@ -309,7 +309,8 @@ def format_result(result: EvalResult, diffs: bool = True, confusion: bool = True
                          + (f"  ERROR: {case.error.splitlines()[0]}" if case.error else ""))
             for diff in case.diffs:
                 if case.error is None:
-                    lines.append(f"      {diff.field}: gold {_cell(diff.gold)} | pred {_cell(diff.pred)}")
+                    note = "  (extension, not scored)" if diff.component == "extension" else ""
+                    lines.append(f"      {diff.field}: gold {_cell(diff.gold)} | pred {_cell(diff.pred)}{note}")
     if confusion:
         lines.append("")
         lines.append("confusion (gold -> pred: count), fields with errors only:")

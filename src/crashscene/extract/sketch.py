@@ -15,12 +15,12 @@ needs a new OCR run.
 """
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import logging
 import os
 import re
-import threading
 from pathlib import Path
 
 from pydantic import BaseModel, ConfigDict
@@ -31,8 +31,6 @@ OCR_CACHE_VERSION = 1  # bump when the raw OCR record format or engine settings 
 MIN_OCR_SCORE = 0.5  # rapidocr's own default text score threshold
 KMH_PER_MPH = 1.609344
 
-_engine = None
-_engine_lock = threading.Lock()
 
 
 class SketchFact(BaseModel):
@@ -99,18 +97,16 @@ def cache_dir() -> Path:
 # ---------------------------------------------------------------- OCR
 
 
+@functools.cache
 def _ocr_engine():
-    global _engine
-    with _engine_lock:
-        if _engine is None:
-            try:
-                from rapidocr import RapidOCR
-            except ImportError as exc:
-                raise SketchError(f"sketch OCR needs rapidocr and onnxruntime (pip install rapidocr "
-                                  f"onnxruntime): {exc}") from None
-            logging.getLogger("RapidOCR").setLevel(logging.ERROR)
-            _engine = RapidOCR(params={"Global.log_level": "error"})
-        return _engine
+    """One rapidocr engine per process: loading its three ONNX models takes seconds."""
+    try:
+        from rapidocr import RapidOCR
+    except ImportError as exc:
+        raise SketchError(f"sketch OCR needs rapidocr and onnxruntime (pip install rapidocr onnxruntime): {exc}") \
+            from None
+    logging.getLogger("RapidOCR").setLevel(logging.ERROR)
+    return RapidOCR(params={"Global.log_level": "error"})
 
 
 def _run_ocr(data: bytes, image: Path) -> list[OcrLine]:
