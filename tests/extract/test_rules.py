@@ -208,3 +208,29 @@ def test_lane_change_on_a_one_way_street():
     npc = s.actors["npc1"]
     assert (npc.behavior.value, npc.position.relation.value) == ("change_lane_right", "left")
     assert [(o.code, o.actor) for o in s.oracle] == [("CVC_22107", "npc1")]
+
+
+def test_left_turn_into_a_driveway_across_oncoming_traffic():
+    s = _text("The crash occurred during daylight on a two-lane, undivided, two-way roadway with a posted speed limit "
+              "of 56 km/h (35 mph). Vehicle 1, a 2015 Honda Civic, was traveling north in the northbound lane. Vehicle "
+              "2, a 2010 Ford Escape, was traveling south and began a left turn into a private driveway on the east "
+              "side of the road. The front of Vehicle 1 struck the right side of Vehicle 2.")
+    assert s.road_network.road_type.value == "t_intersection"
+    assert [(o.code, o.actor) for o in s.oracle] == [("CVC_21801", "npc1")]
+
+
+def test_odd_lane_total_on_a_divided_road_is_one_carriageway():
+    s = _text("Vehicle 1 was traveling west in the second lane of a three-lane divided interstate. Vehicle 2 was "
+              "traveling west in the same lane ahead of Vehicle 1 and slowed for congestion. The front of Vehicle 1 "
+              "struck the rear of Vehicle 2.")
+    assert (s.road_network.number_of_ways, s.road_network.number_of_lanes) == (1, 3)
+    assert s.actors["npc1"].behavior.value == "decelerate"
+    assert [(o.code, o.actor) for o in s.oracle] == [("CVC_21703", "ego")]
+
+
+def test_motorcycle_losing_control_on_a_curve():
+    s = _text("The motorcycle (V1), a 2012 Harley-Davidson, was traveling east on a two-lane rural road negotiating a "
+              "right curve at night. The rider lost control and the motorcycle departed the left side of the roadway "
+              "and struck a fence.")
+    assert (s.actors["ego"].type.value, s.actors["ego"].behavior.value) == ("motorcycle", "lose_control")
+    assert (s.road_network.road_type.value, s.road_network.curve_direction.value) == ("curve", "right")

@@ -88,8 +88,8 @@ def count_lanes(state: RulesState, road_text: str, ways: int) -> int:
             if ways == 2:
                 # an odd count on a two-way road holds a centre turn lane ("five-lane ... middle left-turn lane")
                 lanes = total - 1 if total >= 3 and total % 2 else total
-            elif state.divided and total >= 2 and not re.search(r"one[- ]way", road_text, re.I):
-                lanes = max(1, total // 2)
+            elif state.divided and total >= 4 and total % 2 == 0 and not re.search(r"one[- ]way", road_text, re.I):
+                lanes = total // 2  # "a four-lane divided highway": two lanes each way
             else:
                 lanes = total
     if lanes is None:

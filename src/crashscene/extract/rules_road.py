@@ -120,7 +120,9 @@ def _road_type(state: RulesState) -> tuple[str, str | None]:
     four = _FOUR_LEGS.search(text)
     three = _THREE_LEGS.search(text)
     junction = re.search(r"\bintersection\b|\bjunction\b|\bintersecting\b", pre, re.I)
-    from_access = bool(three and _ACCESS.search(three.group(0)) and driveway_vehicle(state) is not None)
+    from_access = bool(three and _ACCESS.search(three.group(0)) and (
+        driveway_vehicle(state) is not None or re.search(rf"\b(?:into|onto|to enter)\s+(?:a |the |an )?{_DRIVEWAY}", pre,
+                                                          re.I)))
     legs = None
     if from_access or (junction and three and not four and not _ACCESS.search(three.group(0))):
         legs = 3

@@ -78,7 +78,7 @@ def _type_of(state: RulesState, label: str) -> str:
     # "V2, a 2002 Ford F150 pickup truck was ...", "V2 - 2001 Volvo", "a 2013 Freightliner tractor/trailer (V2)"
     after = re.search(rf"\b{label}\b\s*(?:\([^)]*\))?\s*[,:(-]\s*(?:the\s+|a\s+|an\s+)?([^.;]*?)"
                       rf"(?:\b(?:was|were|is|had|driven|traveling|travelling)\b|[.;]|$)", text)
-    before = re.search(rf"(?:\b(?:a|an|the)\s+|,\s*)([^.;()]{{3,80}}?)\s*\(\s*{label}\s*\)", text)
+    before = re.search(rf"(?:\b(?i:a|an|the)\s+|,\s*)([^.;()]{{3,80}}?)\s*\(\s*{label}\s*\)", text)
     for match in sorted((m for m in (after, before) if m), key=lambda m: m.start()):
         texts.append(match.group(1))
     texts += [t for t in state.fact_texts(f"vehicle {label}:")]
