@@ -234,3 +234,11 @@ def test_motorcycle_losing_control_on_a_curve():
               "and struck a fence.")
     assert (s.actors["ego"].type.value, s.actors["ego"].behavior.value) == ("motorcycle", "lose_control")
     assert (s.road_network.road_type.value, s.road_network.curve_direction.value) == ("curve", "right")
+
+
+def test_stated_failure_to_yield_wins_at_an_uncontrolled_junction():
+    s = _text("V1 was traveling east on a two-lane, two-way road approaching a 4-leg intersection without traffic "
+              "controls. V2 was traveling north on the intersecting road. The driver of V2 failed to yield and the "
+              "front of V1 struck the left side of V2.")
+    assert s.actors["npc1"].position.heading.value == "from_right"
+    assert [(o.code, o.actor) for o in s.oracle] == [("CVC_21800", "npc1")]

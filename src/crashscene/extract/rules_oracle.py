@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import re
 
-from crashscene.extract.narrative import around, clip
+from crashscene.extract.narrative import around, clip, label_at
 from crashscene.extract.rules_road import driveway_vehicle
 from crashscene.extract.rules_state import RulesState, relative_heading
 
@@ -42,7 +42,7 @@ def _manoeuvre_oracle(state: RulesState, road: dict, oracle: _Oracle) -> None:
     for label, vehicle in state.vehicles.items():
         role, behavior, quote = vehicle.role, vehicle.behavior, vehicle.behavior_quote
         if behavior == "lose_control" or re.search(
-                rf"\b{label}\b[^.]{{0,80}}(?:too fast for|excessive speed|unsafe speed|speed too great)", text, re.I):
+                rf"\b{label}\b[^.]{{0,80}}(?:too fast for|excessive speed|unsafe speed|speed too great|high rate of speed)", text, re.I):
             oracle.add("CVC_22350", "unsafe_speed", role,
                        f"{label} lost control or was driven too fast for the conditions.", quote)
         crossed = behavior in ("cross_centerline", "overtake") or (
@@ -64,7 +64,7 @@ def _manoeuvre_oracle(state: RulesState, road: dict, oracle: _Oracle) -> None:
             oracle.add("CVC_22349", "speed_limit", role, f"{label} exceeded the posted speed limit.",
                        around(text, speeding))
         red = re.search(rf"\b{label}\b[^.]{{0,100}}(?:red (?:light|signal|indication)|against (?:the|a) red|"
-                        rf"ran the red)", text, re.I)
+                        rf"ran the red|disregard\w* the (?:traffic )?(?:signal|light))", text, re.I)
         if red:
             oracle.add("CVC_21453", "red_light", role, f"{label} entered the intersection against a red signal.",
                        around(text, red))
@@ -77,6 +77,8 @@ def _junction_oracle(state: RulesState, road: dict, oracle: _Oracle) -> None:
     text = state.t.text
     devices = set(road["traffic_signs"]) - {"speed_limit_sign"}
     from_driveway = driveway_vehicle(state)
+    yield_phrase = re.search(r"fail(?:ed|ing|s)? to yield|did not yield", state.t.text, re.I)
+    failed_to_yield = label_at(state.t.text, yield_phrase.start()) if yield_phrase else None
     for label, vehicle in state.vehicles.items():
         role, quote = vehicle.role, vehicle.behavior_quote
         headings = {relative_heading(vehicle, other) for other in state.vehicles.values() if other is not vehicle}
@@ -90,7 +92,7 @@ def _junction_oracle(state: RulesState, road: dict, oracle: _Oracle) -> None:
         if not headings & {"from_left", "from_right"}:
             continue
         ran_stop = re.search(rf"\b{label}\b[^.]{{0,80}}(?:fail(?:ed|ing) to stop|did not stop|ran the stop|"
-                             rf"without stopping|disregarded the stop)", text, re.I)
+                             rf"without stopping|disregarded the stop|rolled through the stop)", text, re.I)
         if "stop_sign" in devices and label in _controlled(state, state.stop_controlled):
             if ran_stop:
                 oracle.add("CVC_22450", "stop_sign", role, f"{label} did not stop at its stop sign.",
@@ -101,8 +103,9 @@ def _junction_oracle(state: RulesState, road: dict, oracle: _Oracle) -> None:
         elif "yield_sign" in devices and label in _controlled(state, state.yield_controlled):
             oracle.add("CVC_21803", "yield_sign", role, f"{label} did not yield at its yield sign to cross traffic.",
                        quote)
-        elif not devices and from_driveway is None and "from_right" in headings:
-            # uncontrolled junction: the vehicle with the other on its right must yield
+        elif not devices and from_driveway is None and (
+                failed_to_yield == label if failed_to_yield else "from_right" in headings):
+            # uncontrolled junction: the one the report says failed to yield, else the one with the other on its right
             oracle.add("CVC_21800", "intersection_right_of_way", role,
                        f"{label} entered the uncontrolled intersection without yielding to the vehicle on its right.",
                        quote)
