@@ -41,8 +41,9 @@ def _manoeuvre_oracle(state: RulesState, road: dict, oracle: _Oracle) -> None:
     text = state.t.text
     for label, vehicle in state.vehicles.items():
         role, behavior, quote = vehicle.role, vehicle.behavior, vehicle.behavior_quote
-        if behavior == "lose_control" or re.search(
-                rf"\b{label}\b[^.]{{0,80}}(?:too fast for|excessive speed|unsafe speed|speed too great|high rate of speed)", text, re.I):
+        too_fast = re.search(rf"\b{label}\b[^.]{{0,80}}(?:too fast for|excessive speed|unsafe speed|speed too great|"
+                             rf"high rate of speed)", text, re.I)
+        if behavior == "lose_control" or too_fast:
             oracle.add("CVC_22350", "unsafe_speed", role,
                        f"{label} lost control or was driven too fast for the conditions.", quote)
         crossed = behavior in ("cross_centerline", "overtake") or (
