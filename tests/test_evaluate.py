@@ -53,6 +53,8 @@ def test_hand_made_diffs_give_exact_numbers():
     assert (result.overall.correct, result.overall.total) == (14, 20)
     assert (result.oracle_precision.matched, result.oracle_precision.predicted) == (0, 2)
     assert result.confusion["actors.behavior"]["go_forward"] == {"go_forward": 1, "turn_left": 1}
+    assert (result.fields["actors.behavior"].correct, result.fields["actors.behavior"].total) == (1, 2)
+    assert (result.fields["oracle"].correct, result.fields["oracle"].total) == (0, 1)
     assert {d.field for d in result.cases[0].diffs} == {
         "environment.weather", "road_network.number_of_lanes", "road_network.traffic_signs",
         "actors.npc1.behavior", "actors.npc1.position.heading", "oracle[CVC_21803@npc1]"}

@@ -87,6 +87,7 @@ class EvalResult(BaseModel):
     oracle_precision: OraclePrecision
     extensions: dict[str, Score]
     confusion: dict[str, dict[str, dict[str, int]]]  # field -> gold -> pred -> count
+    fields: dict[str, Score] = Field(default_factory=dict)  # per field (actor fields pooled over roles)
     cases: list[CaseResult]
     ignored_predictions: list[str] = Field(default_factory=list)
 
@@ -99,6 +100,7 @@ class EvalResult(BaseModel):
                                  "predicted": self.oracle_precision.predicted,
                                  "precision": round(precision, 4) if precision is not None else None},
             "extensions": {name: score.to_json() for name, score in self.extensions.items()},
+            "fields": {name: score.to_json() for name, score in self.fields.items()},
             "confusion": self.confusion,
             "cases": [{"case": c.case, **c.score.to_json(), "error": c.error,
                        "diffs": [{"field": d.field, "gold": d.gold, "pred": d.pred} for d in c.diffs]}
@@ -185,6 +187,7 @@ def evaluate(pairs: dict[str, tuple[Scenario, Scenario | None]],
     overall = Score()
     precision = OraclePrecision()
     confusion: dict[str, dict[str, dict[str, int]]] = {}
+    fields: dict[str, Score] = {}
     cases: list[CaseResult] = []
     for case in sorted(pairs):
         gold, pred = pairs[case]
@@ -201,13 +204,16 @@ def evaluate(pairs: dict[str, tuple[Scenario, Scenario | None]],
                 result.score.add(item.correct)
             if not item.correct:
                 result.diffs.append(item)
+            fields.setdefault("oracle" if item.component == "oracle" else _confusion_key(item.field),
+                              Score()).add(item.correct)
             if item.component != "oracle":
                 key = _confusion_key(item.field)
                 row = confusion.setdefault(key, {}).setdefault(_cell(item.gold), {})
                 row[_cell(item.pred)] = row.get(_cell(item.pred), 0) + 1
         cases.append(result)
     return EvalResult(components=components, overall=overall, oracle_precision=precision, extensions=extensions,
-                      confusion={key: confusion[key] for key in sorted(confusion)}, cases=cases)
+                      confusion={key: confusion[key] for key in sorted(confusion)},
+                      fields={key: fields[key] for key in sorted(fields)}, cases=cases)
 
 
 def _confusion_key(field: str) -> str:
@@ -299,6 +305,8 @@ def format_result(result: EvalResult, diffs: bool = True, confusion: bool = True
         lines.append(f"{name:<14} {score.correct:>7} {score.total:>6} {_pct(score.accuracy):>9}")
     precision = result.oracle_precision
     lines.append(f"oracle precision: {precision.matched}/{precision.predicted} = {_pct(precision.precision)}")
+    lines.append("per field: " + ", ".join(f"{name} {_pct(score.accuracy)}" for name, score in result.fields.items()
+                                           if score.correct < score.total) + " (others 100%)")
     lines.append("extensions (not in overall): " + ", ".join(
         f"{name} {score.correct}/{score.total} ({_pct(score.accuracy)})" for name, score in result.extensions.items()))
     if diffs:
