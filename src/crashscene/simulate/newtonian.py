@@ -131,6 +131,7 @@ def _tracing_classes():
             self._pins = pins  # per scene object: (x, y, scenic heading, speed) or None
             self._sizes = sizes  # per scene object: (length, width) [m]
             self._halted: set[int] = set()
+            self.contacts: list[tuple[int, int, int, float]] = []  # (object a, object b, step, t [s])
             super().__init__(scene, network, render, export_gif, debug_render, **kwargs)
 
         def createObjectInSimulator(self, obj):  # noqa: N802 (Scenic hook)
@@ -154,19 +155,51 @@ def _tracing_classes():
             # contact step still shows the impact speeds.
             for index in self._halted:
                 self._halt(self.objects[index])
+            before = self._poses()
             super().step()
-            self._detect_contacts()
+            self._detect_contacts(before)
 
-        def _detect_contacts(self):
-            objects = self.objects
-            states = [(float(o.position[0]), float(o.position[1]), float(scenic_trace.yaw_from_heading(o.heading)))
-                      for o in objects]
-            for i in range(len(objects)):
-                for j in range(i + 1, len(objects)):
-                    if i in self._halted and j in self._halted:
+        def _poses(self) -> list[tuple[float, float, float]]:
+            return [(float(o.position[0]), float(o.position[1]), float(scenic_trace.yaw_from_heading(o.heading)))
+                    for o in self.objects]
+
+        def _detect_contacts(self, before):
+            after = self._poses()
+            touched = {(a, b) for a, b, _, _ in self.contacts}
+            for i in range(len(after)):
+                for j in range(i + 1, len(after)):
+                    if (i, j) in touched or not scenic_trace.footprints_overlap(
+                            after[i], self._sizes[i], after[j], self._sizes[j]):
                         continue
-                    if scenic_trace.footprints_overlap(states[i], self._sizes[i], states[j], self._sizes[j]):
-                        self._halted.update((i, j))
+                    frac = 1.0
+                    if i not in self._halted and j not in self._halted:
+                        frac = self._back_to_contact(i, j, before, after)
+                    self.contacts.append((i, j, self.currentTime + 1, (self.currentTime + frac) * self.timestep))
+                    self._halted.update((i, j))
+
+        def _back_to_contact(self, i, j, before, after) -> float:
+            """Move both vehicles back along their last step to first contact (as the embedded backend
+            does, so the contact geometry is not a 10 Hz overshoot); the fraction of the step it began."""
+            def pose(k, f):
+                (x0, y0, t0), (x1, y1, t1) = before[k], after[k]
+                return (x0 + f * (x1 - x0), y0 + f * (y1 - y0),
+                        t0 + f * float(scenic_trace.wrap_angle(t1 - t0)))
+
+            lo, hi = 0.0, 1.0
+            if scenic_trace.footprints_overlap(pose(i, 0.0), self._sizes[i], pose(j, 0.0), self._sizes[j]):
+                return 1.0  # already touching before the step (a graze): leave them where they are
+            for _ in range(10):
+                mid = (lo + hi) / 2
+                if scenic_trace.footprints_overlap(pose(i, mid), self._sizes[i], pose(j, mid), self._sizes[j]):
+                    hi = mid
+                else:
+                    lo = mid
+            for k in (i, j):
+                x, y, yaw = pose(k, hi)
+                obj = self.objects[k]
+                obj.position = Vector(x, y, 0)
+                obj.heading = yaw - scenic_trace.SCENIC_TO_YAW
+            return hi
 
         @staticmethod
         def _halt(obj):
@@ -269,8 +302,9 @@ class NewtonianSimulator(Simulator):
             return scenic_trace.failed_run(scene, steps, "scenic rejected the simulation (a requirement was violated)")
         tracks = scenic_trace.tracks_from_trajectory(simulation.result.trajectory, roles)
         tracks = scenic_trace.pad_tracks(tracks, steps + 1)
-        sizes_by_role = {actor.role: (actor.length, actor.width) for actor in scene.actors}
-        return scenic_trace.ScenicRun(tracks, contacts=scenic_trace.find_contacts(tracks, sizes_by_role, dt))
+        contacts = [{"actor_a": roles[a], "actor_b": roles[b], "step": step, "t": t}
+                    for a, b, step, t in simulation.contacts]
+        return scenic_trace.ScenicRun(tracks, contacts=contacts)
 
 
 def placement_mismatch(scenic_scene, scene: SampledScene, drift: float) -> str | None:

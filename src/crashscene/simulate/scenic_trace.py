@@ -144,7 +144,7 @@ def contact_point(a: Track, size_a: tuple[float, float], b: Track, size_b: tuple
 
 
 def find_contacts(tracks: dict[str, Track], sizes: dict[str, tuple[float, float]], dt: float) -> list[dict]:
-    """First contact of every actor pair, as COLLISION_SCHEMA rows (without `variation`), ordered by time."""
+    """First contact of every actor pair (its `step` and COLLISION_SCHEMA fields but `variation`), by time."""
     rows = []
     roles = list(tracks)
     for i, role_a in enumerate(roles):
@@ -155,7 +155,7 @@ def find_contacts(tracks: dict[str, Track], sizes: dict[str, tuple[float, float]
                 continue
             k = int(hits[0])
             x, y = contact_point(a, sizes[role_a], b, sizes[role_b], k)
-            rows.append({"t": round(k * dt, 9), "actor_a": role_a, "actor_b": role_b,
+            rows.append({"step": k, "t": round(k * dt, 9), "actor_a": role_a, "actor_b": role_b,
                          "speed_a": float(a.speed[k]), "speed_b": float(b.speed[k]),
                          "yaw_a": float(a.yaw[k]), "yaw_b": float(b.yaw[k]), "x": x, "y": y})
     rows.sort(key=lambda row: (row["t"], row["actor_a"], row["actor_b"]))
@@ -174,7 +174,7 @@ class ScenicRun:
 
     tracks: dict[str, Track]
     invalid_reason: str | None = None
-    contacts: list[dict] = field(default_factory=list)  # find_contacts rows (first contact per pair)
+    contacts: list[dict] = field(default_factory=list)  # first contact per pair: actor_a, actor_b, step, t [s]
 
 
 def still_track(actor: SampledActor, n: int) -> Track:
@@ -242,10 +242,12 @@ def record_tables(scenario, scenes: Sequence[SampledScene], runs: Sequence[Sceni
     yaw_rate[1:] = np.diff(np.unwrap(yaw, axis=0), axis=0) / settings.dt
     lost = np.maximum.accumulate(np.abs(speed * yaw_rate) > LOST_GRIP, axis=0)
     contact_step = np.full((n_v, n_a, n_a), -1)
+    contact_t = np.zeros((n_v, n_a, n_a))
     for v, run in enumerate(runs):
         for row in run.contacts:
-            a, b = roles.index(row["actor_a"]), roles.index(row["actor_b"])
-            contact_step[v, min(a, b), max(a, b)] = round(row["t"] / settings.dt)
+            a, b = sorted((roles.index(row["actor_a"]), roles.index(row["actor_b"])))
+            contact_step[v, a, b] = row["step"]
+            contact_t[v, a, b] = row["t"]
 
     state = _TrackState(batch)
     recorder.begin(batch)
@@ -259,7 +261,7 @@ def record_tables(scenario, scenes: Sequence[SampledScene], runs: Sequence[Sceni
             for b in range(a + 1, n_a):
                 hit = contact_step[:, a, b] == step
                 if hit.any():
-                    recorder.collision(hit, a, b, t, state, step == 0)
+                    recorder.collision(hit, a, b, contact_t[:, a, b], state, step == 0)
         moving = np.abs(state.d - state.d_prev) / settings.dt > LATERAL_MOVE if step else np.zeros_like(state.d, bool)
         lat_cmd = np.where(moving, lateral_target, state.d)
         recorder.record(step, t, state, _geometry(batch, state, t), lat_cmd)
