@@ -39,7 +39,7 @@ STOP_DURATION = (2.0, 4.0)  # [s] how long a stopping actor stays stopped before
 LANE_WIDTH = 3.5  # [m] generated maps
 STRAIGHT_BACK = 60.0  # [m] road behind the anchor on generated straight roads (room for followers)
 CURVE_ANGLE = 1.3  # [rad] heading change of a generated curve (~75 deg)
-CURVE_LATERAL_ACC = 3.0  # [m/s2] design lateral acceleration at the speed limit -> curve radius
+CURVE_LATERAL_ACC = 2.0  # [m/s2] design lateral acceleration at the speed limit -> curve radius
 CURVE_RADIUS_RANGE = (60.0, 400.0)  # [m]
 
 EGO_BLUEPRINT = "vehicle.lincoln.mkz_2017"

@@ -75,7 +75,7 @@ def _road_map(odr: xodr.OpenDrive, spec: MapSpec) -> None:
     if spec.topology == "curve":
         sign = 1.0 if spec.curve_direction == "left" else -1.0
         geometry = [xodr.Line(spec.back_length),
-                    xodr.Arc(sign / spec.curve_radius, angle=spec.curve_angle),
+                    xodr.Arc(sign / spec.curve_radius, length=spec.curve_radius * spec.curve_angle),
                     xodr.Line(spec.ahead_length)]
     else:
         geometry = [xodr.Line(spec.back_length + spec.ahead_length)]

@@ -163,6 +163,7 @@ def render_program(plan: RenderPlan, *, scenario_hash_value: str, summary: str |
                     "needs": _needs(next(x for x in plan.actors if x.role == a["role"]), plan.actors)}
                    for a in actors]
     text = _ENV.get_template("scenario.scenic.j2").render(
+        room=_room(actors),
         plan=plan, actors=actors, actor_specs=actor_specs, notes=plan.notes, summary=summary,
         scenario_id=plan.scenario_id, scenario_hash=scenario_hash_value, version=version,
         map_name=map_name, carla_town=carla_town, ego_roads=[] if carla_town else ["road1"],
@@ -177,6 +178,21 @@ def render_program(plan: RenderPlan, *, scenario_hash_value: str, summary: str |
         extra += [f"_bp_{role} = Uniform(*{py(pool)})" for role, pool in pools.items()]
         text = head + marker + "\n".join(extra) + "\n" + tail
     return text
+
+
+def _room(actors: list[dict[str, Any]]) -> list[float]:
+    """[m] (behind, ahead) of the anchor that actors queued on the ego's route occupy, at their largest."""
+    extent = {}
+    for a in actors:
+        dist = a["init_dist"]["high"]
+        if a["placement"] == "anchor":
+            extent[a["role"]] = -dist if a["along"] == "behind" else dist
+        elif a["placement"] == "follow" and a["placement_ref"] in extent:
+            step = dist + a["gap"]
+            extent[a["role"]] = extent[a["placement_ref"]] + (step if a["along"] == "front" else -step)
+    behind = max([-v for v in extent.values()] + [0.0]) + 10.0
+    ahead = max(list(extent.values()) + [0.0]) + 10.0
+    return [round(behind, 1), round(ahead, 1)]
 
 
 def _cruise(actor, plan: RenderPlan) -> Range:

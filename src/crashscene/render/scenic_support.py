@@ -123,13 +123,39 @@ def _side_lane(lane, s_local, side, steps=1):
     return sec.lane
 
 
-def _oncoming_lane(lane):
-    """The opposite-direction lane nearest the centre line of the lane's road, or None."""
+def _oncoming_lane(lane, s_local=0.0, index=None):
+    """The opposite-direction lane nearest the ego's side: the opposite lane group's innermost lane, else (divided
+    roads, CARLA highways) the nearest lane within 30 m running the other way, from `index`; or None."""
     group = lane.group
-    opposite = group.opposite if group is not None else None
-    if opposite is None or not opposite.lanes:
+    opposite = group._opposite if group is not None else None
+    if opposite is not None and opposite.lanes:
+        return opposite.lanes[-1]
+    if index is None:
         return None
-    return opposite.lanes[-1]
+    line = lane.centerline.lineString
+    p = line.interpolate(min(max(s_local, 0.0), line.length))
+    q = line.interpolate(min(max(s_local, 0.0) + 2.0, line.length))
+    own = _math.atan2(-(q.x - p.x), q.y - p.y)
+    best, best_d = None, 30.0
+    tree, lanes = index
+    for k in tree.query(p.buffer(30.0)):
+        other = lanes[int(k)]
+        if other is lane:
+            continue
+        oline = other.centerline.lineString
+        d = oline.distance(p)
+        if d >= best_d:
+            continue
+        t = oline.project(p)
+        a, b = oline.interpolate(max(0.0, t - 1.0)), oline.interpolate(min(oline.length, t + 1.0))
+        if abs(_angle_diff(_math.atan2(-(b.x - a.x), b.y - a.y), own)) > 2.6:
+            best, best_d = other, d
+    return best
+
+
+def _lane_index(lanes):
+    lanes = list(lanes)
+    return _shapely.STRtree([lane.centerline.lineString for lane in lanes]), lanes
 
 
 def _same_dir_count(lane, s_local, side):
@@ -151,23 +177,24 @@ def _road_lanes(network):
     return [lane for lane in network.lanes if lane.road not in connecting]
 
 
-def _curve_start(lane, sign, min_turn):
-    """Arc length where `lane` starts turning towards `sign` (+1 left, -1 right) by `min_turn` [rad], or None."""
-    coords = [tuple(p[:2]) for p in lane.centerline.lineString.coords]
-    if len(coords) < 3:
+def _curve_start(lane, sign, min_turn, step=2.0):
+    """Arc length [m] where `lane` starts turning towards `sign` (+1 left, -1 right) by `min_turn` [rad] in all,
+    or None. The centreline is resampled every `step` [m]: Scenic's polylines carry tiny backward kinks at
+    geometry joints that would read as half-turns."""
+    line = lane.centerline.lineString
+    n = int(line.length // step)
+    if n < 3:
         return None
-    headings, lengths = [], [0.0]
-    for (x0, y0), (x1, y1) in zip(coords, coords[1:]):
-        headings.append(_math.atan2(-(x1 - x0), y1 - y0))
-        lengths.append(lengths[-1] + _math.hypot(x1 - x0, y1 - y0))
-    turn = 0.0
-    start = None
+    pts = [line.interpolate(i * step) for i in range(n + 1)]
+    headings = [_math.atan2(-(b.x - a.x), b.y - a.y) for a, b in zip(pts, pts[1:])]
+    turn, start = 0.0, None
     for i in range(1, len(headings)):
         d = _angle_diff(headings[i], headings[i - 1]) * sign
-        if d > 1e-3 and start is None:
-            start = lengths[i]
-        turn += d
-    if turn < min_turn or start is None:
+        if start is None and d > 0.5 * step / 400.0:  # curvature above 1/800 [1/m] towards the side
+            start = (i - 0.5) * step
+        if start is not None:
+            turn += d
+    if start is None or turn < min_turn:
         return None
     return start
 
@@ -237,13 +264,13 @@ def _combo_ns(routes, passed=0.0, meta=None):
     return _NS(routes=dict(routes), passed=passed, meta=dict(meta or {}))
 
 
-def _needs_ok(actor, route, s_local_lane, lane):
+def _needs_ok(actor, route, s_local_lane, lane, index=None):
     need = actor["needs"]
     if need.get("left", 0) and _same_dir_count(lane, s_local_lane, "left") < need["left"]:
         return False
     if need.get("right", 0) and _same_dir_count(lane, s_local_lane, "right") < need["right"]:
         return False
-    if need.get("oncoming") and _oncoming_lane(lane) is None:
+    if need.get("oncoming") and _oncoming_lane(lane, s_local_lane, index) is None:
         return False
     return True
 
@@ -258,18 +285,18 @@ def _relative_routes(actor, combo, ref_route):
     kind = actor["placement"]
     if kind == "follow":
         return [ref_route]
-    lane, s_local = _local(ref_route, ref_route.anchor)
+    lane, s_local = _local(ref_route, ref_route.anchor - 1.0)
     if kind in ("side_left", "side_right"):
         other = _side_lane(lane, s_local, "left" if kind == "side_left" else "right")
     else:
-        other = _oncoming_lane(lane)
+        other = _oncoming_lane(lane, s_local, combo.meta.get("index"))
     if other is None:
         return []
     chain = _follow_on(_lead_in(other, _LEAD_IN + 200.0, combo.meta.get("connecting", frozenset())), 200.0)
     route = _route(chain, 0.0)
     route.anchor = _r_project(route, _r_xy(ref_route, ref_route.anchor))
     other_lane, other_local = _local(route, route.anchor)
-    if not _needs_ok(actor, route, other_local, other_lane):
+    if not _needs_ok(actor, route, other_local, other_lane, combo.meta.get("index")):
         return []
     return [route]
 
@@ -299,30 +326,50 @@ def _road_combos(network, actors, topology, hint, curve_sign, ego_roads, cap=400
     ego_spec = actors[0]
     combos = []
     connecting = frozenset(network.connectingRoads)
-    for lane in _road_lanes(network):
+    lanes = _road_lanes(network)
+    meta = {"connecting": connecting, "index": _lane_index(lanes)}
+    routes = []
+    for lane in lanes:
         if lane.centerline.length < _MIN_LANE or not _ego_lane_ok(lane, ego_roads):
             continue
+        lead = _lead_in(lane, _LEAD_IN, connecting)
+        before = sum(l.centerline.length for l in lead[:-1])
         if topology == "curve":
             start = _curve_start(lane, curve_sign, 0.5)
             if start is None:
                 continue
-            lead = _lead_in(lane, _LEAD_IN, connecting)
-            route = _route(_follow_on(lead, 200.0), sum(l.centerline.length for l in lead[:-1]) + start)
+            routes.append(_route(_follow_on(lead, 200.0), before + start))
         else:
-            route = _route(_follow_on([lane], 200.0), min(hint, 0.5 * lane.centerline.length))
-        lane0, s_local = _local(route, route.anchor)
-        if not _needs_ok(ego_spec, route, s_local, lane0):
+            routes.append(_route(_follow_on(lead, 200.0), before + min(hint, 0.5 * lane.centerline.length)))
+    if topology == "curve" and not routes and not ego_roads:
+        routes = _turn_routes(network, curve_sign, connecting)  # towns whose bends are junction connectors
+    for route in routes:
+        lane0, s_local = _local(route, route.anchor - 1.0)
+        if not _needs_ok(ego_spec, route, s_local, lane0, meta["index"]):
             continue
-        combos.extend(_expand(actors, _combo_ns({"ego": route}, 0.0, {"connecting": connecting}), None, cap))
+        combos.extend(_expand(actors, _combo_ns({"ego": route}, 0.0, meta), None, cap))
         if len(combos) >= cap:
             break
     return combos
+
+
+def _turn_routes(network, sign, connecting):
+    """Lead-in -> turning connector -> exit routes whose connector bends towards `sign` by 0.5 rad or more."""
+    wanted = _ManeuverType.LEFT_TURN if sign > 0 else _ManeuverType.RIGHT_TURN
+    routes = []
+    for inter in network.intersections:
+        for lane in inter.incomingLanes:
+            for man in lane.maneuvers:
+                if man.type is wanted and man.connectingLane is not None:
+                    routes.append(_maneuver_route(lane, man, 200.0, connecting))
+    return routes
 
 
 def _junction_combos(network, actors, legs, ego_roads, cap=400):
     ego_spec = actors[0]
     combos = []
     connecting = frozenset(network.connectingRoads)
+    index = _lane_index(_road_lanes(network))
 
     def approach_candidates(actor, combo):
         ego_route = combo.routes["ego"]
@@ -351,11 +398,11 @@ def _junction_combos(network, actors, legs, ego_roads, cap=400):
             for man in _maneuvers(lane, ego_spec["maneuver"]):
                 route = _maneuver_route(lane, man, 200.0, connecting)
                 lane0, s_local = _local(route, route.anchor - 1.0)
-                if not _needs_ok(ego_spec, route, s_local, lane0):
+                if not _needs_ok(ego_spec, route, s_local, lane0, index):
                     continue
                 passed = man.connectingLane.centerline.length if man.connectingLane is not None else 0.0
                 base = _combo_ns({"ego": route}, passed, {"lane": lane, "man": man, "inter": inter,
-                                                              "connecting": connecting})
+                                                              "connecting": connecting, "index": index})
                 for combo in _expand(actors, base, approach_candidates, cap):
                     combos.append(combo)
         if len(combos) >= cap:
@@ -363,12 +410,19 @@ def _junction_combos(network, actors, legs, ego_roads, cap=400):
     return combos[:cap]
 
 
-def candidates(network, actors, topology, hint, curve_sign, ego_roads=(), map_name="map"):
-    """Every placement candidate of the program's actors on `network` (compile time)."""
+def candidates(network, actors, topology, hint, curve_sign, ego_roads=(), map_name="map", room=(0.0, 0.0)):
+    """Every placement candidate of the program's actors on `network` (compile time).
+
+    `room` = (behind, ahead) [m] of road the ego's route should offer around the anchor for the actors queued
+    on it; candidates without it are dropped unless none has it (then actors may be clamped to route ends).
+    """
     if topology in ("intersection", "t_intersection"):
         found = _junction_combos(network, actors, 4 if topology == "intersection" else 3, ego_roads)
     else:
         found = _road_combos(network, actors, topology, hint, curve_sign, ego_roads)
+    roomy = [c for c in found if c.routes["ego"].anchor >= room[0]
+             and c.routes["ego"].length - c.routes["ego"].anchor >= room[1]]
+    found = roomy or found
     if not found:
         raise RuntimeError(f"crashscene: no place on map {map_name!r} fits this {topology} "
                            f"scenario (lanes, junction legs or manoeuvres missing)")

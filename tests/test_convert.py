@@ -1,0 +1,185 @@
+"""DSL -> render plan: defaults table, placements, queueing, and that only tokens and numbers survive."""
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from crashscene.convert import (
+    DEFAULT_SPEED,
+    EGO_BLUEPRINT,
+    MPH,
+    Placement,
+    RenderPlan,
+    carla_weather,
+    convert,
+    scenario_hash,
+)
+from crashscene.dsl import load_file, loads
+from crashscene.dsl.tokens import TimeOfDay, Weather
+from tests.conftest import CASES, EXAMPLES
+
+BASE = """
+environment: {weather: clear, time_of_day: daytime}
+road_network:
+  road_type: %(road_type)s
+  number_of_ways: %(ways)s
+  number_of_lanes: %(lanes)s
+  road_marker: broken_line
+  traffic_signs: [%(signs)s]
+actors:
+  ego: {type: car, behavior: %(ego_behavior)s, position: {reference: %(ego_ref)s, relation: behind}}
+%(npcs)s
+oracle: []
+"""
+
+
+def scenario(road_type="straight", ways=2, lanes=2, signs="", ego_behavior="go_forward", ego_ref="road", npcs=""):
+    return loads(BASE % dict(road_type=road_type, ways=ways, lanes=lanes, signs=signs, ego_behavior=ego_behavior,
+                             ego_ref=ego_ref, npcs=npcs))
+
+
+@pytest.mark.parametrize("case", CASES)
+def test_every_golden_file_converts(case):
+    plan = convert(load_file(EXAMPLES / case / "golden.yaml"))
+    assert isinstance(plan, RenderPlan)
+    assert plan.actors[0].role == "ego" and plan.actors[0].placement is Placement.ANCHOR
+    assert plan.actors[0].blueprints == [EGO_BLUEPRINT]
+    for actor in plan.actors:
+        assert actor.speed.low <= actor.speed.high
+        assert actor.init_dist.low >= 0
+    # the map is long enough for the fastest actor over the whole horizon
+    fastest = max(a.speed.high for a in plan.actors)
+    assert plan.map.ahead_length >= fastest * plan.horizon
+
+
+@pytest.mark.parametrize("weather,time,expected", [
+    (Weather.CLEAR, TimeOfDay.NIGHTTIME, "ClearNight"), (Weather.CLOUDY, TimeOfDay.DAYTIME, "CloudyNoon"),
+    (Weather.RAINY, TimeOfDay.DAYTIME, "WetNoon"), (Weather.RAINY, TimeOfDay.NIGHTTIME, "WetNight"),
+    (Weather.CLEAR, TimeOfDay.DUSK, "ClearSunset"), (Weather.NOT_MENTIONED, TimeOfDay.NOT_MENTIONED, "ClearNoon"),
+])
+def test_weather_presets(weather, time, expected):
+    assert carla_weather(weather, time) == expected
+
+
+def test_wet_surface_makes_clear_weather_wet():
+    assert carla_weather(Weather.CLEAR, TimeOfDay.DAYTIME, "wet") == "WetNoon"
+
+
+def test_time_of_day_hours():
+    plan = convert(scenario())
+    assert plan.hour == 12.0
+    night = loads(BASE.replace("daytime", "nighttime") % dict(road_type="straight", ways=2, lanes=2, signs="",
+                                                               ego_behavior="go_forward", ego_ref="road", npcs=""))
+    assert convert(night).hour == 22.0
+
+
+def test_default_speed_is_reference_range_around_10():
+    plan = convert(scenario())
+    assert (plan.actors[0].speed.low, plan.actors[0].speed.high) == (DEFAULT_SPEED - 2, DEFAULT_SPEED + 2)
+
+
+def test_stated_speed_and_limit_set_the_nominal_speed():
+    s = scenario(npcs="  npc1: {type: car, behavior: go_forward, speed_mph: 40, "
+                      "position: {reference: ego, relation: front, heading: same_direction}}")
+    plan = convert(s)
+    npc = plan.actors[1]
+    assert npc.speed.low < 40 * MPH < npc.speed.high
+
+
+def test_standing_actors_have_zero_speed():
+    s = scenario(npcs="  npc1: {type: car, behavior: static, position: {reference: ego, relation: front, "
+                      "heading: same_direction}}")
+    assert convert(s).actors[1].speed.high == 0.0
+
+
+def test_truck_blueprint():
+    s = scenario(npcs="  npc1: {type: truck, behavior: go_forward, position: {reference: ego, relation: front}}")
+    plan = convert(s)
+    assert plan.actors[1].blueprints == ["vehicle.carlamotors.european_hgv"]
+    assert plan.actors[1].heading_relation is None
+    assert plan.actors[1].placement is Placement.ONCOMING  # default heading: opposite_direction
+    assert any("opposite_direction assumed" in n for n in plan.notes)
+
+
+@pytest.mark.parametrize("relation,heading,placement", [
+    ("front", "same_direction", Placement.FOLLOW), ("behind", "same_direction", Placement.FOLLOW),
+    ("left", "same_direction", Placement.SIDE_LEFT), ("right", "same_direction", Placement.SIDE_RIGHT),
+    ("front", "opposite_direction", Placement.ONCOMING),
+])
+def test_placements_on_roads(relation, heading, placement):
+    s = scenario(lanes=4, npcs=f"  npc1: {{type: car, behavior: go_forward, position: {{reference: ego, "
+                               f"relation: {relation}, heading: {heading}}}}}")
+    assert convert(s).actors[1].placement is placement
+
+
+@pytest.mark.parametrize("heading,angle", [("from_left", -math.pi / 2), ("from_right", math.pi / 2)])
+def test_crossing_traffic_at_junction_is_an_approach(heading, angle):
+    side = "left" if heading == "from_left" else "right"
+    s = scenario(road_type="intersection", ego_ref="intersection",
+                 npcs=f"  npc1: {{type: car, behavior: go_forward, position: {{reference: intersection, "
+                      f"relation: {side}, heading: {heading}}}}}")
+    npc = convert(s).actors[1]
+    assert npc.placement is Placement.APPROACH and npc.relative_heading == pytest.approx(angle)
+    assert npc.arrival_offset is not None
+
+
+def test_followers_queue_instead_of_overlapping():
+    plan = convert(load_file(EXAMPLES / "3-C5-2018-004" / "golden.yaml"))  # four vehicles ahead of the ego
+    refs = {a.role: a.placement_ref for a in plan.actors}
+    assert refs == {"ego": "ego", "npc1": "ego", "npc2": "npc1", "npc3": "npc2", "npc4": "npc3"}
+
+
+def test_overtaker_queues_behind_the_vehicle_it_passes():
+    plan = convert(load_file(EXAMPLES / "3-C2-2017-004" / "golden.yaml"))
+    npc1 = next(a for a in plan.actors if a.role == "npc1")
+    assert npc1.behavior == "overtake" and npc1.placement_ref == "npc2" and npc1.along == "behind"
+
+
+def test_side_lanes_widen_a_too_narrow_generated_road():
+    s = scenario(lanes=2, npcs="  npc1: {type: car, behavior: go_forward, position: {reference: ego, "
+                               "relation: left, heading: same_direction}}")
+    plan = convert(s)
+    assert plan.map.lanes_forward == 2 and any("widened" in n for n in plan.notes)
+
+
+def test_one_way_road_with_oncoming_actor_gets_opposing_carriageway():
+    plan = convert(load_file(EXAMPLES / "3-C1-2018-007" / "golden.yaml"))
+    assert plan.map.lanes_forward == 7 and plan.map.lanes_backward == 7
+
+
+def test_t_layout_serves_left_turn_with_traffic_from_left():
+    plan = convert(load_file(EXAMPLES / "119489" / "golden.yaml"))  # ego turns left, npc1 from the left
+    assert plan.map.arms == ["ego", "left", "right"]  # ego on the stem
+
+
+def test_stop_sign_controls_the_naming_actor_else_the_ego():
+    plan = convert(load_file(EXAMPLES / "117021" / "golden.yaml"))
+    assert plan.map.controls == {"ego": "stop_sign"}
+    plan = convert(load_file(EXAMPLES / "100237" / "golden.yaml"))  # yield sign named by npc1 (from right)
+    assert plan.map.controls == {"right": "yield_sign"}
+    assert plan.actors[1].controlled_by == "yield_sign"
+
+
+def test_traffic_light_signals_every_approach():
+    plan = convert(load_file(EXAMPLES / "121520" / "golden.yaml"))
+    assert set(plan.map.controls.values()) == {"traffic_light"} and len(plan.map.controls) == 4
+
+
+def test_dispositions_attributed():
+    plan = convert(load_file(EXAMPLES / "117330" / "golden.yaml"))
+    assert plan.actors[1].dispositions == ["CVC_22350", "CVC_21650", "CVC_21460"]
+    assert plan.actors[0].dispositions == []
+
+
+def test_hostile_label_is_dropped_not_rendered():
+    s = scenario(npcs="  npc1: {label: \"V2'); import os #\", type: car, behavior: go_forward, "
+                      "position: {reference: ego, relation: front, heading: same_direction}}")
+    assert convert(s).actors[1].label is None
+
+
+def test_scenario_hash_is_stable_and_option_sensitive():
+    s = load_file(EXAMPLES / "100237" / "golden.yaml")
+    assert scenario_hash(s, map_mode="generated") == scenario_hash(load_file(EXAMPLES / "100237" / "golden.yaml"),
+                                                                    map_mode="generated")
+    assert scenario_hash(s, map_mode="generated") != scenario_hash(s, map_mode="carla")
