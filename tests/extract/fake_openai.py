@@ -25,6 +25,7 @@ class Step:
     delay: float = 0.0  # [s]
     prompt_tokens: int = 1000
     completion_tokens: int = 200
+    cached_tokens: int = 0
     finish_reason: str = "stop"
 
 
@@ -73,7 +74,8 @@ class FakeOpenAI:
                     "choices": [{"index": 0, "finish_reason": step.finish_reason,
                                  "message": {"role": "assistant", "content": content, "refusal": None}}],
                     "usage": {"prompt_tokens": step.prompt_tokens, "completion_tokens": step.completion_tokens,
-                              "total_tokens": step.prompt_tokens + step.completion_tokens},
+                              "total_tokens": step.prompt_tokens + step.completion_tokens,
+                              "prompt_tokens_details": {"cached_tokens": step.cached_tokens}},
                 }
                 self._send(200, json.dumps(completion), {})
 

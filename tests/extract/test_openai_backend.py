@@ -46,7 +46,8 @@ def options(server: FakeOpenAI, **kwargs) -> ExtractOptions:
 
 def test_structured_parse_and_usage(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv("OPENAI_API_KEY", "sk-test")
-    with FakeOpenAI([reply(golden_reply("100237"), prompt_tokens=1200, completion_tokens=300)]) as server:
+    with FakeOpenAI([reply(golden_reply("100237"), prompt_tokens=1200, completion_tokens=300,
+                                  cached_tokens=1000)]) as server:
         backend = ChatBackend(base_url=server.base_url, retry=FAST)
         completion = backend.complete([{"role": "user", "content": "report"}])
         request = server.requests[0]
@@ -56,9 +57,9 @@ def test_structured_parse_and_usage(monkeypatch: pytest.MonkeyPatch) -> None:
     fmt = request["response_format"]
     assert fmt["type"] == "json_schema" and fmt["json_schema"]["strict"] is True
     assert fmt["json_schema"]["schema"]["additionalProperties"] is False
-    assert completion.usage == Usage(prompt_tokens=1200, completion_tokens=300, requests=1)
-    inp, out = price_for("gpt-4o-mini")
-    assert backend.cost(completion.usage) == pytest.approx((1200 * inp + 300 * out) / 1e6)
+    assert completion.usage == Usage(prompt_tokens=1200, cached_tokens=1000, completion_tokens=300, requests=1)
+    inp, cached, out = price_for("gpt-4o-mini")
+    assert backend.cost(completion.usage) == pytest.approx((200 * inp + 1000 * cached + 300 * out) / 1e6)
 
 
 def test_sketch_goes_as_an_image_part(case_dir: Path) -> None:
@@ -178,3 +179,6 @@ def test_price_table() -> None:
     assert price_for("gpt-4o-mini-2024-07-18") == price_for("gpt-4o-mini")
     assert price_for("llama3:8b") is None
     assert ChatBackend(model="llama3:8b").cost(Usage(prompt_tokens=10)) is None
+    inp, cached, out = price_for("gpt-4o-mini")
+    usage = Usage(prompt_tokens=1000, cached_tokens=600, completion_tokens=100)
+    assert ChatBackend().cost(usage) == pytest.approx((400 * inp + 600 * cached + 100 * out) / 1e6)

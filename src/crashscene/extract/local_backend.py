@@ -98,6 +98,17 @@ def default_model_path() -> Path:
     return assemble_model()
 
 
+def default_threads() -> int:
+    """$CRASHSCENE_LLAMA_THREADS, else all cores but one (min 1).
+
+    llama.cpp's threads wait on each other at every layer: on a 2-core machine
+    shared with OCR or simulation, 2 threads ran 4x slower than 1 (measured).
+    """
+    if os.environ.get("CRASHSCENE_LLAMA_THREADS", "").isdigit():
+        return max(1, int(os.environ["CRASHSCENE_LLAMA_THREADS"]))
+    return max(1, (os.cpu_count() or 1) - 1)
+
+
 class LocalServer:
     """llama.cpp's OpenAI-compatible server, in-process on 127.0.0.1; a context manager."""
 
@@ -107,7 +118,7 @@ class LocalServer:
         # llama.cpp logs every slot event to stderr; quiet unless asked (CRASHSCENE_LLAMA_VERBOSE=1)
         self.verbose = bool(os.environ.get("CRASHSCENE_LLAMA_VERBOSE")) if verbose is None else verbose
         self.context_tokens = context_tokens
-        self.threads = threads or max(1, os.cpu_count() or 1)
+        self.threads = threads or default_threads()
         self._server: Any = None
         self.base_url: str | None = None
 

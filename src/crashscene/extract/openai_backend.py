@@ -30,15 +30,15 @@ DEFAULT_MODEL = "gpt-4o-mini"
 DEFAULT_TIMEOUT = 120.0  # [s] per request
 MAX_IMAGE_SIDE = 1568  # [px] larger sketches are downscaled before upload (detail beyond this is not read)
 
-# USD per million tokens (input, output), list prices; the one place to update when prices change.
-PRICES_PER_MTOK: dict[str, tuple[float, float]] = {
-    "gpt-4o-mini": (0.15, 0.60),
-    "gpt-4o": (2.50, 10.00),
-    "gpt-4.1": (2.00, 8.00),
-    "gpt-4.1-mini": (0.40, 1.60),
-    "gpt-4.1-nano": (0.10, 0.40),
-    "gpt-5-mini": (0.25, 2.00),
-    "gpt-5-nano": (0.05, 0.40),
+# USD per million tokens (input, cached input, output), list prices; the one place to update when they change.
+PRICES_PER_MTOK: dict[str, tuple[float, float, float]] = {
+    "gpt-4o-mini": (0.15, 0.075, 0.60),
+    "gpt-4o": (2.50, 1.25, 10.00),
+    "gpt-4.1": (2.00, 0.50, 8.00),
+    "gpt-4.1-mini": (0.40, 0.10, 1.60),
+    "gpt-4.1-nano": (0.10, 0.025, 0.40),
+    "gpt-5-mini": (0.25, 0.025, 2.00),
+    "gpt-5-nano": (0.05, 0.005, 0.40),
 }
 
 
@@ -66,6 +66,7 @@ class Usage(BaseModel):
     """Tokens spent; summed over every request made for one case."""
 
     prompt_tokens: int = 0
+    cached_tokens: int = 0  # of prompt_tokens, served from the endpoint's prompt cache (cheaper, faster)
     completion_tokens: int = 0
     requests: int = 0
 
@@ -75,6 +76,7 @@ class Usage(BaseModel):
 
     def add(self, other: Usage) -> None:
         self.prompt_tokens += other.prompt_tokens
+        self.cached_tokens += other.cached_tokens
         self.completion_tokens += other.completion_tokens
         self.requests += other.requests
 
@@ -131,7 +133,8 @@ class ChatBackend:
         price = price_for(self.model)
         if price is None:
             return None
-        return (usage.prompt_tokens * price[0] + usage.completion_tokens * price[1]) / 1e6
+        fresh = usage.prompt_tokens - usage.cached_tokens
+        return (fresh * price[0] + usage.cached_tokens * price[1] + usage.completion_tokens * price[2]) / 1e6
 
     def complete(self, messages: list[dict[str, Any]]) -> Completion:
         """One structured-output request, with retries on transport errors, 429 and 5xx."""
@@ -185,7 +188,8 @@ def _raw_reply(raw: Any) -> tuple[str, Usage]:
         body = raw.http_response.json()
         content = body["choices"][0]["message"].get("content") or ""
         tokens = body.get("usage") or {}
-        return content, Usage(prompt_tokens=tokens.get("prompt_tokens") or 0,
+        cached = (tokens.get("prompt_tokens_details") or {}).get("cached_tokens") or 0
+        return content, Usage(prompt_tokens=tokens.get("prompt_tokens") or 0, cached_tokens=cached,
                               completion_tokens=tokens.get("completion_tokens") or 0, requests=1)
     except (ValueError, KeyError, IndexError, TypeError, AttributeError):
         return "", Usage(requests=1)
@@ -195,8 +199,8 @@ def _first_lines(exc: Exception, limit: int = 6) -> str:
     return "; ".join(str(exc).splitlines()[:limit])
 
 
-def price_for(model: str) -> tuple[float, float] | None:
-    """(input, output) USD per million tokens; dated snapshots ("gpt-4o-mini-2024-07-18") use the base price."""
+def price_for(model: str) -> tuple[float, float, float] | None:
+    """(input, cached input, output) USD per million tokens; dated snapshots ("gpt-4o-mini-2024-07-18") use the base price."""
     if model in PRICES_PER_MTOK:
         return PRICES_PER_MTOK[model]
     for name in sorted(PRICES_PER_MTOK, key=len, reverse=True):
@@ -225,7 +229,10 @@ def _usage(response: Any) -> Usage:
     usage = getattr(response, "usage", None)
     if usage is None:
         return Usage(requests=1)
-    return Usage(prompt_tokens=usage.prompt_tokens or 0, completion_tokens=usage.completion_tokens or 0, requests=1)
+    details = getattr(usage, "prompt_tokens_details", None)
+    cached = getattr(details, "cached_tokens", None) or 0
+    return Usage(prompt_tokens=usage.prompt_tokens or 0, cached_tokens=cached,
+                 completion_tokens=usage.completion_tokens or 0, requests=1)
 
 
 def _retry_after(exc: Exception | None) -> float | None:

@@ -59,6 +59,7 @@ class ExtractOptions(BaseModel):
 
 class Tokens(BaseModel):
     prompt: int = 0
+    cached: int = 0  # of prompt, from the endpoint's prompt cache
     completion: int = 0
     total: int = 0
     requests: int = 0
@@ -237,7 +238,8 @@ def _validated(scenario: Scenario, source: Path) -> list[Any]:
 
 
 def _tokens(usage: Usage) -> Tokens:
-    return Tokens(prompt=usage.prompt_tokens, completion=usage.completion_tokens, total=usage.total_tokens,
+    return Tokens(prompt=usage.prompt_tokens, cached=usage.cached_tokens, completion=usage.completion_tokens,
+                  total=usage.total_tokens,
                   requests=usage.requests)
 
 
