@@ -9,10 +9,20 @@ oracle codes per convention 9). Every decided field records the quote it came
 from in `evidence`. It is the backend every user without an LLM gets, and the
 fallback of the LLM pipeline.
 
-The rules are general language patterns, never case lookups. Flow:
-`Narrative` normalises labels ("Vehicle one", "Vehicle #2" -> V1, V2) and splits
-sentences; the environment, road network, actors and oracle are then decided
-in that order, each step seeing the previous ones.
+The rules are general language patterns, never case lookups. Flow, one module
+per step, all sharing a `RulesState` (rules_state):
+
+1. narrative          labels folded ("Vehicle one", "Vehicle #2" -> V1, V2), sentences
+2. rules_vehicles     vehicles, travel directions, body types; the pre-crash text
+3. rules_environment  weather, light, surface
+4. rules_road         junction/curve/straight, ways, marking, devices, limit
+   (rules_lanes       through lanes)
+5. rules_behavior     each vehicle's primary manoeuvre
+6. rules_positions    references, relations, headings, stated speeds
+7. rules_oracle       CVC codes per actor
+
+The text wins over the sketch where both speak (dsl.md convention 6); sketch
+facts fill what the text leaves out (posted limit, signs, drawn centre lines).
 """
 from __future__ import annotations
 
