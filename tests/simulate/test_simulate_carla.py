@@ -160,3 +160,32 @@ def test_program_compiles_under_the_carla_model_without_a_client(no_carla, tmp_p
                                extra_params={"render": 0, "carla_map": None})
     scene, _ = scenario.generate(maxIterations=100)
     assert len(scene.objects) == 1
+
+
+@pytest.fixture
+def mock_carla(monkeypatch):
+    """`import carla` gives a MagicMock; Scenic's CARLA interface modules imported under it are dropped after."""
+    from unittest.mock import MagicMock
+
+    before = {name for name in sys.modules if name.startswith("scenic.simulators.carla")}
+    module = MagicMock(name="carla")
+    monkeypatch.setitem(sys.modules, "carla", module)
+    yield module
+    for name in [n for n in sys.modules if n.startswith("scenic.simulators.carla") and n not in before]:
+        del sys.modules[name]
+
+
+def test_scenic_carla_subclasses_build_and_hook_in(mock_carla, tmp_path):
+    simulator_class = carla_backend._tracing_classes(mock_carla)
+    from scenic.simulators.carla.simulator import CarlaSimulator
+
+    assert issubclass(simulator_class, CarlaSimulator)
+    xodr = tmp_path / "map.xodr"
+    xodr.write_text("<OpenDRIVE/>")
+    simulator = simulator_class(None, str(xodr), address="10.0.0.5", port=2010, render=False, timestep=0.1)
+    mock_carla.Client.assert_called_with("10.0.0.5", 2010)
+    simulator.client.generate_opendrive_world.assert_called_once_with("<OpenDRIVE/>")  # no town: from the file
+    simulator_class("Town04", str(xodr), address="10.0.0.5", port=2010, render=False, timestep=0.1)
+    mock_carla.Client.return_value.load_world.assert_called_with("Town04")
+    simulator.prepare([(0.0, 0.0, 0.0, 5.0)], agent_index=None)
+    assert simulator.pins == [(0.0, 0.0, 0.0, 5.0)] and simulator.agent is None
