@@ -25,7 +25,8 @@ def main() -> None:
     parser.add_argument("--subset", choices=("all", "odd", "even"), default="all")
     parser.add_argument("--out", type=Path, help="write <case>.yaml predictions here")
     parser.add_argument("--diffs", action="store_true", help="print per-case diffs and the confusion table")
-    parser.add_argument("--no-sketch", action="store_true", help="narrative only: no sketch facts")
+    parser.add_argument("--no-sketch", action="store_true",
+                        help="no sketch facts (the narrative, and the case XML where there is one)")
     args = parser.parse_args()
     cases = sorted(p.name for p in CIREN.iterdir() if p.is_dir())
     if args.subset == "odd":
@@ -47,7 +48,7 @@ def main() -> None:
             (args.out / f"{case}.yaml").write_text(dumps(scenario), encoding="utf-8")
     result = evaluate(pairs)
     print(format_result(result, diffs=args.diffs, confusion=args.diffs))
-    scope = f"{args.subset}, narrative only" if args.no_sketch else args.subset
+    scope = f"{args.subset}, no sketch" if args.no_sketch else args.subset
     print(f"\n{len(cases)} cases ({scope}); rules: mean {1000 * statistics.mean(rule_times):.1f} ms, "
           f"max {1000 * max(rule_times):.1f} ms per case; sketch facts (OCR, cached after first run): "
           f"mean {statistics.mean(ocr_times):.2f} s, max {max(ocr_times):.2f} s")

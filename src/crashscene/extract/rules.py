@@ -28,8 +28,9 @@ from __future__ import annotations
 
 from crashscene.dsl import Scenario, from_raw, validate
 from crashscene.dsl.errors import DslError
-from crashscene.extract.errors import RulesError
+from crashscene.extract.errors import ReportError, RulesError
 from crashscene.extract.narrative import Narrative, clip
+from crashscene.extract.nhtsa_xml import nhtsa_facts
 from crashscene.extract.report import Report
 from crashscene.extract.rules_behavior import decide_behaviors
 from crashscene.extract.rules_environment import decide_environment
@@ -42,8 +43,17 @@ from crashscene.extract.sketch import SketchFact
 
 
 def extract_rules(report: Report, facts: list[SketchFact] | None = None) -> Scenario:
-    """Deterministic extraction of one report (and its sketch facts) into a validated `Scenario`."""
-    state = RulesState(report=report, facts=list(facts or []), t=Narrative(report.narrative))
+    """Deterministic extraction of one report (and its sketch facts) into a validated `Scenario`.
+
+    The report's case XML, when there is one, adds its coded speed limit and conditions after the sketch
+    facts (a damaged XML is skipped: it is a supplement, the narrative is the report)."""
+    facts = list(facts or [])
+    if report.nhtsa_xml is not None:
+        try:
+            facts += nhtsa_facts(report.nhtsa_xml)
+        except ReportError:
+            pass
+    state = RulesState(report=report, facts=facts, t=Narrative(report.narrative))
     find_vehicles(state)
     split_pre_crash(state)
     environment = decide_environment(state)

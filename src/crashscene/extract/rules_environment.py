@@ -40,19 +40,21 @@ ROAD_SURFACE = (
 
 
 def decide_environment(state: RulesState) -> dict:
-    """weather, time_of_day and road_surface; `not_mentioned` when neither text nor sketch says."""
-    sentences = [s for s in state.t.sentences if _CONDITION_SENTENCE.search(s)]
-    sketch = [f for f in state.fact_texts("text: ") if _SKETCH_CONDITIONS.search(f) and ("/" in f or "," in f)]
-    text = " ".join(sentences + sketch)
-    return {"weather": _first(state, "environment.weather", text, WEATHER),
-            "time_of_day": _first(state, "environment.time_of_day", text, TIME_OF_DAY),
-            "road_surface": _first(state, "environment.road_surface", text, ROAD_SURFACE)}
+    """weather, time_of_day and road_surface; the narrative first, then condition notes on the sketch;
+    `not_mentioned` when neither says (convention 4: the case XML's coded conditions are not used)."""
+    narrative = " ".join(s for s in state.t.sentences if _CONDITION_SENTENCE.search(s))
+    notes = [f for f in state.fact_texts("text: ") if _SKETCH_CONDITIONS.search(f) and ("/" in f or "," in f)]
+    sources = (narrative, " ".join(notes))
+    return {"weather": _first(state, "environment.weather", sources, WEATHER),
+            "time_of_day": _first(state, "environment.time_of_day", sources, TIME_OF_DAY),
+            "road_surface": _first(state, "environment.road_surface", sources, ROAD_SURFACE)}
 
 
-def _first(state: RulesState, path: str, text: str, table: tuple[tuple[str, str], ...]) -> str:
-    for pattern, token in table:
-        match = re.search(pattern, text, re.I)
-        if match:
-            state.note(path, around(text, match))
-            return token
+def _first(state: RulesState, path: str, sources: tuple[str, ...], table: tuple[tuple[str, str], ...]) -> str:
+    for text in sources:
+        for pattern, token in table:
+            match = re.search(pattern, text, re.I)
+            if match:
+                state.note(path, around(text, match) if text is sources[0] else f"sketch: {match.group(0)}")
+                return token
     return "not_mentioned"

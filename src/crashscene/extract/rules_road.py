@@ -120,9 +120,8 @@ def _road_type(state: RulesState) -> tuple[str, str | None]:
     four = _FOUR_LEGS.search(text)
     three = _THREE_LEGS.search(text)
     junction = re.search(r"\bintersection\b|\bjunction\b|\bintersecting\b", pre, re.I)
-    from_access = bool(three and _ACCESS.search(three.group(0)) and (
-        driveway_vehicle(state) is not None or re.search(rf"\b(?:into|onto|to enter)\s+(?:a |the |an )?{_DRIVEWAY}", pre,
-                                                          re.I)))
+    turns_in = re.search(rf"\b(?:into|onto|to enter)\s+(?:a |the |an )?{_DRIVEWAY}", pre, re.I)
+    from_access = bool(three and _ACCESS.search(three.group(0)) and (driveway_vehicle(state) is not None or turns_in))
     legs = None
     if from_access or (junction and three and not four and not _ACCESS.search(three.group(0))):
         legs = 3
@@ -228,7 +227,8 @@ def _speed_limit(state: RulesState) -> int | None:
         for fact in state.facts:
             found = re.fullmatch(rf"{prefix}(\d+) mph", fact.text)
             if found:
-                state.note("road_network.speed_limit_mph", f"sketch: {fact.text}")
+                where = "case XML" if fact.source == "nhtsa:xml" else "sketch"
+                state.note("road_network.speed_limit_mph", f"{where}: {fact.text}")
                 return int(found.group(1))
     return None
 
