@@ -78,6 +78,8 @@ class Observation:
     lane_width: np.ndarray  # [m]
     speed_limit: np.ndarray  # [m/s], NaN if unknown
     curvature_ahead: np.ndarray  # [1/m] largest |curvature| on the next max(20 m, 3 s) of route
+    curve_speed: np.ndarray  # [m/s] highest speed from which the curves ahead can be taken at 2.5 m/s2 lateral,
+    #                          braking at 2 m/s2 before them (a driver scales it to its own lateral limit)
     lead_gap: np.ndarray  # [m] bumper to bumper to the nearest vehicle ahead in the actor's path, inf if none
     lead_speed: np.ndarray  # [m/s] its speed along the route, NaN if none
     control: np.ndarray  # int: CONTROL_* of the approach to the next junction
@@ -128,7 +130,8 @@ def idm_accel(speed: np.ndarray, desired: np.ndarray, gap: np.ndarray, lead_spee
               delta: float = 4.0) -> np.ndarray:
     """Intelligent Driver Model acceleration [m/s2] (Treiber et al.); gap = inf means a free road."""
     desired = np.maximum(desired, 0.1)
-    free = 1.0 - (speed / desired) ** delta
+    # above the desired speed, slow down at most at the comfortable rate (the plain IDM term explodes)
+    free = np.maximum(1.0 - (speed / desired) ** delta, -brake_comfort / accel_max)
     lead = np.where(np.isnan(lead_speed), speed, lead_speed)
     dv = speed - lead
     s_star = min_gap + np.maximum(0.0, speed * headway + speed * dv / (2.0 * np.sqrt(accel_max * brake_comfort)))

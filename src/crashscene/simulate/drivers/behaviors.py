@@ -24,7 +24,8 @@ from crashscene.simulate.drivers.longitudinal import (
 
 NO_YIELD_CODES = frozenset({"CVC_21800", "CVC_21801", "CVC_21802", "CVC_21803", "CVC_22450"})
 CLOSE_HEADWAY = 0.5  # [s] CVC_21703
-LATE_REACTION = 1.5  # [s] perception delay of an inattentive driver (CVC_21703, CVC_22350)
+REACTION = 1.0  # [s] perception-reaction time of an ordinary human driver
+LATE_REACTION = 1.8  # [s] perception delay of an inattentive driver (CVC_21703, CVC_22350)
 OVERSPEED = 1.25  # [-] CVC_22350 / CVC_22349: cruise speed factor
 DECELERATE_TO = 0.25  # [-] decelerate: fraction of cruise speed it slows to
 DECELERATE_RATE = 4.0  # [m/s2]
@@ -80,7 +81,7 @@ class BehaviorDriver(Driver):
         self.careless = "CVC_22350" in disp
         self.state = LongitudinalState(ctx.n_variations)
         inattentive = bool(disp & {"CVC_21703", "CVC_22350"})
-        self.perception = DelayedPerception(LATE_REACTION, ctx.dt) if inattentive else None
+        self.perception = DelayedPerception(LATE_REACTION if inattentive else REACTION, ctx.dt)
         self.cruise = ctx.cruise_speed * speed_factor(disp)
         self.check_gap = "CVC_22107" not in disp
         self.lane_changed = np.zeros(ctx.n_variations, dtype=bool)
@@ -103,7 +104,7 @@ class BehaviorDriver(Driver):
         if behavior == "static":
             return Action(accel=np.full(n, -ctx.limits.brake_max))
 
-        lead_gap, lead_speed = self.perception(obs) if self.perception else (None, None)
+        lead_gap, lead_speed = self.perception(obs)
         if behavior in DRIFTING:
             # drifting across the centre line or off the road: the driver does not react to what is ahead
             gap = obs.lead_gap if lead_gap is None else lead_gap

@@ -21,6 +21,7 @@ from crashscene.simulate.drivers.base import (
 
 STOP_SPEED = 0.3  # [m/s] a full stop (rules.md rule 2)
 STOP_ZONE = 4.0  # [m] a stop counts within this distance before the line
+CURVE_LAT_ACCEL = 2.5  # [m/s2] lateral acceleration Observation.curve_speed is computed for
 WAIT_BEFORE_CONFLICT = 3.0  # [m] where a yielding driver waits inside a junction (front bumper to conflict point)
 
 
@@ -61,7 +62,8 @@ def desired_speed(obs: Observation, cruise: np.ndarray, rules: LongitudinalRules
     """Cruise speed [m/s], limited by the curvature ahead when the driver slows for curves."""
     if not rules.curve_speed:
         return cruise
-    curve_limit = np.sqrt(rules.lat_accel / np.maximum(obs.curvature_ahead, 1e-4))
+    # obs.curve_speed assumes 2.5 m/s2 lateral; v scales with sqrt(lateral acceleration)
+    curve_limit = obs.curve_speed * np.sqrt(rules.lat_accel / CURVE_LAT_ACCEL)
     return np.minimum(cruise, np.maximum(curve_limit, 3.0))
 
 

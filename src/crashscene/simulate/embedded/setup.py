@@ -28,6 +28,7 @@ LATERAL_BEHAVIORS = ("change_lane_left", "change_lane_right", "cross_centerline"
 JUNCTION_INTENTS = {"straight": "straight", "left": "left", "right": "right", "u_turn": "u_turn"}
 BEHAVIOR_INTENTS = {"turn_left": "left", "turn_right": "right", "u_turn": "u_turn"}
 OPPOSITE_HEADINGS = ("opposite_direction",)
+ADVANCE_MARGIN = 3.0  # [m] an actor advanced by its timing plan stays this far before its junction entry
 
 
 def variation_rng(seed: int, index: int) -> np.random.Generator:
@@ -180,12 +181,23 @@ def build(scenario: Scenario, scenes: list[SampledScene], roadmap: RoadMap,
     phase = np.zeros(n_v)
     conflict_time = np.full(n_v, np.inf)
     planned = np.zeros((n_v, n_a))
+    moved = np.zeros((n_v, n_a), dtype=bool)
     runs_red = "CVC_21453" in columns[anchor].dispositions
     for v, scene in enumerate(scenes):
         rng = variation_rng(scene.seed, scene.index)
         _plan_variation(v, scene, rng, columns, anchor, arrays, route, s0, d0, speed, length, entry_control,
                         lateral_target, hold, trigger, scale, phase, conflict_time, runs_red,
-                        condition_factor(scenario), _mph(scenario.road_network.speed_limit_mph), planned)
+                        condition_factor(scenario), _mph(scenario.road_network.speed_limit_mph), planned, moved,
+                        settings.mode == "reproduce")
+    if moved.any():
+        # actors advanced along their approach by the timing plan start on their lane centre there
+        vv, aa = np.nonzero(moved)
+        x[vv, aa], y[vv, aa], yaw[vv, aa] = arrays.point(route[vv, aa], s0[vv, aa])
+        d0[vv, aa] = 0.0
+        # ...at a speed from which it can still take the curve ahead
+        reach = np.full(len(vv), 60.0)
+        entry_speed = arrays.curve_speed(route[vv, aa], s0[vv, aa], reach, 2.5, 2.0)
+        planned[vv, aa] = np.minimum(planned[vv, aa], np.maximum(entry_speed, 3.0))
     fast = np.array([speed_factor(c.dispositions) for c in columns])[None, :]
     cruise = speed * scale
     speed0 = np.where(hold > 0, 0.0, np.minimum(speed * fast, planned) * np.where(scale < 1, scale, 1.0))
@@ -421,7 +433,8 @@ def _plan_variation(v: int, scene: SampledScene, rng: np.random.Generator, colum
                     arrays: RouteArrays, route: np.ndarray, s0: np.ndarray, d0: np.ndarray, speed: np.ndarray,
                     length: np.ndarray, entry_control: np.ndarray, lateral_target: np.ndarray, hold: np.ndarray,
                     trigger: np.ndarray, scale: np.ndarray, phase: np.ndarray, conflict_time: np.ndarray,
-                    runs_red: bool, cond: float, default_limit: float, planned_out: np.ndarray) -> None:
+                    runs_red: bool, cond: float, default_limit: float, planned_out: np.ndarray,
+                    moved: np.ndarray, reproduce: bool) -> None:
     """Fill row v of the timing arrays (draws from rng in a fixed order)."""
     n_a = len(columns)
     planned = [_planned_speed(arrays, route[v, a], s0[v, a], speed[v, a], columns[a], cond, default_limit)
@@ -440,6 +453,8 @@ def _plan_variation(v: int, scene: SampledScene, rng: np.random.Generator, colum
         params = scene.params
         offset = float(np.clip(draws["offset"][a], -timing.ARRIVAL_OFFSET_MAX, timing.ARRIVAL_OFFSET_MAX))
         offset = _param(params, col.role, ("ARRIVAL_OFFSET",), offset)
+        if reproduce:
+            offset *= timing.REPRODUCE_OFFSET_SCALE
         if col.is_ads:
             continue
         if col.behavior in LATERAL_BEHAVIORS:
@@ -477,14 +492,81 @@ def _plan_variation(v: int, scene: SampledScene, rng: np.random.Generator, colum
         cs_e = arrays.conflict_s[ra, r]
         if np.isnan(cs_a) or cs_a <= s0[v, a] or cs_e <= s0[v, anchor]:
             continue
+        lat_a = 2.0 if col.is_ads else 2.5
+        lat_e = 2.0 if anchor_col.is_ads else 2.5
         if arrival_anchor is None:
-            v_eff = _effective_speed(arrays, ra, s0[v, anchor], cs_e, va, anchor_col)
-            arrival_anchor = timing.arrival_time(cs_e - s0[v, anchor], v_eff, anchor_col.limits.accel_max,
-                                                 stop_dist=anchor_stop)
+            if anchor_stop is None:
+                arrival_anchor = arrays.travel_time(ra, s0[v, anchor], cs_e, va, lat_e, v0=va)
+            else:
+                v_eff = _effective_speed(arrays, ra, s0[v, anchor], cs_e, va, anchor_col)
+                arrival_anchor = timing.arrival_time(cs_e - s0[v, anchor], v_eff, anchor_col.limits.accel_max,
+                                                     stop_dist=anchor_stop)
         stop = _stop_dist(arrays, r, s0[v, a], entry_control, col)
-        v_eff = _effective_speed(arrays, r, s0[v, a], cs_a, planned[a], col)
-        sc, hd = timing.junction_plan(arrival_anchor + offset, cs_a - s0[v, a], v_eff,
-                                      col.limits.accel_max, stop_dist=stop)
+        # a turning vehicle is struck on its side in its turn: it reaches the conflict point first
+        turn_a = _turns_at(arrays, r, cs_a)
+        turn_e = _turns_at(arrays, ra, cs_e)
+        if turn_a and not turn_e:
+            offset -= timing.TURNER_LEAD
+        elif turn_e and not turn_a:
+            offset += timing.TURNER_LEAD
+        target = arrival_anchor + offset
+        va_ = planned[a]
+        if stop is not None:
+            v_eff = _effective_speed(arrays, r, s0[v, a], cs_a, va_, col)
+            sc, hd = timing.junction_plan(target, cs_a - s0[v, a], v_eff, col.limits.accel_max, stop_dist=stop)
+            late = 0.0
+        else:
+            def t_at(k: float, s_start: float = s0[v, a], v_start: float | None = None) -> float:
+                v_init = va_ * min(k, 1.0) if v_start is None else v_start
+                return arrays.travel_time(r, s_start, cs_a, va_ * k, lat_a, v0=v_init)
+
+            lo, hi = timing.SPEED_SCALE
+            hd = 0.0
+            if t_at(hi) > target:
+                sc = hi
+                late = t_at(hi) - target
+            elif t_at(lo) < target:
+                sc = lo
+                late = 0.0
+                hd = max(0.0, target - arrays.travel_time(r, s0[v, a], cs_a, va_ * lo, lat_a, v0=0.0))
+            else:
+                for _ in range(8):  # bisection: travel time decreases with the speed scale
+                    mid = (lo + hi) / 2
+                    lo, hi = (lo, mid) if t_at(mid) < target else (mid, hi)
+                sc, late = (lo + hi) / 2, 0.0
+        if late > 0.1 and stop is None:
+            # even at its fastest the actor would come late: it has already been driving for a while,
+            # so it starts further along its own approach (never closer than ADVANCE_MARGIN to the junction)
+            entries = arrays.entry_s[r]
+            first_entry = entries[np.isfinite(entries) & (entries > s0[v, a])]
+            room = (first_entry[0] - s0[v, a] - ADVANCE_MARGIN) if len(first_entry) else 0.0
+            if room > 0:
+                best = s0[v, a]
+                for cand in np.linspace(s0[v, a], s0[v, a] + room, 12)[1:]:
+                    v_start = min(va_ * sc, max(float(arrays.curve_speed(np.array(r), np.array(cand),
+                                                                         np.array(60.0), 2.5, 2.0)), 3.0))
+                    best = cand
+                    late = t_at(sc, cand, v_start) - target
+                    if late <= 0.05:
+                        break
+                s0[v, a] = best
+                moved[v, a] = True
+            if late > 0.1 and not anchor_col.is_ads and anchor_col.behavior not in ("static", "stop") \
+                    and anchor_stop is None and hold[v, anchor] == 0.0:
+                # reproduce mode: the scripted anchor comes that much later instead (slower, else it waits)
+                t_new = arrival_anchor + late
+                lo, hi = timing.SPEED_SCALE[0], 1.0
+                if arrays.travel_time(ra, s0[v, anchor], cs_e, va * lo, lat_e, v0=va * lo) < t_new:
+                    scale[v, anchor] = lo
+                    t_rest = arrays.travel_time(ra, s0[v, anchor], cs_e, va * lo, lat_e, v0=0.0)
+                    hold[v, anchor] = max(0.0, t_new - t_rest)
+                else:
+                    for _ in range(8):
+                        mid = (lo + hi) / 2
+                        t_mid = arrays.travel_time(ra, s0[v, anchor], cs_e, va * mid, lat_e, v0=va * mid)
+                        lo, hi = (lo, mid) if t_mid < t_new else (mid, hi)
+                    scale[v, anchor] = (lo + hi) / 2
+                arrival_anchor = t_new
         scale[v, a], hold[v, a] = sc, hd
         conflict_time[v] = min(conflict_time[v], arrival_anchor)
     # signal phase: green for the anchor's axis at its nominal arrival at its first junction
@@ -528,6 +610,12 @@ def _effective_speed(arrays: RouteArrays, r: int, s0: float, s1: float, speed: f
         return speed
     lat = 2.0 if col.is_ads else 2.5
     return (s1 - s0) / max(arrays.travel_time(r, s0, s1, speed, lat), 1e-3)
+
+
+def _turns_at(arrays: RouteArrays, r: int, s: float) -> bool:
+    """Whether route r turns (left, right, U) at the junction containing station s."""
+    j = _entry_before(arrays, r, s)
+    return j is not None and int(arrays.entry_maneuver[r, j]) in (2, 3, 4)
 
 
 def _stop_dist(arrays: RouteArrays, r: int, s0: float, entry_control: np.ndarray, col: ActorColumn) -> float | None:

@@ -273,11 +273,14 @@ def _observe(batch: batch_setup.BatchSetup, state: State, geo: Geometry, a: int,
             mine = cs_a - geo.front[:, a]
             relevant = prio & (mine > -wb / 2)
             conflict_dist = np.where(relevant & ~(conflict_dist < mine), mine, conflict_dist)
-    curvature = routes.max_abs_curvature(r, state.s[:, a], np.maximum(20.0, 3.0 * v))
+    ahead = np.maximum(20.0, 3.0 * v)
+    curvature = routes.max_abs_curvature(r, state.s[:, a], ahead)
+    curve_speed = routes.curve_speed(r, state.s[:, a], ahead + v * v / 4.0, 2.5, 2.0)
     return Observation(
         t=t, dt=batch.settings.dt, x=state.x[:, a], y=state.y[:, a], yaw=state.yaw[:, a], speed=v,
         accel=state.a[:, a], s=state.s[:, a], d=state.d[:, a], route_remaining=routes.length[r] - state.s[:, a],
         lane_width=geo.lane_width[:, a], speed_limit=geo.speed_limit[:, a], curvature_ahead=curvature,
+        curve_speed=curve_speed,
         lead_gap=lead_gap, lead_speed=lead_speed, control=geo.control[:, a], signal=geo.signal[:, a],
         stop_line_dist=geo.stop_line_dist[:, a], junction_dist=geo.junction_dist[:, a],
         in_junction=geo.in_junction_route[:, a], maneuver=geo.maneuver[:, a], yield_tta=yield_tta,

@@ -95,15 +95,37 @@ class RouteArrays:
         k, _ = self.index(s)
         return table[r, k]
 
-    def travel_time(self, r: int, s0: float, s1: float, speed: float, lat_accel: float) -> float:
-        """Nominal time [s] from s0 to s1 on route r at `speed`, slowing to sqrt(lat_accel/curvature) in curves."""
+    def travel_time(self, r: int, s0: float, s1: float, speed: float, lat_accel: float, v0: float | None = None,
+                    accel: float = 1.5, decel: float = 2.0) -> float:
+        """Nominal time [s] from s0 to s1 on route r cruising at `speed` [m/s]: slows to sqrt(lat_accel/curvature)
+        in curves, braking at `decel` before them and accelerating at `accel` after (and from `v0` at s0)."""
         if s1 <= s0:
             return 0.0
-        k0, k1 = int(s0 / ROUTE_DS), int(np.ceil(s1 / ROUTE_DS))
+        k0, k1 = int(s0 / ROUTE_DS), min(int(np.ceil(s1 / ROUTE_DS)), self.curvature.shape[1] - 1)
+        if k1 <= k0:
+            return (s1 - s0) / max(speed, 0.5)
         kappa = np.abs(self.curvature[r, k0:k1 + 1])
-        v = np.minimum(max(speed, 0.5), np.sqrt(lat_accel / np.maximum(kappa, 1e-4)))
-        v = np.maximum(v, 3.0)
-        return float(np.sum(ROUTE_DS / v[:-1])) if len(v) > 1 else (s1 - s0) / max(speed, 0.5)
+        v_lim2 = np.minimum(max(speed, 0.5) ** 2, lat_accel / np.maximum(kappa, 1e-4))
+        dist = np.arange(len(kappa)) * ROUTE_DS
+        gap = dist[None, :] - dist[:, None]  # s_j - s_i
+        # brake ahead of every later limit, and accelerate out of every earlier one (and from v0)
+        ahead = np.where(gap >= 0, v_lim2[None, :] + 2 * decel * gap, np.inf).min(axis=1)
+        behind = np.where(gap <= 0, ahead[None, :] - 2 * accel * gap, np.inf).min(axis=1)
+        v2 = np.minimum(ahead, behind)
+        if v0 is not None:
+            v2 = np.minimum(v2, max(v0, 0.0) ** 2 + 2 * accel * dist)
+        v = np.maximum(np.sqrt(v2), 1.0)
+        return float(np.sum(ROUTE_DS / (0.5 * (v[1:] + v[:-1]))))
+
+    def curve_speed(self, r: np.ndarray, s: np.ndarray, ahead: np.ndarray, lat_accel: float, decel: float,
+                    n: int = 12) -> np.ndarray:
+        """Highest speed [m/s] from which the curves within `ahead` [m] can be taken at `lat_accel` [m/s2],
+        braking at `decel` [m/s2] before each: min over samples of sqrt(v_curve^2 + 2 decel distance)."""
+        dist = ahead[..., None] * np.linspace(0.0, 1.0, n)
+        k, _ = self.index(s[..., None] + dist)
+        kappa = np.abs(self.curvature[r[..., None], k])
+        v_curve2 = lat_accel / np.maximum(kappa, 1e-4)
+        return np.sqrt(np.min(v_curve2 + 2.0 * decel * dist, axis=-1))
 
     def max_abs_curvature(self, r: np.ndarray, s: np.ndarray, ahead: np.ndarray, n: int = 8) -> np.ndarray:
         """Largest |curvature| [1/m] on [s, s + ahead], sampled at n points."""
