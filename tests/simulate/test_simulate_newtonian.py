@@ -27,6 +27,7 @@ from crashscene.simulate.newtonian import (
     NewtonianSimulator,
     compile_program,
     generate_scenic_scene,
+    newtonian_timing,
     seeded_globals,
     time_newtonian_runs,
 )
@@ -246,8 +247,10 @@ def test_benchmark_hook_times_k_runs(rear_end_run, straight_map, scenario):
     scenes, settings, _ = rear_end_run
     request = SimulationRequest(scenario=scenario, scenes=scenes, map_file=straight_map,
                                 settings=settings, program=REAR_END_PROGRAM)
-    seconds = time_newtonian_runs(request, k=2)
-    assert 0 < seconds < 60
+    timing = newtonian_timing(request, k=2)
+    assert timing.runs == 2 and timing.compile_seconds > 0 and timing.run_seconds > 0
+    assert timing.extrapolate(2000) == pytest.approx(timing.compile_seconds + 1000 * timing.run_seconds)
+    assert time_newtonian_runs(request, k=1) > 0
 
 
 # ------------------------------------------------------------------ slow: rendered CIREN cases

@@ -29,6 +29,7 @@ import random
 import time
 import warnings
 from collections.abc import Iterator
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -326,15 +327,41 @@ def placement_mismatch(scenic_scene, scene: SampledScene, drift: float) -> str |
     return None
 
 
-def time_newtonian_runs(request: SimulationRequest, k: int | None = None) -> float:
-    """Benchmark input: seconds to run the first `k` scenes of `request` on the newtonian backend.
+@dataclass(frozen=True)
+class NewtonianTiming:
+    """Wall-clock cost of the newtonian backend on one scenario: a one-off compile plus a cost per run."""
 
-    Includes the one-off compile, as a user would pay it; `benchmarks/bench_simulate.py`
-    extrapolates to 2,000 variations from this.
+    compile_seconds: float  # [s] compiling the program (once per scenario and map)
+    run_seconds: float  # [s] running and recording `runs` scenes
+    runs: int
+
+    @property
+    def per_run(self) -> float:
+        """[s] per variation (Scenic scene, Newtonian run, trace recording)."""
+        return self.run_seconds / max(self.runs, 1)
+
+    def extrapolate(self, n: int) -> float:
+        """[s] for n variations: one compile plus n runs."""
+        return self.compile_seconds + n * self.per_run
+
+
+def newtonian_timing(request: SimulationRequest, k: int = 50) -> NewtonianTiming:
+    """Benchmark input: time the first `k` scenes of `request` on the newtonian backend.
+
+    `benchmarks/bench_simulate.py` extrapolates 2,000 variations from 50 with
+    `newtonian_timing(request, 50).extrapolate(2000)`.
     """
-    scenes = list(request.scenes)[:k] if k is not None else list(request.scenes)
-    start = time.perf_counter()
+    scenes = list(request.scenes)[:k]
     with NewtonianSimulator(request.settings) as simulator:
+        start = time.perf_counter()
+        simulator.compiled(request.program or "", request.map_file)
+        compiled = time.perf_counter()
         simulator.simulate(SimulationRequest(scenario=request.scenario, scenes=scenes, map_file=request.map_file,
                                              settings=request.settings, program=request.program))
-    return time.perf_counter() - start
+        done = time.perf_counter()
+    return NewtonianTiming(compile_seconds=compiled - start, run_seconds=done - compiled, runs=len(scenes))
+
+
+def time_newtonian_runs(request: SimulationRequest, k: int | None = None) -> float:
+    """Seconds [s] to run the first `k` scenes of `request` (all when None), the one-off compile excluded."""
+    return newtonian_timing(request, len(request.scenes) if k is None else k).run_seconds
