@@ -1,12 +1,15 @@
 """A campaign killed with SIGKILL mid-way resumes without losing or redoing a finished chunk."""
 from __future__ import annotations
 
+import json
 import os
 import signal
 import subprocess
 import sys
 import time
 from pathlib import Path
+
+import pytest
 
 from crashscene.campaign import CampaignConfig, Store, run_campaign
 from tests.campaign.fakes import fake_chunk
@@ -64,3 +67,30 @@ def test_sigkill_then_resume_completes_with_one_row_per_variation(tmp_path, two_
     run_campaign(two_cases, fresh, config.model_copy(update={"resume": False}), worker=fake_chunk, quiet=True)
     with Store(fresh, read_only=True) as store:
         assert store.query("SELECT * FROM variations ORDER BY ALL") == resumed
+
+
+@pytest.mark.slow
+def test_cli_campaign_killed_then_resumed_with_the_real_pipeline(tmp_path, two_cases):
+    """`crashscene campaign` (real extract/render/simulate/monitor) SIGKILLed mid-way, then `--resume`."""
+    out, cases_dir = tmp_path / "cli", tmp_path / "cases"
+    cases_dir.mkdir()
+    for case in two_cases:
+        (cases_dir / case.name).symlink_to(case)
+    cli = [str(Path(sys.executable).with_name("crashscene")), "campaign", str(cases_dir), "-n", "12",
+           "--chunk-size", "3", "--workers", "1", "--mode", "test", "--dsl", "golden.yaml", "--no-report",
+           "--out", str(out)]
+    seen = _kill_after_chunks(cli, dict(os.environ), chunks=2, timeout=300)
+    assert len(seen) >= 2
+    with Store(out) as store:
+        before = store.query("SELECT scenario_hash, mode, first, session FROM chunks ORDER BY ALL")
+    assert 2 <= len(before) < 8
+    done = subprocess.run([*cli, "--resume", "--json"], capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr[-3000:]
+    summary = json.loads(done.stdout)
+    assert summary["complete"] and summary["chunks_skipped"] == len(before)
+    assert summary["chunks_run"] == 8 - len(before)
+    with Store(out, read_only=True) as store:
+        counts = store.query("SELECT scenario_hash, variation, count(*) AS c FROM variations GROUP BY ALL")
+        after = store.query("SELECT scenario_hash, mode, first, session FROM chunks ORDER BY ALL")
+    assert len(counts) == 2 * 12 and all(r["c"] == 1 for r in counts)
+    assert [r for r in after if r["session"] == 1] == before

@@ -38,3 +38,16 @@ def test_ray_engine_gives_the_same_rows_as_local(tmp_path, two_cases, local_ray)
     assert ray_summary.chunks_run == local_summary.chunks_run == 2 * 2 * 5
     for table in ("variations", "violations", "collisions"):
         assert _rows(tmp_path / "ray", table) == _rows(tmp_path / "local", table)
+
+
+@pytest.mark.slow
+def test_ray_engine_matches_local_with_the_real_pipeline(tmp_path, two_cases, local_ray):
+    config = CampaignConfig(n=4, chunk_size=2, dsl_name="golden.yaml", seed=3, modes=("test",))
+    ray_summary = run_campaign(two_cases[:1], tmp_path / "ray", config.model_copy(update={"engine": "ray",
+                                                                                          "workers": 2}), quiet=True)
+    local_summary = run_campaign(two_cases[:1], tmp_path / "local", config.model_copy(update={"workers": 1}),
+                                 quiet=True)
+    assert ray_summary.complete and local_summary.complete, (ray_summary, local_summary)
+    for table in ("variations", "violations", "collisions"):
+        assert _rows(tmp_path / "ray", table) == _rows(tmp_path / "local", table)
+    assert len(_rows(tmp_path / "ray", "variations")) == 4
