@@ -140,7 +140,7 @@ def test_positions_agree_within_1m_after_10s_below_the_limit(runs):
     "program keeps the sampled speed. Fix at the source (no desired speed above the limit without "
     "CVC_22349/22350), then remove this marker."))
 def test_positions_agree_within_1m_after_10s(runs):
-    scenes, tables, settings = runs
+    _, tables, settings = runs
     errors = position_errors(tables, settings)
     worst = max(errors, key=errors.get)
     assert errors[worst] < TOLERANCE, (

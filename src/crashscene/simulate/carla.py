@@ -152,7 +152,7 @@ def _tracing_classes(carla):
             self._target_speeds: list[float] = []
             super().__init__(scene, *args, **kwargs)
 
-        def createObjectInSimulator(self, obj):  # noqa: N802 (Scenic hook)
+        def createObjectInSimulator(self, obj):
             index = len(self.objects) - 1
             x, y, heading, speed = self._pins[index]
             obj.position, obj.heading = Vector(x, y, 0), heading
@@ -171,7 +171,7 @@ def _tracing_classes(carla):
             if self._agent is not None:
                 self._agent_setup(self.world, self.objects[self._agent_index].carlaActor)
 
-        def executeActions(self, allActions):  # noqa: N802 (Scenic hook)
+        def executeActions(self, allActions):
             if self._agent is not None:
                 ego = self.objects[self._agent_index]
                 if ego in allActions:
@@ -185,7 +185,7 @@ def _tracing_classes(carla):
     class PinnedCarlaSimulator(ScenicCarlaSimulator):
         """One connection and world for a batch; `prepare` sets the next run's pins and agent."""
 
-        pins: list = []
+        pins: tuple = ()
         agent_index: int | None = None
         agent: CarlaAgent | None = None
         agent_setup = None
@@ -193,7 +193,7 @@ def _tracing_classes(carla):
         def prepare(self, pins, agent_index=None, agent=None, agent_setup=None):
             self.pins, self.agent_index, self.agent, self.agent_setup = pins, agent_index, agent, agent_setup
 
-        def createSimulation(self, scene, *, timestep, **kwargs):  # noqa: N802 (Scenic hook)
+        def createSimulation(self, scene, *, timestep, **kwargs):
             self.scenario_number += 1
             return PinnedCarlaSimulation(scene, self.client, self.tm, self.render, self.record,
                                          self.scenario_number, timestep=self.timestep, pins=self.pins,
@@ -314,7 +314,7 @@ class CarlaSimulator(Simulator):
         try:
             with seeded_globals(scene.seed, scene.index):
                 simulation = simulator.simulate(scenic_scene, maxSteps=steps, verbosity=0)
-        except Exception as exc:  # a spawn or behaviour failure invalidates this variation only
+        except Exception as exc:  # noqa: BLE001 - a spawn or behaviour failure invalidates this variation only
             return scenic_trace.failed_run(scene, steps, f"carla run failed: {type(exc).__name__}: {exc}")
         finally:
             if agent is not None:

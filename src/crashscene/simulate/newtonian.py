@@ -11,11 +11,12 @@ What this backend adds around Scenic:
   (reseeded from (seed, variation) as `crashscene.sample` does), and every
   object is then pinned to the sampled scene's position, yaw and speed, so the
   run starts exactly where the embedded backend's does;
-- contact: footprints (oriented rectangles) are checked every step; vehicles
-  that touch come to rest at the contact (no crash dynamics), and the first
-  contact of each pair is a collision row;
-- traces: per step x, y, yaw, speed through `scenic_trace.StateRecorder`, the
-  map columns through the embedded backend's road lookups;
+- contact: footprints (oriented rectangles) are checked every step; two
+  vehicles that touch are moved back along their last step to the moment of
+  first contact and come to rest there (no crash dynamics), as in the embedded
+  backend, and the first contact of each pair is a collision row;
+- traces: per step x, y, yaw, speed through `scenic_trace.StateRecorder`, laid
+  out with the embedded backend's routes and recorder (`scenic_trace.record_tables`);
 - determinism: Scenic's behaviours draw from Python's `random` and numpy's
   global generator; both are seeded from (seed, variation) for the run and
   restored afterwards, so nothing leaks between runs or into the caller.
@@ -23,6 +24,7 @@ What this backend adds around Scenic:
 from __future__ import annotations
 
 import contextlib
+import functools
 import hashlib
 import math
 import random
@@ -35,6 +37,7 @@ from pathlib import Path
 import numpy as np
 
 from crashscene.scene import SampledScene
+from crashscene.simulate import scenic_trace
 from crashscene.simulate.backend import (
     BatchResult,
     SimulationError,
@@ -43,7 +46,6 @@ from crashscene.simulate.backend import (
     Simulator,
     check_ego_role,
 )
-from crashscene.simulate import scenic_trace
 
 NEWTONIAN_MODEL = "scenic.simulators.newtonian.driving_model"
 PIN_TOLERANCE = 0.5  # [m] a Scenic scene farther than this from the sampled one means the program changed
@@ -119,6 +121,7 @@ def generate_scenic_scene(scenario, seed: int, index: int, max_iterations: int =
     return scene
 
 
+@functools.cache
 def _tracing_classes():
     """Newtonian Simulator/Simulation subclasses that pin, record and stop at contact (built lazily: pygame import)."""
     from scenic.core.vectors import Vector
@@ -135,7 +138,7 @@ def _tracing_classes():
             self.contacts: list[tuple[int, int, int, float]] = []  # (object a, object b, step, t [s])
             super().__init__(scene, network, render, export_gif, debug_render, **kwargs)
 
-        def createObjectInSimulator(self, obj):  # noqa: N802 (Scenic hook)
+        def createObjectInSimulator(self, obj):
             index = len(self.objects) - 1  # Scenic appends obj before calling this hook
             pin = self._pins[index]
             if pin is not None:
@@ -145,7 +148,7 @@ def _tracing_classes():
                 obj.velocity = Vector(0, speed).rotatedBy(heading)
             super().createObjectInSimulator(obj)
 
-        def executeActions(self, allActions):  # noqa: N802 (Scenic hook)
+        def executeActions(self, allActions):
             for index, obj in enumerate(self.objects):
                 if index in self._halted and obj in allActions:
                     allActions[obj] = ()  # a vehicle at rest after a contact takes no further action
@@ -217,7 +220,7 @@ def _tracing_classes():
             super().__init__(network=None, render=False)
             self.pins, self.sizes = pins, sizes
 
-        def createSimulation(self, scene, **kwargs):  # noqa: N802 (Scenic hook)
+        def createSimulation(self, scene, **kwargs):
             return PinnedNewtonianSimulation(scene, self.network, False, False, False,
                                              pins=self.pins, sizes=self.sizes, **kwargs)
 
@@ -277,7 +280,7 @@ class NewtonianSimulator(Simulator):
         with quiet_scenic():
             try:
                 scenic_scene = generate_scenic_scene(scenario, scene.seed, scene.index)
-            except Exception as exc:  # RejectionException when no scene satisfies the requirements
+            except Exception as exc:  # noqa: BLE001 - RejectionException when no scene satisfies the requirements
                 return scenic_trace.failed_run(scene, steps, f"scenic could not place the scene: "
                                                              f"{type(exc).__name__}: {exc}")
             roles = scenic_trace.object_roles(scenic_scene.objects, scene)
@@ -295,7 +298,7 @@ class NewtonianSimulator(Simulator):
             try:
                 with seeded_globals(scene.seed, scene.index):
                     simulation = simulator.simulate(scenic_scene, maxSteps=steps, timestep=dt, verbosity=0)
-            except Exception as exc:  # a behaviour failing at run time invalidates this variation only
+            except Exception as exc:  # noqa: BLE001 - a behaviour failing at run time invalidates this variation only
                 return scenic_trace.failed_run(scene, steps, f"newtonian run failed: {type(exc).__name__}: {exc}")
             finally:
                 simulator.destroy()

@@ -45,7 +45,7 @@ class StateRecorder:
     `simulation.result.trajectory`, one entry per step (the initial state included).
     """
 
-    def currentState(self):  # noqa: N802 (Scenic's hook name)
+    def currentState(self):
         states = []
         for obj in self.objects:
             speed = obj.speed
