@@ -23,7 +23,8 @@ from PIL import Image  # noqa: E402
 ROLE_COLORS = ("#1f77b4", "#d62728", "#ff7f0e", "#2ca02c", "#9467bd", "#8c564b")  # ego, npc1, npc2, ...
 ASPHALT, LANE_LINE, CENTER_LINE = "#4d4d4d", "#f2f2f2", "#f2c200"
 VIEW_MARGIN = 12.0  # [m] around the actors' paths
-MIN_VIEW = 50.0  # [m] smallest side of the view
+MIN_VIEW = 40.0  # [m] smallest side of the view
+MAX_ASPECT = 2.5  # longest side / shortest side of the view
 GIF_FRAME_DT = 0.2  # [s] of simulated time per GIF frame
 GIF_MAX_FRAMES = 60
 
@@ -82,16 +83,18 @@ def _corners(x: float, y: float, yaw: float, length: float, width: float) -> np.
     return half @ np.array([[c, s], [-s, c]]) + (x, y)
 
 
-def _view(tracks: list[ActorTrack], t0: float, t1: float) -> tuple[float, float, float]:
-    """Centre and half-side [m] of a square view holding every actor between t0 and t1."""
+def _view(tracks: list[ActorTrack], t0: float, t1: float) -> tuple[float, float, float, float]:
+    """Centre and half-extents [m] of a view holding every actor between t0 and t1 (aspect at most MAX_ASPECT)."""
     xs, ys = [], []
     for tr in tracks:
         mask = (tr.t >= t0) & (tr.t <= t1)
         xs.append(tr.x[mask] if mask.any() else tr.x[:1])
         ys.append(tr.y[mask] if mask.any() else tr.y[:1])
     x, y = np.concatenate(xs), np.concatenate(ys)
-    half = max(MIN_VIEW / 2, (max(np.ptp(x), np.ptp(y)) / 2) + VIEW_MARGIN)
-    return float((x.min() + x.max()) / 2), float((y.min() + y.max()) / 2), float(half)
+    hx = max(MIN_VIEW / 2, np.ptp(x) / 2 + VIEW_MARGIN)
+    hy = max(MIN_VIEW / 2, np.ptp(y) / 2 + VIEW_MARGIN)
+    hx, hy = max(hx, hy / MAX_ASPECT), max(hy, hx / MAX_ASPECT)
+    return float((x.min() + x.max()) / 2), float((y.min() + y.max()) / 2), float(hx), float(hy)
 
 
 def _draw_map(ax, geometry: MapGeometry) -> None:
@@ -106,12 +109,13 @@ def _draw_map(ax, geometry: MapGeometry) -> None:
         ax.plot(line[:, 0], line[:, 1], color=CENTER_LINE, lw=1.2, zorder=3)
 
 
-def _figure(geometry: MapGeometry, view: tuple[float, float, float], size: float, dpi: int):
-    fig, ax = plt.subplots(figsize=(size, size), dpi=dpi)
+def _figure(geometry: MapGeometry, view: tuple[float, float, float, float], size: float, dpi: int):
+    cx, cy, hx, hy = view
+    width, height = (size, max(size / MAX_ASPECT, size * hy / hx) + 0.6) if hx >= hy else (size * hx / hy + 0.8, size)
+    fig, ax = plt.subplots(figsize=(width, height), dpi=dpi)
     _draw_map(ax, geometry)
-    cx, cy, half = view
-    ax.set_xlim(cx - half, cx + half)
-    ax.set_ylim(cy - half, cy + half)
+    ax.set_xlim(cx - hx, cx + hx)
+    ax.set_ylim(cy - hy, cy + hy)
     ax.set_aspect("equal")
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
@@ -126,7 +130,7 @@ def _draw_actors(ax, tracks: list[ActorTrack], time: float, trail_from: float) -
         color = ROLE_COLORS[k % len(ROLE_COLORS)]
         mask = (tr.t >= trail_from) & (tr.t <= time)
         if mask.any():
-            artists += ax.plot(tr.x[mask], tr.y[mask], color=color, lw=1.0, ls=":", zorder=4)
+            artists += ax.plot(tr.x[mask], tr.y[mask], color=color, lw=1.6, ls=":", zorder=4)
         x, y, yaw = tr.at(time)
         box = _corners(x, y, yaw, tr.length, tr.width)
         artists.append(ax.add_patch(PolygonPatch(box, closed=True, facecolor=color, edgecolor="white", lw=0.8,
@@ -139,11 +143,11 @@ def _draw_actors(ax, tracks: list[ActorTrack], time: float, trail_from: float) -
     return artists
 
 
-def still_png(map_file: str | Path, tracks: list[ActorTrack], time: float, title: str, size: float = 4.8,
+def still_png(map_file: str | Path, tracks: list[ActorTrack], time: float, title: str, size: float = 6.0,
               dpi: int = 100, impact: tuple[float, float] | None = None) -> bytes:
     """PNG of every actor at `time` [s] with its path over the preceding seconds; `impact` [m] is starred."""
     geometry = load_map(str(map_file))
-    fig, ax = _figure(geometry, _view(tracks, max(0.0, time - 3.0), time + 0.3), size, dpi)
+    fig, ax = _figure(geometry, _view(tracks, max(0.0, time - 2.0), time + 0.3), size, dpi)
     _draw_actors(ax, tracks, time, trail_from=max(0.0, time - 6.0))
     if impact is not None and all(v is not None and math.isfinite(v) for v in impact):
         ax.plot(*impact, marker="*", markersize=14, color="#ffe000", markeredgecolor="black", zorder=8)
@@ -155,7 +159,7 @@ def still_png(map_file: str | Path, tracks: list[ActorTrack], time: float, title
 
 
 def animation_gif(map_file: str | Path, tracks: list[ActorTrack], t0: float, t1: float, title: str,
-                  size: float = 4.0, dpi: int = 80) -> bytes:
+                  size: float = 5.5, dpi: int = 80) -> bytes:
     """Animated GIF of the actors between t0 and t1 [s] (one frame per GIF_FRAME_DT, at most GIF_MAX_FRAMES)."""
     geometry = load_map(str(map_file))
     step = max(GIF_FRAME_DT, (t1 - t0) / GIF_MAX_FRAMES)
