@@ -96,3 +96,12 @@ def test_scripted_lose_control_counts_when_backend_cannot_tell(check):
     npc = track(60, y0=10, speed=8.0, speed_limit=LIMIT, behavior="lose_control")
     row = check(tables({"ego": track(60, speed=8.0), "npc1": npc}), "CVC_22350", "npc1")
     assert row["verdict"] == "violated"
+
+
+def test_rear_ending_a_stopped_vehicle_is_too_fast_for_traffic(check):
+    actors = {"ego": track(60, speed=9.0, speed_limit=LIMIT), "npc1": track(60, x0=30.0, speed=0.0, behavior="static")}
+    row = check(tables(actors), "CVC_22350", "ego")
+    assert row["verdict"] == "violated" and "stopped vehicle" in row["note"]
+    # a moving leader is the following rule's business, not this one
+    actors = {"ego": track(60, speed=12.0, speed_limit=LIMIT), "npc1": track(60, x0=20.0, speed=5.0)}
+    assert check(tables(actors), "CVC_22350", "ego")["verdict"] == "satisfied"

@@ -22,7 +22,7 @@ import numpy as np
 
 from crashscene.monitor.arrays import TraceArrays
 from crashscene.monitor.geometry import heading_difference, pair_indices
-from crashscene.monitor.timeseries import first_index
+from crashscene.monitor.timeseries import first_index, last_index
 
 NO_STEP = -1
 
@@ -69,7 +69,7 @@ def relevant_steps(arrays: TraceArrays, stride: int, around: float) -> np.ndarra
 
 
 def path_conflicts(arrays: TraceArrays, stride: int = 2, extension: float = 20.0, extension_step: float = 2.0,
-                   min_angle: float = np.radians(20.0), around: float = 6.0, chunk: int = 256) -> PathConflicts:
+                   min_angle: float = np.radians(20.0), around: float = 3.0, chunk: int = 256) -> PathConflicts:
     """Conflict geometry of every ordered actor pair, vectorised in chunks of variations.
 
     Paths are compared over the samples within `around` [s] of each actor's
@@ -123,52 +123,41 @@ def _sampled_paths(arrays: TraceArrays, s_full: np.ndarray, idx: np.ndarray, n_e
 
 def _pair(out: PathConflicts, arrays: TraceArrays, lo: int, hi: int, a: int, b: int, px, py, pyaw, ps,
           idx: np.ndarray, min_angle: float) -> None:
-    """Fill both orders (a, b) and (b, a): each actor's bumpers against the other's centre path."""
+    """Fill both orders (a, b) and (b, a): each actor's front bumper against the other's centre path."""
     sl = slice(lo, hi)
     n_real = idx.shape[2]
     # lateral overlap of a bumper with the other's swept path: within both half widths of its centre line
     r = ((arrays.width[sl, a] + arrays.width[sl, b]) / 2).astype(np.float32)[:, None]
     for me, other in ((a, b), (b, a)):
         half = (arrays.length[sl, me] / 2).astype(np.float32)[:, None]
-        c, s_ = np.cos(pyaw[sl, me]).astype(np.float32), np.sin(pyaw[sl, me]).astype(np.float32)
-        ox, oy = px[sl, other][:, None, :], py[sl, other][:, None, :]
-
-        def closest(sign: float) -> tuple[np.ndarray, np.ndarray]:
-            qx = (px[sl, me] + sign * half * c)[:, :, None]
-            qy = (py[sl, me] + sign * half * s_)[:, :, None]
-            d2 = (qx - ox) ** 2 + (qy - oy) ** 2
-            d2[~np.isfinite(d2)] = np.inf
-            return d2.min(axis=2), d2.argmin(axis=2)
-
-        front_d2, front_j = closest(1.0)
-        rear_d2, _ = closest(-1.0)
-        front_in = front_d2 < r * r
-        rear_in = rear_d2 < r * r
+        qx = (px[sl, me] + half * np.cos(pyaw[sl, me]).astype(np.float32))[:, :, None]
+        qy = (py[sl, me] + half * np.sin(pyaw[sl, me]).astype(np.float32))[:, :, None]
+        d2 = (qx - px[sl, other][:, None, :]) ** 2 + (qy - py[sl, other][:, None, :]) ** 2
+        d2[~np.isfinite(d2)] = np.inf
+        front_in = d2.min(axis=2) < r * r
         first = first_index(front_in)
         rows = np.nonzero(first >= 0)[0]
         if not len(rows):
             continue
         v = rows + lo
         f = first[rows]
-        other_pt = front_j[rows, f]
+        other_pt = np.argmin(d2[rows, f, :], axis=1)
         angle = heading_difference(pyaw[v, me, f], pyaw[v, other, other_pt])
         out.crossing[v, me, other] = (angle >= min_angle) & (angle <= np.pi - min_angle)
         out.angle[v, me, other] = angle
         out.s_enter[v, me, other] = ps[v, me, f]   # centre arc length when the front bumper enters
+        # the front's stay on the other's path; the rear leaves one vehicle length of travel later
         positions = np.arange(front_in.shape[1])
-        # the rear bumper's stay on the other's path that follows the entry; its end is the exit
-        rear_after = rear_in[rows] & (positions[None, :] >= f[:, None])
-        rear_start = first_index(rear_after)
-        gone = ~rear_in[rows] & (positions[None, :] > rear_start[:, None]) & (rear_start[:, None] >= 0)
+        gone = ~front_in[rows] & (positions[None, :] > f[:, None])
         leave = first_index(gone)
-        real_pos = np.minimum(np.arange(n_real), n_real - 1)
-        last_real = np.where(idx[v, me] >= 0, real_pos[None, :], -1).max(axis=1)
-        exit_pos = np.where(leave >= 0, leave - 1, last_real)
-        exit_pos = np.clip(np.minimum(exit_pos, last_real), 0, n_real - 1)
+        last_in = np.where(leave >= 0, leave - 1, front_in.shape[1] - 1)
+        s_clear = ps[v, me, last_in] + arrays.length[v, me]
+        s_me = out.s[v, me]
+        alive = arrays.alive[v, me]
+        past = (s_me > s_clear[:, None]) & alive
+        exit_step = np.where(past.any(axis=1), first_index(past) - 1, last_index(alive))
         real = f < n_real
-        steps_me = idx[v, me]
-        enter_step = np.where(real, np.take_along_axis(steps_me, np.minimum(f, n_real - 1)[:, None], 1)[:, 0],
+        enter_step = np.where(real, np.take_along_axis(idx[v, me], np.minimum(f, n_real - 1)[:, None], 1)[:, 0],
                               NO_STEP)
-        exit_step = np.take_along_axis(steps_me, exit_pos[:, None], 1)[:, 0]
         out.enter[v, me, other] = enter_step
         out.exit[v, me, other] = np.where(real, np.maximum(exit_step, enter_step), NO_STEP)

@@ -9,11 +9,11 @@ from dataclasses import dataclass, field
 from functools import cached_property
 
 import numpy as np
+import pyarrow as pa
 
 from crashscene.dsl.model import Scenario
 from crashscene.monitor.arrays import TraceArrays, code_of
 from crashscene.monitor.conflicts import PathConflicts, path_conflicts
-from crashscene.monitor.geometry import heading_difference, relative_position
 from crashscene.monitor.timeseries import first_index, take
 
 MPH = 0.44704  # [m/s] per mph
@@ -34,6 +34,7 @@ class EvalContext:
 
     arrays: TraceArrays
     scenario: Scenario | None
+    collisions: pa.Table | None = None  # classified collisions (crashscene.monitor.collisions.CLASSIFIED_SCHEMA)
     conflict_stride: int = 2
     lane_half_width: float = 1.6       # [m] lateral offset still counted as the same lane
     leader_range: float = 150.0        # [m] farthest leader considered
@@ -76,12 +77,16 @@ class EvalContext:
         lane = a.codes["lane_id"]
         best_gap = np.full((n_var, n_act, n_steps), np.inf)
         best_idx = np.full((n_var, n_act, n_steps), -1, dtype=np.int64)
+        cos, sin = np.cos(yaw), np.sin(yaw)
         for i in range(n_act):
             for j in range(n_act):
                 if i == j:
                     continue
-                lon, lat = relative_position(x[:, i], y[:, i], yaw[:, i], x[:, j], y[:, j])
-                same_dir = heading_difference(yaw[:, i], yaw[:, j]) < np.radians(45)
+                dx, dy = x[:, j] - x[:, i], y[:, j] - y[:, i]
+                lon = dx * cos[:, i] + dy * sin[:, i]
+                lat = dy * cos[:, i] - dx * sin[:, i]
+                # same direction within 45 deg: cos of the heading difference above cos(45 deg)
+                same_dir = (cos[:, i] * cos[:, j] + sin[:, i] * sin[:, j]) > np.cos(np.radians(45))
                 same_id = (lane[:, i] >= 0) & (lane[:, i] == lane[:, j])
                 geometric = np.abs(lat) < self.lane_half_width
                 gap = lon - (a.length[:, i, None] + a.length[:, j, None]) / 2
@@ -95,6 +100,26 @@ class EvalContext:
         lead_speed = np.take_along_axis(speed, np.clip(best_idx, 0, None), axis=1)
         lead_speed = np.where(best_idx >= 0, lead_speed, np.nan)
         return Leaders(index=best_idx, gap=best_gap, speed=lead_speed)
+
+    def struck_stopped(self, stopped_speed: float) -> np.ndarray:
+        """(V, A) time [s] an actor first rear-ended a vehicle slower than `stopped_speed` [m/s], NaN never."""
+        out = np.full(self.shape, np.nan)
+        table = self.collisions
+        if table is None or not table.num_rows:
+            return out
+        rows = table.to_pydict()
+        role_index = {r: i for i, r in enumerate(self.arrays.roles)}
+        for k in range(table.num_rows):
+            striker = rows["striking_actor"][k]
+            if rows["class"][k] != "rear_end" or striker not in role_index:
+                continue
+            struck_speed = rows["speed_b"][k] if striker == rows["actor_a"][k] else rows["speed_a"][k]
+            if struck_speed is None or not struck_speed < stopped_speed:
+                continue
+            v = int(np.searchsorted(self.arrays.variations, rows["variation"][k]))
+            a = role_index[striker]
+            out[v, a] = np.fmin(out[v, a], rows["t"][k])
+        return out
 
     # --- scenario-derived facts -------------------------------------------------------------
     def environment(self) -> tuple[str, str, str]:

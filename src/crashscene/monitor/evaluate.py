@@ -39,7 +39,7 @@ def evaluate(tables: dict[str, pa.Table], scenario: Scenario | None, rulebook: R
         arrays = full.truncated(np.where(contact >= 0, contact + grace, -1))
     else:
         arrays = full
-    ctx = EvalContext(arrays=arrays, scenario=scenario)
+    ctx = EvalContext(arrays=arrays, scenario=scenario, collisions=collisions)
     outcomes = []
     for rule in rulebook.rules():
         try:

@@ -162,6 +162,8 @@ class UnsafeLaneChange(Rule):
         last_change = np.maximum.accumulate(np.where(changing, steps, -10**9), axis=2)
         after = ~changing & (steps - last_change <= steps_for(p.after_window, ctx.dt)) & (last_change >= 0)
         target_lane = np.where(changing, target, np.where(after, lane, -1))
+        if not changing.any():
+            return RuleOutcome.empty(ctx.shape, p.min_gap).finalize()
         worst = np.full((n_var, n_act, n_steps), np.inf)      # margin [m]
         gap_at = np.full((n_var, n_act, n_steps), np.nan)
         safe_at = np.full((n_var, n_act, n_steps), np.nan)

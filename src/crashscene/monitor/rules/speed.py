@@ -96,6 +96,10 @@ class UnsafeSpeedParams(LimitParams):
     friction_wet: float = Field(default=0.5, gt=0, le=1.5, description="friction coefficient, wet or rain")
     friction_snow: float = Field(default=0.3, gt=0, le=1.5, description="friction coefficient, snow")
     friction_ice: float = Field(default=0.15, gt=0, le=1.5, description="friction coefficient, ice")
+    rear_end_stopped: bool = Field(default=True, description="rear-ending a stopped vehicle ahead is driving too fast "
+                                   "for traffic (dsl.md convention 9)")
+    stopped_speed: float = Field(default=0.5, ge=0, le=5, description="[m/s] a struck vehicle slower than this "
+                                 "was stopped")
 
 
 def condition_factor(ctx: EvalContext, p: UnsafeSpeedParams) -> tuple[float, list[str]]:
@@ -133,7 +137,8 @@ class UnsafeSpeed(Rule):
     code = "CVC_22350"
     violation = "unsafe_speed"
     unit = "m/s"
-    summary = "speed above the limit times the condition factor for the minimum duration, or loss of control"
+    summary = ("speed above the limit times the condition factor for the minimum duration, loss of control, "
+               "or rear-ending a stopped vehicle")
     Params = UnsafeSpeedParams
 
     def evaluate(self, ctx: EvalContext) -> RuleOutcome:
@@ -156,6 +161,10 @@ class UnsafeSpeed(Rule):
         out.first_t = np.fmin(out.first_t, skid_first)
         out.violated |= lost
         out.applicable |= lost
+        struck = ctx.struck_stopped(p.stopped_speed) if p.rear_end_stopped else np.full(ctx.shape, np.nan)
+        hit_stopped = np.isfinite(struck)
+        out.first_t = np.fmin(out.first_t, struck)
+        out.violated |= hit_stopped
         max_lat = np.nanmax(np.where(np.isfinite(lat), lat, -np.inf), axis=2)
         lat_margin = np.where(np.isfinite(max_lat), margin_in(out.threshold, mu_g - max_lat, mu_g), np.inf)
         out.robustness = np.fmin(out.robustness, lat_margin)
@@ -165,4 +174,5 @@ class UnsafeSpeed(Rule):
         base = "; ".join(notes) or None
         out.note = np.full(ctx.shape, base, dtype=object)
         out.note[lost] = "; ".join(filter(None, [base, "loss of control"]))
+        out.note[hit_stopped] = "; ".join(filter(None, [base, "struck a stopped vehicle ahead (too fast for traffic)"]))
         return out.finalize()
