@@ -117,6 +117,22 @@ def test_review_finding_triggers_one_revision(case_dir: Path) -> None:
     assert result.tokens.requests == 2
 
 
+def test_revision_failure_keeps_the_valid_draft(case_dir: Path) -> None:
+    rainy = golden_reply("100237")
+    rainy["environment"]["weather"] = "rainy"
+    with FakeOpenAI([reply(rainy)] + [error(500)] * 3) as server:
+        result = extract_case(case_dir, options=options(server, revise=True))
+    assert result.status == "ok" and result.scenario.environment.weather == "rainy"
+    assert any("not revised" in w for w in result.warnings)
+    assert any("environment.weather" in w for w in result.warnings)
+
+
+def test_failed_case_reports_its_tokens(case_dir: Path, tmp_path: Path) -> None:
+    with FakeOpenAI([reply("{}", prompt_tokens=500, completion_tokens=5)] * 2) as server:
+        results = extract_batch([case_dir], tmp_path / "out", options=options(server, max_reasks=1))
+    assert results[0].status == "error" and results[0].tokens.total == 1010 and results[0].cost_usd > 0
+
+
 def test_429_then_success_waits_retry_after() -> None:
     waits: list[float] = []
     with FakeOpenAI([error(429, {"retry-after": "0.02"}), reply(golden_reply("103378"))]) as server:
@@ -154,6 +170,7 @@ def test_batch_goes_on_after_a_case_fails(case_dir: Path, tmp_path: Path) -> Non
         results = extract_batch([case_dir, other], out, options=options(server))
     assert [r.status for r in results] == ["error", "ok"]
     assert "still failing after 3 attempts" in results[0].error
+    assert results[0].tokens.total == 0 and results[1].tokens.requests == 1
     summary = json.loads((out / "summary.json").read_text())
     assert summary["ok"] == 1 and summary["failed"] == 1
     assert [row["status"] for row in summary["results"]] == ["error", "ok"]

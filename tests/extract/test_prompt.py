@@ -78,6 +78,14 @@ def test_system_prompt_lists_monitored_codes_with_their_tokens() -> None:
         assert f"{code} ({token})" in prompt
 
 
+def test_ego_cannot_reference_itself_or_take_a_heading() -> None:
+    defs = strict_json_schema()["$defs"]
+    ego = defs["LlmEgoPosition"]
+    assert set(ego["properties"]) == {"reference", "relation"}
+    assert ego["properties"]["reference"] == {"$ref": "#/$defs/RoadElement"}
+    assert set(defs["RoadElement"]["enum"]) == {e.value for e in RoadElement}
+
+
 def test_strict_schema_has_no_open_objects_and_requires_every_field() -> None:
     schema = strict_json_schema()
     for obj in _objects(schema):
@@ -94,7 +102,7 @@ def test_strict_schema_keeps_every_dsl_vocabulary() -> None:
 
 def test_strict_schema_orders_decisions_and_puts_evidence_first() -> None:
     schema = strict_json_schema()
-    assert list(schema["properties"]) == ["summary", "environment", "road_network", "actors", "oracle"]
+    assert list(schema["properties"]) == ["summary", "environment", "road_network", "ego", "npcs", "oracle"]
     for name in ("LlmEnvironment", "LlmRoadNetwork"):
         assert next(iter(schema["$defs"][name]["properties"])) == "evidence"
 
@@ -108,9 +116,9 @@ def test_reply_round_trips_to_the_golden(case: str) -> None:
 
 
 def test_duplicate_role_is_a_dsl_error_naming_the_field() -> None:
-    reply = from_scenario(load_file(EXAMPLES / "100237" / "golden.yaml"))
-    reply.actors[1].role = reply.actors[0].role
-    with pytest.raises(DslError, match=r"actors\[1\]\.role"):
+    reply = from_scenario(load_file(EXAMPLES / "3-C1-2017-001" / "golden.yaml"))
+    reply.npcs[1].role = reply.npcs[0].role
+    with pytest.raises(DslError, match=r"npcs\[1\]\.role"):
         to_scenario(reply)
 
 

@@ -4,7 +4,9 @@ OpenAI's strict json_schema mode (and llama.cpp's grammar from a schema)
 refuse or mishandle open dictionaries and optional fields, so the DSL's
 `json_schema()` is reshaped here into a strict twin:
 
-- `actors` is a list of actors, each with a closed `role` (ego, npc1, ...);
+- the actors are `ego` (V1, placed against a road element, no heading: the
+  schema makes the validator's ego rules unbreakable) and `npcs`, a list of
+  actors each with a closed `role` (npc1, npc2, ...) and a required heading;
 - `evidence` is a list of `{path, quote}` pairs, one list per section, written
   *before* that section's values so that the model quotes first and decides
   second (environment, then road network, then actors, then oracle);
@@ -42,7 +44,8 @@ from crashscene.dsl.tokens import (
 
 MAX_NPCS = 9  # the closed role vocabulary: ego, npc1..npc9 (CIREN cases involve at most 5 vehicles)
 
-Role = StrEnum("Role", {"EGO": "ego", **{f"NPC{i}": f"npc{i}" for i in range(1, MAX_NPCS + 1)}})
+NpcRole = StrEnum("NpcRole", {f"NPC{i}": f"npc{i}" for i in range(1, MAX_NPCS + 1)})
+Role = StrEnum("Role", {"EGO": "ego", **{r.name: r.value for r in NpcRole}})
 Reference = StrEnum("Reference", {**{e.name: e.value for e in RoadElement}, **{r.name: r.value for r in Role}})
 
 _CLOSED = ConfigDict(extra="forbid")
@@ -79,19 +82,37 @@ class LlmRoadNetwork(BaseModel):
     curve_direction: CurveDirection | None = Field(description="left or right as V1 sees it; null unless a curve")
 
 
+class LlmEgoPosition(BaseModel):
+    model_config = _CLOSED
+
+    reference: RoadElement
+    relation: Relation
+
+
 class LlmPosition(BaseModel):
     model_config = _CLOSED
 
     reference: Reference
     relation: Relation
-    heading: Heading | None = Field(description="null for the ego")
+    heading: Heading
 
 
-class LlmActor(BaseModel):
+class LlmEgo(BaseModel):
     model_config = _CLOSED
 
-    role: Role = Field(description="ego for V1, npc1 for V2, npc2 for V3, ...")
-    label: str | None = Field(description="the report's label: V1, V2, ...; unknown for an unlabelled vehicle")
+    label: str | None = Field(description="the report's label of the case vehicle, usually V1")
+    evidence: list[Quote]
+    type: ActorType
+    behavior: Behavior
+    position: LlmEgoPosition
+    speed_mph: float | None = Field(description="travel speed [mph] only when the report states it, else null")
+
+
+class LlmNpc(BaseModel):
+    model_config = _CLOSED
+
+    role: NpcRole = Field(description="npc1 for V2, npc2 for V3, ...")
+    label: str | None = Field(description="the report's label: V2, V3, ...; unknown for an unlabelled vehicle")
     evidence: list[Quote]
     type: ActorType
     behavior: Behavior
@@ -117,7 +138,8 @@ class LlmScenario(BaseModel):
     summary: str = Field(description="one sentence: who did what, where")
     environment: LlmEnvironment
     road_network: LlmRoadNetwork
-    actors: list[LlmActor]
+    ego: LlmEgo
+    npcs: list[LlmNpc]
     oracle: list[LlmViolation]
 
 
@@ -135,23 +157,20 @@ def to_scenario(reply: LlmScenario, scenario_id: str | None = None, source: str 
     problems: list[Diagnostic] = []
     _collect(evidence, "environment", reply.environment.evidence)
     _collect(evidence, "road_network", reply.road_network.evidence)
-    for index, actor in enumerate(reply.actors):
+    ego = reply.ego
+    actors["ego"] = _raw_actor(ego.type, ego.behavior, {"reference": ego.position.reference.value,
+                                                        "relation": ego.position.relation.value},
+                               ego.label, ego.speed_mph)
+    _collect(evidence, "actors.ego", ego.evidence)
+    for index, actor in enumerate(reply.npcs):
         role = actor.role.value
         if role in actors:
-            problems.append(Diagnostic("two actors have the same role", f"actors[{index}].role", source,
+            problems.append(Diagnostic("two actors have the same role", f"npcs[{index}].role", source,
                                        value=role, allowed=_free_roles(reply)))
             continue
-        position: dict[str, Any] = {"reference": actor.position.reference.value,
-                                    "relation": actor.position.relation.value}
-        if actor.position.heading is not None and role != "ego":
-            position["heading"] = actor.position.heading.value
-        raw_actor: dict[str, Any] = {"type": actor.type.value, "behavior": actor.behavior.value,
-                                     "position": position}
-        if actor.label:
-            raw_actor["label"] = actor.label.strip()[:40]
-        if actor.speed_mph is not None and actor.speed_mph > 0:
-            raw_actor["speed_mph"] = actor.speed_mph
-        actors[role] = raw_actor
+        position = {"reference": actor.position.reference.value, "relation": actor.position.relation.value,
+                    "heading": actor.position.heading.value}
+        actors[role] = _raw_actor(actor.type, actor.behavior, position, actor.label, actor.speed_mph)
         _collect(evidence, f"actors.{role}", actor.evidence)
     oracle = []
     for index, entry in enumerate(reply.oracle):
@@ -185,12 +204,18 @@ def from_scenario(scenario: Scenario) -> LlmScenario:
                 if key == prefix or key.startswith(prefix + ".")]
 
     env, road = scenario.environment, scenario.road_network
-    actors = [LlmActor(role=name, label=actor.label, evidence=quotes(f"actors.{name}"), type=actor.type,
-                       behavior=actor.behavior,
-                       position=LlmPosition(reference=actor.position.reference, relation=actor.position.relation,
-                                            heading=actor.position.heading),
-                       speed_mph=actor.speed_mph)
-              for name, actor in scenario.actors.items()]
+    def npc(name: str, actor: Any) -> LlmNpc:
+        # a golden NPC without heading is rendered as oncoming; say so explicitly in the reply form
+        heading = actor.position.heading or Heading.OPPOSITE_DIRECTION
+        return LlmNpc(role=name, label=actor.label, evidence=quotes(f"actors.{name}"), type=actor.type,
+                      behavior=actor.behavior, speed_mph=actor.speed_mph,
+                      position=LlmPosition(reference=actor.position.reference, relation=actor.position.relation,
+                                           heading=heading))
+
+    ego = scenario.actors["ego"]
+    ego_reply = LlmEgo(label=ego.label, evidence=quotes("actors.ego"), type=ego.type, behavior=ego.behavior,
+                       position=LlmEgoPosition(reference=ego.position.reference, relation=ego.position.relation),
+                       speed_mph=ego.speed_mph)
     oracle = [LlmViolation(actor=entry.actor, quote=scenario.evidence.get(f"oracle[{index}]", ""), code=entry.code,
                            violation=entry.violation, description=entry.description)
               for index, entry in enumerate(scenario.oracle)]
@@ -202,7 +227,7 @@ def from_scenario(scenario: Scenario) -> LlmScenario:
                                     number_of_ways=road.number_of_ways, number_of_lanes=road.number_of_lanes,
                                     road_marker=road.road_marker, traffic_signs=road.traffic_signs,
                                     speed_limit_mph=road.speed_limit_mph, curve_direction=road.curve_direction),
-        actors=actors, oracle=oracle)
+        ego=ego_reply, npcs=[npc(name, actor) for name, actor in scenario.npcs.items()], oracle=oracle)
 
 
 def _collect(evidence: dict[str, str], prefix: str, quotes: list[Quote]) -> None:
@@ -216,6 +241,16 @@ def _collect(evidence: dict[str, str], prefix: str, quotes: list[Quote]) -> None
         evidence[key] = f"{evidence[key]} | {text}" if key in evidence else text
 
 
+def _raw_actor(type_: ActorType, behavior: Behavior, position: dict[str, Any], label: str | None,
+               speed_mph: float | None) -> dict[str, Any]:
+    raw: dict[str, Any] = {"type": type_.value, "behavior": behavior.value, "position": position}
+    if label and label.strip():
+        raw["label"] = label.strip()[:40]
+    if speed_mph is not None and speed_mph > 0:
+        raw["speed_mph"] = speed_mph
+    return raw
+
+
 def _free_roles(reply: LlmScenario) -> list[str]:
-    used = {actor.role.value for actor in reply.actors}
-    return [role.value for role in Role if role.value not in used][:3]
+    used = {actor.role.value for actor in reply.npcs}
+    return [role.value for role in NpcRole if role.value not in used][:3]

@@ -112,7 +112,11 @@ def extract_case(path: Path | str, backend: BackendName = "auto", model: str = D
         scenario = extract_rules(report, facts)
         model_name = None
     else:
-        scenario = _extract_llm(report, facts, chat, options, usage, warnings, scenario_id)
+        try:
+            scenario = _extract_llm(report, facts, chat, options, usage, warnings, scenario_id)
+        except ExtractError as exc:
+            exc.usage, exc.cost = usage, chat.cost(usage)  # a failed case still spent tokens: report them
+            raise
         model_name = chat.model
     warnings += [str(d) for d in _validated(scenario, report.source)]
     return ExtractionResult(case_id=report.case_id, source=str(report.source), backend=name, model=model_name,
@@ -212,8 +216,10 @@ def _guarded(path: Path, options: ExtractOptions, chat: ChatBackend | None, name
     try:
         return extract_case(path, options=options, chat=chat)
     except (ExtractError, DslError) as exc:
+        usage = getattr(exc, "usage", None) or Usage()
         return ExtractionResult(case_id=_case_name(path), source=str(path), status="error", backend=name,
-                                model=chat.model if chat else None, error=str(exc),
+                                model=chat.model if chat else None, error=str(exc), tokens=_tokens(usage),
+                                cost_usd=getattr(exc, "cost", None) if chat else 0.0,
                                 seconds=round(time.perf_counter() - started, 3))
 
 

@@ -109,23 +109,13 @@ speed_limit_sign when a posted limit is stated. A flashing red signal is a stop_
 - speed_limit_mph: the posted limit in mph (km/h converted, rounded to 5), else null; the text wins over the sketch.
 - curve_direction: {tokens(CurveDirection)} as V1 sees it, only when road_type is curve, else null.
 
-STEP 3 actors: V1 is role ego, V2 is npc1, V3 is npc2, ... in report order, label V1, V2, ... Include every \
-vehicle that strikes or is struck, a parked one too (behavior static). Trees, poles, barriers, animals and \
-pedestrians are never actors.
+STEP 3 actors: ego is V1 (the case vehicle); npcs are the other vehicles in report order: V2 is role npc1, V3 is npc2, ... with label V2, V3, ... Include every vehicle that strikes or is struck, a parked one too (behavior static). Trees, poles, barriers, animals and pedestrians are never actors.
 - type: {tokens(ActorType)} (sedan, SUV, pickup, van -> car; semi, tractor-trailer, bus -> truck).
-- behavior: the primary pre-crash manoeuvre: {tokens(Behavior)}. Crossed the centre line first -> \
-cross_centerline; lost control first -> lose_control; ran off the road without losing control -> leave_road; \
-stopped at a sign then went straight -> go_forward, then turned -> turn_left/turn_right; stopped in a queue \
--> stop; slowing in traffic -> decelerate; merging -> change_lane_left/right.
-- position.reference: ego, npcN, or a road element: {tokens(RoadElement)}. position.relation: \
-{tokens(Relation)}. position.heading (null for the ego): {tokens(Heading)}.
-  The ego references the device controlling its approach (stop_sign, yield_sign, traffic_light) with behind; \
-else the element it is at: intersection or curve (behind = approaching), or road (always behind).
-  Traffic on the ego's own road (leader, follower, oncoming, adjacent lane) references ego: front/behind/\
-left/right, heading same_direction or opposite_direction. An oncoming vehicle is front + opposite_direction.
-  Cross traffic at a junction references the junction element or its device, relation = the side it comes \
-from, heading from_left/from_right, worked out from the travel directions (V1 eastbound, V2 northbound: V2 \
-comes from V1's right).
+- behavior: the primary pre-crash manoeuvre: {tokens(Behavior)}. Crossed the centre line first -> cross_centerline; lost control first -> lose_control; ran off the road without losing control -> leave_road; stopped at a sign then went straight -> go_forward, then turned -> turn_left/turn_right; stopped in a queue -> stop; slowing in traffic -> decelerate; merging -> change_lane_left/right.
+- ego.position: reference is a road element ({tokens(RoadElement)}): the device controlling V1's approach (stop_sign, yield_sign, traffic_light) with relation behind; else the element V1 is at: intersection or curve (behind = approaching, front = past it), or road (always behind).
+- npc position: reference ego, another npc, or a road element; relation {tokens(Relation)}; heading {tokens(Heading)} (relative to V1's direction of travel).
+  Traffic on V1's own road (leader, follower, oncoming, adjacent lane) references ego: front/behind/left/right with heading same_direction or opposite_direction; an oncoming vehicle is front + opposite_direction.
+  Cross traffic at a junction references the junction element or its device, relation = the side it comes from, heading from_left/from_right, worked out from the travel directions (V1 eastbound, V2 northbound: V2 comes from V1's right).
 - speed_mph: only when the report states that vehicle's speed, else null.
 
 STEP 4 oracle: every California Vehicle Code violation the pre-crash sequence entails, attributed to the \

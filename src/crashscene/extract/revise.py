@@ -32,7 +32,7 @@ from crashscene.dsl.tokens import Behavior, RoadMarker, RoadType, TimeOfDay, Wea
 from crashscene.dsl.validate import check
 from crashscene.extract.errors import ExtractError
 from crashscene.extract.llm_schema import from_scenario, to_scenario
-from crashscene.extract.openai_backend import ChatBackend, Usage
+from crashscene.extract.openai_backend import BackendError, ChatBackend, Usage
 
 DEFAULT_MAX_REASKS = 2
 KMH_PER_MPH = 1.609344
@@ -302,8 +302,8 @@ def revise(backend: ChatBackend, messages: list[dict[str, Any]], draft: Scenario
     ]
     try:
         revised = ask_until_valid(backend, conversation, usage, draft.scenario_id, max_reasks, source)
-    except LlmOutputError:
-        return draft, findings
+    except (LlmOutputError, BackendError) as exc:  # the draft is valid: keep it, say why it was not revised
+        return draft, findings + [Finding("revision", f"not revised: {exc}", revise=False)]
     remaining = review(revised, narrative, facts)
     if sum(f.revise for f in remaining) <= sum(f.revise for f in findings):
         return revised, remaining
