@@ -21,11 +21,11 @@ class CampaignProgress:
         self._progress: Progress | None = None
         if self.live and not quiet:
             self._progress = Progress(TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
-                                      TextColumn("variations"), TextColumn("{task.fields[rate]}"),
+                                      TextColumn("{task.fields[unit]}"), TextColumn("{task.fields[rate]}"),
                                       TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn(),
                                       console=self.console, transient=False)
-            self._bar = self._progress.add_task("campaign", total=total, rate="")
-            self._chunk_bar = self._progress.add_task("chunks", total=chunks, rate="")
+            self._bar = self._progress.add_task("campaign", total=total, rate="", unit="variations")
+            self._chunk_bar = self._progress.add_task("chunks", total=chunks, rate="", unit="chunks")
 
     def __enter__(self) -> CampaignProgress:
         if self._progress is not None:
