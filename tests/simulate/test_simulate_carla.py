@@ -189,3 +189,33 @@ def test_scenic_carla_subclasses_build_and_hook_in(mock_carla, tmp_path):
     mock_carla.Client.return_value.load_world.assert_called_with("Town04")
     simulator.prepare([(0.0, 0.0, 0.0, 5.0)], agent_index=None)
     assert simulator.pins == [(0.0, 0.0, 0.0, 5.0)] and simulator.agent is None
+
+
+def test_basic_agent_adapter_drives_towards_a_destination_ahead(monkeypatch):
+    from unittest.mock import MagicMock
+
+    basic_agent = MagicMock(name="BasicAgent")
+    navigation = types.ModuleType("agents.navigation.basic_agent")
+    navigation.BasicAgent = basic_agent
+    for name, module in {"agents": types.ModuleType("agents"), "agents.navigation": types.ModuleType("x"),
+                         "agents.navigation.basic_agent": navigation}.items():
+        monkeypatch.setitem(sys.modules, name, module)
+    agent = carla_backend.load_agent("crashscene.simulate.carla:CarlaBasicAgent", {"horizon": 150.0})
+    world, ego = MagicMock(name="world"), MagicMock(name="ego")
+    actor = carla_backend.SampledActor(role="ego", type="car", blueprint="vehicle.tesla.model3", behavior="go_forward",
+                                       x=0, y=0, yaw=0, speed=10.0, length=4.7, width=2.0, route_intent="straight",
+                                       reference="road", relation="behind")
+    agent.setup(world, ego, actor, Path("map.xodr"), 0.1)
+    basic_agent.assert_called_once_with(ego, target_speed=36.0)  # km/h
+    world.get_map.return_value.get_waypoint.return_value.next.assert_called_once_with(150.0)
+    assert agent.run_step(0.1) is basic_agent.return_value.run_step.return_value
+    agent.teardown()
+
+
+def test_basic_agent_without_the_python_api_says_where_to_find_it(monkeypatch):
+    from unittest.mock import MagicMock
+
+    monkeypatch.setitem(sys.modules, "agents", None)
+    agent = carla_backend.CarlaBasicAgent()
+    with pytest.raises(BackendUnavailable, match="PythonAPI/carla to PYTHONPATH"):
+        agent.setup(MagicMock(), MagicMock(), MagicMock(speed=5.0), Path("map.xodr"), 0.1)

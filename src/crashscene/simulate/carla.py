@@ -24,7 +24,8 @@ and asked for a `carla.VehicleControl` every tick; the ego's own Scenic
 behaviour is then ignored. The ego is spawned with `role_name = "hero"`, the
 name CARLA's ROS bridge and Autoware's CARLA interface attach to: for such a
 stack, `run_step` returns None (the stack applies its controls through the
-bridge) and may block until the stack has processed the tick.
+bridge) and may block until the stack has processed the tick. A working
+example is `CarlaBasicAgent` (CARLA's BasicAgent as the ADS).
 """
 from __future__ import annotations
 
@@ -80,6 +81,40 @@ class CarlaAgent(Protocol):
 
     def teardown(self) -> None:
         """Release whatever `setup` acquired."""
+
+
+class CarlaBasicAgent:
+    """A ready-made `CarlaAgent`: CARLA's own `BasicAgent` (PythonAPI `agents.navigation`) drives the ego.
+
+    `--backend carla --ads crashscene.simulate.carla:CarlaBasicAgent` (parameters:
+    `target_speed` [m/s], default the ego's sampled speed; `horizon` [m], how far
+    along its lane the destination lies). The `agents` package ships with CARLA
+    (`PythonAPI/carla`), not with the pip client: put that folder on PYTHONPATH.
+    It is also the template for wrapping another stack.
+    """
+
+    def __init__(self, target_speed: float | None = None, horizon: float = 300.0):
+        self.target_speed = target_speed  # [m/s]
+        self.horizon = horizon  # [m]
+        self.agent = None
+
+    def setup(self, world: Any, ego: Any, actor: SampledActor, map_file: Path, dt: float) -> None:
+        try:
+            from agents.navigation.basic_agent import BasicAgent
+        except ImportError as exc:
+            raise BackendUnavailable("CarlaBasicAgent needs CARLA's PythonAPI `agents` package: add "
+                                     "<CARLA>/PythonAPI/carla to PYTHONPATH") from exc
+        speed = self.target_speed if self.target_speed is not None else actor.speed
+        self.agent = BasicAgent(ego, target_speed=speed * 3.6)  # CARLA agents take km/h
+        start = world.get_map().get_waypoint(ego.get_location())
+        ahead = start.next(self.horizon)
+        self.agent.set_destination((ahead[0] if ahead else start).transform.location)
+
+    def run_step(self, t: float) -> Any:
+        return self.agent.run_step()
+
+    def teardown(self) -> None:
+        self.agent = None
 
 
 def import_carla():
