@@ -7,7 +7,7 @@ backend could not fill are NaN (floats) or -1 (categorical codes).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 import pyarrow as pa
@@ -72,13 +72,18 @@ class TraceArrays:
         """Where a float/bool column is filled."""
         return np.isfinite(self.floats[name])
 
-    def truncated(self, last_step: np.ndarray) -> TraceArrays:
-        """A copy where each actor's rows after `last_step` (V, A; -1 = keep all) are dropped."""
+    def truncate(self, last_step: np.ndarray) -> None:
+        """Drop, in place, each actor's rows after `last_step` (V, A; -1 = keep all)."""
         steps = np.arange(self.shape[2])
         drop = (last_step[..., None] >= 0) & (steps > last_step[..., None])
-        floats = {k: np.where(drop, np.nan, v) if k != "t" else v for k, v in self.floats.items()}
-        codes = {k: np.where(drop, -1, v) for k, v in self.codes.items()}
-        return replace(self, alive=self.alive & ~drop, floats=floats, codes=codes)
+        if not drop.any():
+            return
+        for name, arr in self.floats.items():
+            if name != "t":
+                arr[drop] = np.nan
+        for arr in self.codes.values():
+            arr[drop] = -1
+        self.alive &= ~drop
 
     def time(self) -> np.ndarray:
         """(V, A, T) time [s]; steps without a row get step * dt."""

@@ -30,15 +30,13 @@ def evaluate(tables: dict[str, pa.Table], scenario: Scenario | None, rulebook: R
     not driving.
     """
     rulebook = rulebook or Rulebook()
-    full = build_arrays(tables)
-    ads = ads_mask(full)
-    collisions = classify_collisions(full, tables.get("collisions"), ads)
+    arrays = build_arrays(tables)
+    ads = ads_mask(arrays)
+    collisions = classify_collisions(arrays, tables.get("collisions"), ads)
     if stop_at_collision:
-        contact = first_contact_steps(full, collisions)
-        grace = int(round(after_collision / full.dt))
-        arrays = full.truncated(np.where(contact >= 0, contact + grace, -1))
-    else:
-        arrays = full
+        contact = first_contact_steps(arrays, collisions)
+        grace = int(round(after_collision / arrays.dt))
+        arrays.truncate(np.where(contact >= 0, contact + grace, -1))
     ctx = EvalContext(arrays=arrays, scenario=scenario, collisions=collisions)
     outcomes = []
     for rule in rulebook.rules():

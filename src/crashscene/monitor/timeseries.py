@@ -6,7 +6,6 @@ and work along axis -1, so a rule never loops over variations.
 from __future__ import annotations
 
 import numpy as np
-from numpy.lib.stride_tricks import sliding_window_view
 
 
 def steps_for(duration: float, dt: float) -> int:
@@ -44,13 +43,35 @@ def run_length(mask: np.ndarray) -> np.ndarray:
 
 
 def window_min(values: np.ndarray, k: int) -> np.ndarray:
-    """Minimum over the k samples ending at each step; NaN counts as -inf (breaks a sustained run)."""
+    """Minimum over the k samples ending at each step; NaN counts as -inf (breaks a sustained run).
+
+    Windows reaching before the first sample count as -inf too. Built from
+    power-of-two windows (van Herk style), a handful of array passes for any k.
+    """
     filled = np.where(np.isnan(values), -np.inf, values)
     if k <= 1:
         return filled
-    pad = np.full(values.shape[:-1] + (k - 1,), -np.inf)
-    windows = sliding_window_view(np.concatenate([pad, filled], axis=-1), k, axis=-1)
-    return windows.min(axis=-1)
+
+    def shifted(x: np.ndarray, by: int) -> np.ndarray:
+        if by == 0:
+            return x
+        out = np.full(x.shape, -np.inf)
+        if by < x.shape[-1]:
+            out[..., by:] = x[..., :-by]
+        return out
+
+    acc = None
+    block, size, done = filled, 1, 0
+    while k:
+        if k & 1:
+            part = shifted(block, done)
+            acc = part if acc is None else np.minimum(acc, part)
+            done += size
+        k >>= 1
+        if k:
+            block = np.minimum(block, shifted(block, size))
+            size *= 2
+    return acc
 
 
 def window_max(values: np.ndarray, k: int) -> np.ndarray:
