@@ -134,3 +134,24 @@ def test_cli_bad_input_has_no_traceback(tmp_path: Path) -> None:
     result = runner.invoke(app, ["extract", str(empty)])
     assert result.exit_code == 1
     assert "error:" in result.output and "empty" in result.output and "Traceback" not in result.output
+
+
+def test_cli_openai_backend_through_base_url(tmp_path: Path) -> None:
+    from crashscene.dsl import load_file
+    from crashscene.extract.llm_schema import from_scenario
+    from tests.extract.fake_openai import FakeOpenAI, reply
+
+    good = from_scenario(load_file(EXAMPLES / "103378" / "golden.yaml")).model_dump(mode="json")
+    case = narrative_case(tmp_path, "103378")
+    shutil.copy(EXAMPLES / "103378" / "sketch.jpg", case / "sketch.jpg")
+    with FakeOpenAI([reply(good)]) as server:
+        result = runner.invoke(app, ["extract", str(case), "--base-url", server.base_url, "--model", "llama3:8b",
+                                     "--no-image", "--no-revise", "--json"])
+        request = server.requests[0]
+    assert result.exit_code == 0, result.output
+    data = json.loads(result.stdout)
+    assert data["backend"] == "openai" and data["model"] == "llama3:8b" and data["cost_usd"] is None
+    assert data["scenario"]["actors"]["ego"]["behavior"] == "cross_centerline"
+    assert request["model"] == "llama3:8b"
+    user = request["messages"][-1]["content"]
+    assert isinstance(user, str) and "speed limit 45 mph" in user  # no image part, the sketch facts instead

@@ -25,6 +25,8 @@ def extract(
     model_path: Annotated[Path | None, typer.Option("--model-path", help="GGUF file for the local backend "
                                                     "(default: the crashscene\\[local-model] extra).")] = None,
     no_revise: Annotated[bool, typer.Option("--no-revise", help="Skip the LLM review-and-revise pass.")] = False,
+    no_image: Annotated[bool, typer.Option("--no-image", help="Do not send the sketch image (text-only models); "
+                                           "its OCR facts are still sent.")] = False,
     as_json: Annotated[bool, typer.Option("--json", help="Machine-readable results on stdout.")] = False,
 ) -> None:
     """Extract Extended Scenic DSL scenarios from crash reports; exit 1 if any case failed."""
@@ -38,7 +40,7 @@ def extract(
         _fail(f"--backend {backend!r} is not a backend; allowed: {', '.join(BACKENDS)}")
     try:
         options = ExtractOptions(backend=backend, model=model, base_url=base_url, model_path=model_path,
-                                 revise=not no_revise)
+                                 revise=not no_revise, send_image=not no_image)
     except ValidationError as exc:
         _fail(f"bad option: {exc.errors()[0]['msg']}")
     several = len(paths) > 1

@@ -46,6 +46,7 @@ class ExtractOptions(BaseModel):
     revise: bool = True
     exemplars: int | None = Field(default=None, ge=0, le=4, description="few-shot pairs; None: 3 openai, 1 local")
     use_sketch: bool = True
+    send_image: bool = True  # False for text-only endpoints: the sketch then reaches the model as its facts only
 
     def resolved_backend(self) -> str:
         if self.backend != "auto":
@@ -175,7 +176,7 @@ def open_chat(options: ExtractOptions) -> Iterator[ChatBackend]:
     name = options.resolved_backend()
     if name == "openai":
         chat = ChatBackend(model=options.model, base_url=options.base_url, timeout=options.timeout,
-                           retry=options.retry)
+                           retry=options.retry, send_image=options.send_image)
         chat.client  # a missing key fails here, once, rather than once per case
         yield chat
         return
