@@ -104,9 +104,16 @@ class RouteArrays:
         k0, k1 = int(s0 / ROUTE_DS), min(int(np.ceil(s1 / ROUTE_DS)), self.curvature.shape[1] - 1)
         if k1 <= k0:
             return (s1 - s0) / max(speed, 0.5)
-        kappa = np.abs(self.curvature[r, k0:k1 + 1])
+        step = 4  # every 2 m is enough for a speed profile
+        kappa = np.abs(self.curvature[r, k0:k1 + 1]).copy()
+        if len(kappa) > step:
+            pad = (-len(kappa)) % step
+            kappa = np.concatenate([kappa, np.full(pad, kappa[-1])]).reshape(-1, step).max(axis=1)
+            ds = ROUTE_DS * step
+        else:
+            ds = ROUTE_DS
         v_lim2 = np.minimum(max(speed, 0.5) ** 2, lat_accel / np.maximum(kappa, 1e-4))
-        dist = np.arange(len(kappa)) * ROUTE_DS
+        dist = np.arange(len(kappa)) * ds
         gap = dist[None, :] - dist[:, None]  # s_j - s_i
         # brake ahead of every later limit, and accelerate out of every earlier one (and from v0)
         ahead = np.where(gap >= 0, v_lim2[None, :] + 2 * decel * gap, np.inf).min(axis=1)
@@ -115,7 +122,9 @@ class RouteArrays:
         if v0 is not None:
             v2 = np.minimum(v2, max(v0, 0.0) ** 2 + 2 * accel * dist)
         v = np.maximum(np.sqrt(v2), 1.0)
-        return float(np.sum(ROUTE_DS / (0.5 * (v[1:] + v[:-1]))))
+        if len(v) < 2:
+            return (s1 - s0) / float(v[0])
+        return float(np.sum(ds / (0.5 * (v[1:] + v[:-1])))) * (s1 - s0) / (dist[-1] if dist[-1] > 0 else 1.0)
 
     def curve_speed(self, r: np.ndarray, s: np.ndarray, ahead: np.ndarray, lat_accel: float, decel: float,
                     n: int = 12) -> np.ndarray:
