@@ -59,6 +59,7 @@ class RunSummary(BaseModel):
     reproduction_rate: float | None
     violations: dict[str, dict[str, int]]  # code -> actor -> variations
     collisions: dict[str, int]  # class -> count
+    invalid_reasons: dict[str, int] = {}  # reason -> count of invalid variations
 
 
 class CampaignSummary(BaseModel):
@@ -217,12 +218,15 @@ def summarize_runs(store: Store) -> list[RunSummary]:
         collisions = {r["collision_class"]: r["c"] for r in store.query(
             f"SELECT collision_class, count(*) AS c FROM collisions WHERE {where} {valid} GROUP BY collision_class "
             "ORDER BY collision_class", key + key)}
+        invalid = {r["reason"]: r["c"] for r in store.query(
+            f"SELECT coalesce(invalid_reason, 'no reason given') AS reason, count(*) AS c FROM variations "
+            f"WHERE {where} AND NOT valid GROUP BY ALL ORDER BY c DESC, reason LIMIT 10", key)}
         rate = counts["reproduced"] / counts["valid"] if counts["valid"] else None
         out.append(RunSummary(case_id=run["case_id"], mode=run["mode"], scenario_hash=run["scenario_hash"],
                               variations=counts["n"], valid=counts["valid"], verdicts=verdicts,
                               reproduced=counts["reproduced"],
                               reproduction_rate=None if rate is None else round(rate, 4),
-                              violations=violations, collisions=collisions))
+                              violations=violations, collisions=collisions, invalid_reasons=invalid))
     return out
 
 
