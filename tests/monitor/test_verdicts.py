@@ -98,3 +98,14 @@ def test_expected_collision_from_dsl_headings(examples_dir):
         expected = expected_collision(load_file(examples_dir / case / "golden.yaml"))
         assert (expected.actor_b, expected.klass) == (partner, klass), case
     assert expected_collision(load_file(examples_dir / "3-C1-2017-006" / "golden.yaml")) is None
+
+
+def test_batch_without_any_trace_rows():
+    tabs = crash(variations=2, valid=[False, True])
+    tabs["traces"] = tabs["traces"].slice(0, 0)
+    result = evaluate(tabs, REAR_END)
+    rows = result.verdicts.to_pylist()
+    assert [r["verdict"] for r in rows] == ["invalid", "invalid"]
+    assert rows[1]["reason"].startswith("no trace rows")
+    assert set(result.rule_results.column("verdict").to_pylist()) == {"not_applicable"}
+    assert result.summary()["reproduction_rate"] is None

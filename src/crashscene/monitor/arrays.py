@@ -154,7 +154,7 @@ def build_arrays(tables: dict[str, pa.Table]) -> TraceArrays:
     steps = traces.column("step").to_numpy(zero_copy_only=False).astype(np.int64)
     if len(steps) and steps.min() < 0:
         raise TraceError(f"traces table: negative step {int(steps.min())}; steps count from 0")
-    n_steps = int(steps.max()) + 1 if len(steps) else 0
+    n_steps = int(steps.max()) + 1 if len(steps) else 1  # one empty step keeps every array op defined
     vi = np.searchsorted(variations, traces.column("variation").to_numpy(zero_copy_only=False))
     ai = _role_indices(traces.column("actor"), role_index)
 
