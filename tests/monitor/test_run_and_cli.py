@@ -72,3 +72,17 @@ def test_missing_traces_table(run_dir):
     (run_dir / "traces.parquet").unlink()
     with pytest.raises(MonitorError, match="traces"):
         monitor_run(run_dir)
+
+
+def test_rules_command_prints_an_editable_rulebook_that_loads_back(tmp_path):
+    from crashscene.monitor import Rulebook, load_rulebook
+
+    out = runner.invoke(app, ["rules"])
+    assert out.exit_code == 0 and "CVC_21703:" in out.stdout and "min_headway: 2.0" in out.stdout
+    path = tmp_path / "rules.yaml"
+    path.write_text(out.stdout.replace("min_headway: 2.0", "min_headway: 1.2"))
+    book = load_rulebook(path)
+    assert book.defaults()["CVC_21703"]["min_headway"] == 1.2
+    assert book.defaults()["CVC_22350"] == Rulebook().defaults()["CVC_22350"]
+    out = runner.invoke(app, ["rules", "--rules", str(path)])
+    assert "min_headway: 1.2" in out.stdout

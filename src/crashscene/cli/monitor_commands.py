@@ -59,3 +59,24 @@ def _print_summary(run_dir: Path, summary: dict) -> None:
     for entry in summary["oracle"]:
         seen = "unmonitored" if not entry["monitored"] else f"observed in {entry['observed']}"
         console.print(f"oracle {entry['code']} by {entry['actor']}: {seen}")
+
+
+@app.command("rules")
+def rules_command(
+    rules: Annotated[Path | None, typer.Option("--rules", help="Show this rulebook's effective values "
+                                               "instead of the defaults.")] = None,
+    output: Annotated[Path | None, typer.Option("-o", "--output", help="Write to this file instead of stdout.")] = None,
+) -> None:
+    """Print the monitor's rulebook (every rule, threshold and unit) as an editable YAML file for --rules."""
+    from crashscene.monitor import MonitorError
+    from crashscene.monitor.rulebook import load_rulebook, rulebook_yaml
+
+    try:
+        text = rulebook_yaml(load_rulebook(rules) if rules is not None else None)
+    except MonitorError as exc:
+        typer.echo(f"error: {exc}", err=True)
+        raise typer.Exit(2) from None
+    if output is None:
+        typer.echo(text, nl=False)
+    else:
+        output.write_text(text, encoding="utf-8")

@@ -87,6 +87,26 @@ class Rulebook(BaseModel):
         return cls(params=params, imports=list(imports), source=source)
 
 
+def rulebook_yaml(rulebook: Rulebook | None = None) -> str:
+    """The effective rulebook as an editable YAML file, every parameter commented with its meaning."""
+    rulebook = rulebook or Rulebook()
+    lines = ["# crashscene rulebook: thresholds of the monitored California Vehicle Code checks.",
+             "# Edit values, set enabled: false to skip a rule, list modules registering extra rules under imports.",
+             f"imports: {yaml.safe_dump(rulebook.imports, default_flow_style=True).strip()}", "rules:"]
+    registry = registered_rules()
+    codes = [c for c in BUILTIN_ORDER if c in registry] + [c for c in registry if c not in BUILTIN_ORDER]
+    for code in codes:
+        cls = registry[code]
+        params = rulebook.params.get(code) or cls.Params()
+        lines.append(f"  {code}:  # {cls.violation}: {cls.summary}".rstrip())
+        for name, field in cls.Params.model_fields.items():
+            value = yaml.safe_dump(getattr(params, name), default_flow_style=True).strip()
+            value = value.removesuffix("\n...").removesuffix("...").strip()
+            comment = f"  # {field.description}" if field.description else ""
+            lines.append(f"    {name}: {value}{comment}")
+    return "\n".join(lines) + "\n"
+
+
 def load_rulebook(path: str | Path) -> Rulebook:
     """Read a rulebook YAML file."""
     path = Path(path)
