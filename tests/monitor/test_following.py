@@ -1,6 +1,8 @@
 """CVC 21703: following too closely."""
 from __future__ import annotations
 
+import numpy as np
+
 from tests.monitor.builders import tables, track
 
 SPEED = 15.0  # [m/s]
@@ -34,3 +36,11 @@ def test_geometric_same_lane_without_lane_ids(check):
 def test_leader_in_other_lane_is_not_followed(check):
     actors = {"ego": track(50, speed=SPEED, lane_id="a"), "npc1": track(50, x0=10, y0=3.5, speed=SPEED, lane_id="b")}
     assert check(tables(actors), "CVC_21703", "ego")["verdict"] == "not_applicable"
+
+
+def test_spawned_close_then_opening_the_gap_is_satisfied(check):
+    ego_speed = np.full(50, SPEED)
+    ego_speed[5:30] = 8.0  # drops back from the spawned 1 s headway to over 2 s
+    actors = {"ego": track(50, speed=ego_speed, lane_id="L"), "npc1": track(50, x0=15 + 4.5, speed=SPEED, lane_id="L")}
+    row = check(tables(actors), "CVC_21703", "ego")
+    assert row["verdict"] == "satisfied" and row["measured"] > 2.0

@@ -105,3 +105,13 @@ def test_rear_ending_a_stopped_vehicle_is_too_fast_for_traffic(check):
     # a moving leader is the following rule's business, not this one
     actors = {"ego": track(60, speed=12.0, speed_limit=LIMIT), "npc1": track(60, x0=20.0, speed=5.0)}
     assert check(tables(actors), "CVC_22350", "ego")["verdict"] == "satisfied"
+
+
+def test_initial_speed_above_limit_is_the_tests_condition_not_a_violation(check):
+    speed = np.full(60, 10.0)
+    speed[:18] = LIMIT + 3  # spawned fast, slowed within the start grace
+    assert check(tables({"ego": track(60, speed=speed, speed_limit=LIMIT)}), "CVC_22349", "ego")["verdict"] \
+        == "satisfied"
+    speed[:35] = LIMIT + 3  # still too fast 1.5 s after the grace
+    assert check(tables({"ego": track(60, speed=speed, speed_limit=LIMIT)}), "CVC_22349", "ego")["verdict"] \
+        == "violated"

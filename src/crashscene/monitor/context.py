@@ -52,6 +52,12 @@ class EvalContext:
     def time(self) -> np.ndarray:
         return self.arrays.time()
 
+    def settled(self, grace: float) -> np.ndarray:
+        """(V, A, T) steps at least `grace` [s] after the actor's first sample: past the test's initial conditions."""
+        a = self.arrays
+        start = take(self.time, first_index(a.alive))
+        return a.alive & (self.time >= start[..., None] + grace - 1e-9)
+
     def time_at(self, step: np.ndarray) -> np.ndarray:
         """(V, A) time [s] at a per-actor step index (-1 -> NaN)."""
         return take(self.time, step)

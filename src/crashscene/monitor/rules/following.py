@@ -14,6 +14,8 @@ class FollowingParams(RuleParams):
     min_duration: float = Field(default=1.0, gt=0, le=30, description="[s] the short headway must last this long")
     moving_leader_speed: float = Field(default=5.0, ge=0, le=40,
                                        description="[m/s] the leader must be faster than this")
+    start_grace: float = Field(default=2.0, ge=0, le=30, description="[s] from the start of a trace during which "
+                               "the headway is the test's initial condition, not the driver's choice")
     advisory_headway: float = Field(default=3.0, gt=0, le=10,
                                     description="[s] the handbook's 3-second rule, reported as an advisory note")
 
@@ -33,7 +35,7 @@ class FollowingTooClosely(Rule):
         speed = a.floats["speed"]
         with np.errstate(divide="ignore", invalid="ignore"):
             headway = np.where(speed > 0.1, leaders.gap / speed, np.inf)
-            counted = (leaders.index >= 0) & (leaders.speed > p.moving_leader_speed) & a.alive
+            counted = (leaders.index >= 0) & (leaders.speed > p.moving_leader_speed) & ctx.settled(p.start_grace)
         headway = np.where(counted, headway, np.inf)
         sustained = window_max(headway, steps_for(p.min_duration, ctx.dt))   # held below for the whole window
         bad = sustained < p.min_headway

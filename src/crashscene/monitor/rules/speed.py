@@ -26,6 +26,8 @@ class LimitParams(RuleParams):
     two_lane_limit_mph: float = Field(default=55, gt=0, le=100,
                                       description="[mph] default limit on two-lane two-way roads")
     default_limit_mph: float = Field(default=65, gt=0, le=100, description="[mph] default limit elsewhere")
+    start_grace: float = Field(default=2.0, ge=0, le=30, description="[s] from the start of a trace during which "
+                               "the speed is the test's initial condition, not the driver's choice")
 
 
 def speed_limit(ctx: EvalContext, p: LimitParams) -> np.ndarray:
@@ -43,9 +45,10 @@ def speed_limit(ctx: EvalContext, p: LimitParams) -> np.ndarray:
     return np.full(trace_limit.shape, scenario_limit)
 
 
-def sustained_excess(ctx: EvalContext, excess: np.ndarray, duration: float) -> np.ndarray:
-    """(V, A, T) lowest excess over the `duration` [s] ending at each step (> 0: exceeded all along)."""
-    return window_min(np.where(ctx.arrays.alive, excess, np.nan), steps_for(duration, ctx.dt))
+def sustained_excess(ctx: EvalContext, excess: np.ndarray, duration: float, grace: float) -> np.ndarray:
+    """(V, A, T) lowest excess over the `duration` [s] ending at each step (> 0: exceeded all along),
+    counting from `grace` [s] after the actor's first sample."""
+    return window_min(np.where(ctx.settled(grace), excess, np.nan), steps_for(duration, ctx.dt))
 
 
 class SpeedLimitParams(LimitParams):
@@ -65,7 +68,7 @@ class SpeedLimit(Rule):
         p: SpeedLimitParams = self.params
         a = ctx.arrays
         threshold = speed_limit(ctx, p) + p.tolerance
-        excess = sustained_excess(ctx, a.floats["speed"] - threshold, p.min_duration)
+        excess = sustained_excess(ctx, a.floats["speed"] - threshold, p.min_duration, p.start_grace)
         return _speed_outcome(ctx, excess, threshold).finalize()
 
 
@@ -146,7 +149,7 @@ class UnsafeSpeed(Rule):
         a = ctx.arrays
         factor, why = condition_factor(ctx, p)
         threshold = speed_limit(ctx, p) * factor
-        excess = sustained_excess(ctx, a.floats["speed"] - threshold, p.min_duration)
+        excess = sustained_excess(ctx, a.floats["speed"] - threshold, p.min_duration, p.start_grace)
         out = _speed_outcome(ctx, excess, threshold)
 
         mu_g = friction(ctx, p) * G
