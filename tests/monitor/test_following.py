@@ -44,3 +44,11 @@ def test_spawned_close_then_opening_the_gap_is_satisfied(check):
     actors = {"ego": track(50, speed=ego_speed, lane_id="L"), "npc1": track(50, x0=15 + 4.5, speed=SPEED, lane_id="L")}
     row = check(tables(actors), "CVC_21703", "ego")
     assert row["verdict"] == "satisfied" and row["measured"] > 2.0
+
+
+def test_start_grace_is_for_the_ads_only(check):
+    # the same close spawn: the ADS gets the grace, a scripted NPC does not
+    actors = {"ego": track(25, speed=SPEED, lane_id="L"),
+              "npc1": track(25, x0=15 + 4.5, speed=SPEED, lane_id="L")}
+    assert check(tables(actors, ads=()), "CVC_21703", "ego")["verdict"] == "violated"
+    assert check(tables(actors, ads=("ego",)), "CVC_21703", "ego")["verdict"] == "satisfied"

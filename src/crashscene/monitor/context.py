@@ -53,10 +53,13 @@ class EvalContext:
         return self.arrays.time()
 
     def settled(self, grace: float) -> np.ndarray:
-        """(V, A, T) steps at least `grace` [s] after the actor's first sample: past the test's initial conditions."""
+        """(V, A, T) steps past the test's initial conditions: for an actor under test (is_ads), at least
+        `grace` [s] after its first sample (its spawn speed and gap are not its choice); for scripted
+        actors, every step (their dispositions start at once)."""
         a = self.arrays
         start = take(self.time, first_index(a.alive))
-        return a.alive & (self.time >= start[..., None] + grace - 1e-9)
+        grace_of = np.where(a.is_ads, grace, 0.0)
+        return a.alive & (self.time >= (start + grace_of)[..., None] - 1e-9)
 
     def time_at(self, step: np.ndarray) -> np.ndarray:
         """(V, A) time [s] at a per-actor step index (-1 -> NaN)."""

@@ -15,7 +15,7 @@ class FollowingParams(RuleParams):
     moving_leader_speed: float = Field(default=5.0, ge=0, le=40,
                                        description="[m/s] the leader must be faster than this")
     start_grace: float = Field(default=2.0, ge=0, le=30, description="[s] from the start of a trace during which "
-                               "the headway is the test's initial condition, not the driver's choice")
+                               "an ADS's headway is the test's initial condition, not its choice")
     advisory_headway: float = Field(default=3.0, gt=0, le=10,
                                     description="[s] the handbook's 3-second rule, reported as an advisory note")
 

@@ -27,7 +27,7 @@ class LimitParams(RuleParams):
                                       description="[mph] default limit on two-lane two-way roads")
     default_limit_mph: float = Field(default=65, gt=0, le=100, description="[mph] default limit elsewhere")
     start_grace: float = Field(default=2.0, ge=0, le=30, description="[s] from the start of a trace during which "
-                               "the speed is the test's initial condition, not the driver's choice")
+                               "an ADS's speed is the test's initial condition, not its choice")
 
 
 def speed_limit(ctx: EvalContext, p: LimitParams) -> np.ndarray:
