@@ -253,6 +253,32 @@ def test_benchmark_hook_times_k_runs(rear_end_run, straight_map, scenario):
     assert time_newtonian_runs(request, k=1) > 0
 
 
+# A car that steers off the road while its behaviour keeps asking for its lane: Scenic rejects the run.
+OFF_ROAD_PROGRAM = """
+param map = localPath('straight.xodr')
+model scenic.simulators.newtonian.driving_model
+behavior SteerOff():
+    while True:
+        lane = self.lane
+        take SetThrottleAction(0.3), SetSteerAction(0.4)
+ego = new Car on Uniform(*network.lanes).centerline, with speed 8, with role 'ego', with behavior SteerOff()
+"""
+
+
+@pytest.mark.slow
+def test_a_run_scenic_rejects_is_invalid_with_its_reason_and_partial_trace(straight_map, scenario):
+    scenes = scenes_from_program(OFF_ROAD_PROGRAM, straight_map, seed=5, indices=range(1))
+    with NewtonianSimulator(SimulationSettings(mode="reproduce", horizon=6.0)) as simulator:
+        result = simulator.simulate(SimulationRequest(scenario=scenario, scenes=scenes, map_file=straight_map,
+                                                      program=OFF_ROAD_PROGRAM))
+    variation = result.tables["variations"].to_pylist()[0]
+    assert not variation["valid"]
+    assert variation["invalid_reason"].startswith("scenic rejected the run at t=")
+    assert "not in a lane" in variation["invalid_reason"]
+    xs = result.tables["traces"].column("x").to_pylist()
+    assert len(xs) == 61 and xs[10] != xs[0]  # what ran before the rejection is kept, then held
+
+
 # ------------------------------------------------------------------ slow: rendered CIREN cases
 
 # One case per topology; each its own test. Two scenes each keep the set within the time budget.

@@ -121,6 +121,17 @@ def generate_scenic_scene(scenario, seed: int, index: int, max_iterations: int =
     return scene
 
 
+def _rejections() -> tuple[type[Exception], ...]:
+    """Scenic's ways of rejecting a run (a requirement, a guard, a lookup that found nothing)."""
+    from scenic.core.distributions import RejectionException
+    from scenic.core.dynamics import GuardViolation, RejectSimulationException
+
+    return (RejectionException, RejectSimulationException, GuardViolation)
+
+
+REJECTIONS = _rejections()
+
+
 @functools.cache
 def _tracing_classes():
     """Newtonian Simulator/Simulation subclasses that pin, record and stop at contact (built lazily: pygame import)."""
@@ -297,18 +308,31 @@ class NewtonianSimulator(Simulator):
             simulator = _tracing_classes()(pins, sizes)
             try:
                 with seeded_globals(scene.seed, scene.index):
-                    simulation = simulator.simulate(scenic_scene, maxSteps=steps, timestep=dt, verbosity=0)
+                    simulation = simulator.createSimulation(scenic_scene, maxSteps=steps, timestep=dt,
+                                                            name=str(scene.index), verbosity=0)
+            except REJECTIONS as exc:
+                # e.g. a behaviour asking for `self.lane` once its car has left the road: keep what ran
+                partial = getattr(exc, "simulation", None)
+                trajectory = partial.trajectory if partial is not None else []
+                reason = f"scenic rejected the run at t={max(len(trajectory) - 1, 0) * dt:.1f} s: {exc}"
+                if not trajectory:
+                    return scenic_trace.failed_run(scene, steps, reason)
+                tracks = scenic_trace.tracks_from_trajectory(trajectory, roles)
+                return scenic_trace.ScenicRun(scenic_trace.pad_tracks(tracks, steps + 1), invalid_reason=reason,
+                                              contacts=_contacts(partial, roles))
             except Exception as exc:  # noqa: BLE001 - a behaviour failing at run time invalidates this variation only
                 return scenic_trace.failed_run(scene, steps, f"newtonian run failed: {type(exc).__name__}: {exc}")
             finally:
                 simulator.destroy()
-        if simulation is None:
-            return scenic_trace.failed_run(scene, steps, "scenic rejected the simulation (a requirement was violated)")
         tracks = scenic_trace.tracks_from_trajectory(simulation.result.trajectory, roles)
         tracks = scenic_trace.pad_tracks(tracks, steps + 1)
-        contacts = [{"actor_a": roles[a], "actor_b": roles[b], "step": step, "t": t}
-                    for a, b, step, t in simulation.contacts]
-        return scenic_trace.ScenicRun(tracks, contacts=contacts)
+        return scenic_trace.ScenicRun(tracks, contacts=_contacts(simulation, roles))
+
+
+def _contacts(simulation, roles: list[str]) -> list[dict]:
+    """The first contacts a `PinnedNewtonianSimulation` logged, by role."""
+    return [{"actor_a": roles[a], "actor_b": roles[b], "step": step, "t": t}
+            for a, b, step, t in getattr(simulation, "contacts", [])]
 
 
 def placement_mismatch(scenic_scene, scene: SampledScene, drift: float) -> str | None:
