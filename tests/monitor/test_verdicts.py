@@ -109,3 +109,10 @@ def test_batch_without_any_trace_rows():
     assert rows[1]["reason"].startswith("no trace rows")
     assert set(result.rule_results.column("verdict").to_pylist()) == {"not_applicable"}
     assert result.summary()["reproduction_rate"] is None
+
+
+def test_reproduce_mode_without_ads_the_ego_stands_in_for_the_verdict():
+    result = evaluate(crash(ads=()), REAR_END)
+    assert result.verdicts.to_pylist()[0]["verdict"] == "violation"
+    assert not any(result.rule_results.column("is_ads").to_pylist())
+    assert result.collisions.to_pylist()[0]["involves_ads"] is False

@@ -33,7 +33,7 @@ CLASSIFIED_SCHEMA = pa.schema([
     ("class", pa.string()),             # COLLISION_CLASSES
     ("striking_actor", pa.string()),    # the actor whose front made the contact (null for a sideswipe)
     ("source", pa.string()),            # simulator | footprint | both
-    ("involves_ads", pa.bool_()),       # an actor under test is one of the two
+    ("involves_ads", pa.bool_()),       # an actor under test (is_ads) is one of the two
 ])
 
 

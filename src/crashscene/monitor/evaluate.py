@@ -31,8 +31,9 @@ def evaluate(tables: dict[str, pa.Table], scenario: Scenario | None, rulebook: R
     """
     rulebook = rulebook or Rulebook()
     arrays = build_arrays(tables)
-    ads = ads_mask(arrays)
-    collisions = classify_collisions(arrays, tables.get("collisions"), ads)
+    ads = ads_mask(arrays)                        # is_ads, or the ego standing in (reproduce mode): verdicts
+    under_test = arrays.is_ads & arrays.present    # the tables report is_ads as the simulator set it
+    collisions = classify_collisions(arrays, tables.get("collisions"), under_test)
     if stop_at_collision:
         contact = first_contact_steps(arrays, collisions)
         grace = int(round(after_collision / arrays.dt))
@@ -48,7 +49,7 @@ def evaluate(tables: dict[str, pa.Table], scenario: Scenario | None, rulebook: R
             raise MonitorError(f"rule {rule.code} ({type(rule).__module__}.{type(rule).__qualname__}) failed: "
                                f"{type(exc).__name__}: {exc}") from exc
         outcomes.append((rule, outcome.finalize()))
-    rule_results = rule_results_table(arrays.variations, arrays.roles, arrays.present, ads, outcomes)
+    rule_results = rule_results_table(arrays.variations, arrays.roles, arrays.present, under_test, outcomes)
     if expected == "auto":
         expected = expected_collision(scenario)
     verdicts, oracle = verdict_table(arrays, {r.code: o for r, o in outcomes}, collisions, scenario, ads, expected)

@@ -131,13 +131,12 @@ def verdict_table(arrays: TraceArrays, outcomes: dict[str, RuleOutcome], collisi
     coll_classes: list[list[str]] = [[] for _ in range(n_var)]
     pair_classes: list[set[tuple[str, str, str]]] = [set() for _ in range(n_var)]
     if collisions.num_rows:
-        cols = collisions.select(["variation", "actor_a", "actor_b", "class", "involves_ads"]).to_pydict()
-        for v, aa, bb, klass, inv in zip(cols["variation"], cols["actor_a"], cols["actor_b"], cols["class"],
-                                         cols["involves_ads"]):
+        cols = collisions.select(["variation", "actor_a", "actor_b", "class"]).to_pydict()
+        for v, aa, bb, klass in zip(cols["variation"], cols["actor_a"], cols["actor_b"], cols["class"]):
             vi = var_index[int(v)]
             pair_classes[vi].add((aa, bb, klass))
             pair_classes[vi].add((bb, aa, klass))
-            if inv:
+            if ads[vi, role_index[aa]] or ads[vi, role_index[bb]]:
                 coll_classes[vi].append(klass)
 
     # oracle entries the monitor can observe
