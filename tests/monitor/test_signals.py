@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from tests.monitor.builders import DT, tables, track
 
@@ -92,3 +93,10 @@ def test_right_turn_on_red_without_stop_is_violated(check):
 def test_straight_on_red_after_stop_is_violated(check):
     ego = stopping_approach(0.1, maneuver="straight", control="signal", red=True)
     assert check(tables({"ego": ego}), "CVC_21453", "ego")["verdict"] == "violated"
+
+
+def test_yellow_crossing_robustness_is_the_time_left_before_red(check):
+    tc = crossing_time(approach(10.0, None))
+    row = check(tables({"ego": approach(10.0, red_from=tc + 0.75)}), "CVC_21453", "ego")
+    assert row["verdict"] == "satisfied"
+    assert row["measured"] == pytest.approx(-0.8, abs=0.11) and row["robustness"] == pytest.approx(1.0, abs=0.11)

@@ -46,7 +46,7 @@ class RedLightParams(RuleParams):
 class RedLight(Rule):
     code = "CVC_21453"
     violation = "red_light"
-    unit = "s"
+    unit = "s"  # measured: red time at the crossing (negative: crossed that long before red)
     summary = "front bumper crosses the stop line on a steady red (after the grace time); right turn after a stop exempt"
     Params = RedLightParams
 
@@ -69,10 +69,16 @@ class RedLight(Rule):
         out.applicable = (ctx.is_code("control", "signal") & known_signal & np.isfinite(dist)).any(axis=2)
         out.violated = bad.any(axis=2)
         out.first_t = ctx.time_at(first_index(bad))
-        measured_at = np.where(cross & ~exempt, np.where(red_prev, elapsed, 0.0), -np.inf)
+        # before red: how long before the signal turned red the line was crossed (negative red time),
+        # so a search sees a yellow crossing as closer to a violation than an early green one
+        n_steps = red.shape[-1]
+        steps = np.arange(n_steps)
+        next_red = np.minimum.accumulate(np.where(red, steps, n_steps)[..., ::-1], axis=-1)[..., ::-1]
+        to_red = np.where(next_red < n_steps, (next_red - steps) * ctx.dt, np.inf)
+        measured_at = np.where(cross & ~exempt, np.where(red_prev, elapsed, -to_red), -np.inf)
         worst = measured_at.max(axis=2)
-        crossed = np.isfinite(worst)
-        out.measured = np.where(crossed, worst, np.nan)
+        crossed = (cross & ~exempt).any(axis=2)
+        out.measured = np.where(crossed & np.isfinite(worst), worst, np.nan)
         out.robustness = np.where(crossed, p.red_grace - worst, np.inf)
         used = (cross & red_prev & exempt).any(axis=2)
         out.note = np.where(used, "right turn on red after a full stop (exempt)", None).astype(object)
