@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import math
+import shutil
 import tempfile
 import time
 from pathlib import Path
@@ -25,7 +26,9 @@ def simulate_chunk(task: ChunkTask) -> ChunkResult:
     start = time.perf_counter()
     if task.keep_dir:
         run_dir = Path(task.keep_dir)
-        run_dir.mkdir(parents=True, exist_ok=True)
+        if run_dir.exists():  # left by an attempt that was killed before its chunk was stored: start clean
+            shutil.rmtree(run_dir)
+        run_dir.mkdir(parents=True)
         result = _simulate_and_monitor(task, run_dir)
     else:
         with tempfile.TemporaryDirectory(prefix="crashscene-chunk-") as tmp:
