@@ -253,6 +253,19 @@ def test_benchmark_hook_times_k_runs(rear_end_run, straight_map, scenario):
     assert time_newtonian_runs(request, k=1) > 0
 
 
+@pytest.mark.slow
+def test_recorded_tables_flag_spawn_overlap_like_the_embedded_backend(rear_end_run, straight_map, scenario):
+    scenes, settings, _ = rear_end_run
+    scene = scenes[0].model_copy(deep=True)
+    ego, npc = scene.actors
+    npc.x, npc.y, npc.yaw = ego.x + 2.0, ego.y, ego.yaw  # 2 m apart, 4.5 m long: overlapping
+    run = scenic_trace.ScenicRun({a.role: scenic_trace.still_track(a, settings.steps + 1) for a in scene.actors})
+    tables = scenic_trace.record_tables(scenario, [scene], [run], settings, straight_map)
+    variation = tables["variations"].to_pylist()[0]
+    assert not variation["valid"] and variation["invalid_reason"].startswith("spawn overlap: ego and npc1")
+    assert tables["collisions"].num_rows == 0  # not a crash
+
+
 # A car that steers off the road while its behaviour keeps asking for its lane: Scenic rejects the run.
 OFF_ROAD_PROGRAM = """
 param map = localPath('straight.xodr')

@@ -146,6 +146,7 @@ def _tracing_classes():
             self._pins = pins  # per scene object: (x, y, scenic heading, speed) or None
             self._sizes = sizes  # per scene object: (length, width) [m]
             self._halted: set[int] = set()
+            self._spawn_overlaps: set[tuple[int, int]] = set()
             self.contacts: list[tuple[int, int, int, float]] = []  # (object a, object b, step, t [s])
             super().__init__(scene, network, render, export_gif, debug_render, **kwargs)
 
@@ -180,11 +181,15 @@ def _tracing_classes():
 
         def _detect_contacts(self, before):
             after = self._poses()
-            touched = {(a, b) for a, b, _, _ in self.contacts}
+            touched = {(a, b) for a, b, _, _ in self.contacts} | self._spawn_overlaps
             for i in range(len(after)):
                 for j in range(i + 1, len(after)):
                     if (i, j) in touched or not scenic_trace.footprints_overlap(
                             after[i], self._sizes[i], after[j], self._sizes[j]):
+                        continue
+                    if self.currentTime == 0 and scenic_trace.footprints_overlap(
+                            before[i], self._sizes[i], before[j], self._sizes[j]):
+                        self._spawn_overlaps.add((i, j))  # an invalid variation, not a crash: nobody halts
                         continue
                     frac = 1.0
                     if i not in self._halted and j not in self._halted:
