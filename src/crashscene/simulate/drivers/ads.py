@@ -32,7 +32,7 @@ class ReferenceAdsParams(BaseModel):
 
     reaction_time: float = Field(0.3, ge=0, le=3.0, description="[s] delay between perception and actuation")
     perception_range: float = Field(120.0, gt=0, description="[m] vehicles farther away are not seen")
-    headway: float = Field(1.8, gt=0, description="[s] IDM desired time headway")
+    headway: float = Field(2.3, gt=0, description="[s] IDM desired time headway (CVC_21703 needs 2 s)")
     min_gap: float = Field(2.5, ge=0, description="[m] IDM standstill gap")
     brake_comfort: float = Field(3.0, gt=0, description="[m/s2] IDM comfortable deceleration")
     gap_acceptance: float = Field(4.5, gt=0, description="[s] smallest accepted time-to-arrival of a priority vehicle")

@@ -28,6 +28,7 @@ LATERAL_BEHAVIORS = ("change_lane_left", "change_lane_right", "cross_centerline"
 JUNCTION_INTENTS = {"straight": "straight", "left": "left", "right": "right", "u_turn": "u_turn"}
 BEHAVIOR_INTENTS = {"turn_left": "left", "turn_right": "right", "u_turn": "u_turn"}
 OPPOSITE_HEADINGS = ("opposite_direction",)
+STOP_APPROACH_DECEL = 2.5  # [m/s2] a driver approaching a stop sign is slowing down at most this hard
 ADVANCE_MARGIN = 3.0  # [m] an actor advanced by its timing plan stays this far before its junction entry
 
 
@@ -201,6 +202,12 @@ def build(scenario: Scenario, scenes: list[SampledScene], roadmap: RoadMap,
     fast = np.array([speed_factor(c.dispositions) for c in columns])[None, :]
     cruise = speed * scale
     speed0 = np.where(hold > 0, 0.0, np.minimum(speed * fast, planned) * np.where(scale < 1, scale, 1.0))
+    # a driver who will stop at a stop sign close ahead is already slowing down for it
+    for a, col in enumerate(columns):
+        for v in range(n_v):
+            stop = _stop_dist(arrays, route[v, a], s0[v, a], entry_control, col)
+            if stop is not None:
+                speed0[v, a] = min(speed0[v, a], math.sqrt(2.0 * STOP_APPROACH_DECEL * max(stop - 1.0, 0.0)))
     limit = scenario.road_network.speed_limit_mph
     road_names = sorted({lane.road for lane in roadmap.lanes})
     from crashscene.simulate.roads import MARKERS

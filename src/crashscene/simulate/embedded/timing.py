@@ -30,11 +30,12 @@ SWERVE_BEHAVIORS = ("cross_centerline", "overtake", "leave_road", "lose_control"
 def lateral_rate(behavior: str) -> float:
     """Lateral speed [m/s] of the behaviour's manoeuvre."""
     return SWERVE_RATE if behavior in SWERVE_BEHAVIORS else LATERAL_RATE
-STOP_DWELL = 1.5  # [s] time stopped at a stop sign before proceeding
+STOP_DWELL = 1.0  # [s] time stopped at a stop sign before proceeding (drivers.longitudinal stop_dwell)
+STOP_TAIL = 1.1  # [-] a smooth stop takes this much longer than braking at a constant rate
 
 
 def arrival_time(dist: float, speed: float, accel: float, from_rest: bool = False,
-                 stop_dist: float | None = None, brake: float = 3.0) -> float:
+                 stop_dist: float | None = None, brake: float = 2.5) -> float:
     """Nominal time [s] to travel `dist` [m] at cruise `speed` [m/s].
 
     from_rest: starts at 0 and accelerates at `accel` [m/s2]. stop_dist: stops at
@@ -44,9 +45,10 @@ def arrival_time(dist: float, speed: float, accel: float, from_rest: bool = Fals
     if dist <= 0:
         return 0.0
     if stop_dist is not None and 0 < stop_dist < dist:
+        speed = min(speed, math.sqrt(2 * brake * stop_dist))  # already slowing down when that close
         brake_len = speed ** 2 / (2 * brake)
         cruise_len = max(stop_dist - brake_len, 0.0)
-        t_stop = cruise_len / speed + speed / brake
+        t_stop = cruise_len / speed + STOP_TAIL * speed / brake
         return t_stop + STOP_DWELL + _from_rest(dist - stop_dist, speed, accel)
     if from_rest:
         return _from_rest(dist, speed, accel)

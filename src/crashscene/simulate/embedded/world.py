@@ -96,7 +96,7 @@ class RouteArrays:
         return table[r, k]
 
     def travel_time(self, r: int, s0: float, s1: float, speed: float, lat_accel: float, v0: float | None = None,
-                    accel: float = 1.5, decel: float = 2.0) -> float:
+                    accel: float = 2.5, decel: float = 2.0) -> float:
         """Nominal time [s] from s0 to s1 on route r cruising at `speed` [m/s]: slows to sqrt(lat_accel/curvature)
         in curves, braking at `decel` before them and accelerating at `accel` after (and from `v0` at s0)."""
         if s1 <= s0:
