@@ -76,6 +76,14 @@ class LocalEngine:
             self._pool.shutdown(wait=True, cancel_futures=True)
             self._pool = None
 
+    def abort(self) -> None:
+        """Stop at once: kill the workers (their unfinished chunks are simply not stored)."""
+        if self._pool is not None:
+            for proc in list(getattr(self._pool, "_processes", {}).values()):
+                proc.kill()
+            self._pool.shutdown(wait=False, cancel_futures=True)
+            self._pool = None
+
 
 def _ray_call(worker: Worker, task: ChunkTask) -> ChunkResult | BaseException:
     quiet_scenic_warnings()
@@ -129,6 +137,8 @@ class RayEngine:
         if self._started:
             self._ray.shutdown()
             self._started = False
+
+    abort = close
 
 
 def make_engine(name: str, workers: int | None = None, address: str | None = None) -> LocalEngine | RayEngine:

@@ -111,49 +111,57 @@ def run_campaign(cases: str | Path | Sequence[str | Path], out_dir: str | Path, 
             raise CampaignError(f"{out} already holds a campaign ({store.path.name}); add --resume to continue it "
                                 "or choose another --out")
         engine = make_engine(config.engine, config.workers, config.address)
-        session = store.start_session(shlex.join(sys.argv), engine.name, engine.workers)
-        prepared = _prepare_all(paths, out, config, engine)
-        tasks, skipped = _plan(store, prepared, config, out)
-        for case in prepared:
-            store.put_case(case.case_id, case.case_dir, case.status, case.error, case.scenario_hash,
-                           case.extract_backend, case.warnings, case.seconds)
-        failed = ran = variations = 0
-        failures: list[dict] = []
-        total = sum(t.count for t in tasks)
         try:
-            with CampaignProgress(total, len(tasks), live=live, quiet=quiet) as progress:
-                for case in prepared:
-                    if case.status != "ok":
-                        progress.note(f"case {case.case_id}: skipped, {case.error}")
-                if skipped:
-                    progress.note(f"resuming: {skipped} chunk(s) already done, {len(tasks)} to run")
-                for task, outcome in engine.run(tasks, worker):
-                    if not isinstance(outcome, BaseException):
-                        try:
-                            store.write_chunk(task, outcome, session)
-                        except CampaignError as exc:  # rows that break the contract: this chunk fails
-                            outcome = exc
-                    if isinstance(outcome, BaseException):
-                        failed += 1
-                        message = f"{type(outcome).__name__}: {outcome}"
-                        store.write_chunk_error(task, session, message)
-                        failures.append({"chunk": task.key, "error": message})
-                        progress.chunk_done(task.key, task.count, 0.0, failed=message)
-                        continue
-                    ran += 1
-                    variations += task.count
-                    progress.chunk_done(task.key, task.count, outcome.seconds)
-        finally:
-            engine.close()
+            session = store.start_session(shlex.join(sys.argv), engine.name, engine.workers)
+            prepared = _prepare_all(paths, out, config, engine)
+            tasks, skipped = _plan(store, prepared, config, out)
+            for case in prepared:
+                store.put_case(case.case_id, case.case_dir, case.status, case.error, case.scenario_hash,
+                               case.extract_backend, case.warnings, case.seconds)
+            ran, failures = _run_chunks(store, engine, tasks, worker, session, prepared, skipped, live, quiet)
+        except BaseException:  # Ctrl-C or a store error: stop the workers now, finished chunks are stored
+            engine.abort()
+            raise
+        engine.close()
+        failed = len(failures)
+        variations = sum(t.count for t in tasks) - sum(f["count"] for f in failures)
         seconds = time.perf_counter() - start
         return CampaignSummary(
             out_dir=str(out), database=str(store.path), engine=engine.name, workers=engine.workers,
             seconds=round(seconds, 3), chunks_run=ran, chunks_skipped=skipped, chunks_failed=failed,
             variations_run=variations, throughput=round(variations / seconds, 2) if seconds else 0.0,
-            failures=failures,
+            failures=[{k: f[k] for k in ("chunk", "error")} for f in failures],
             cases=[c.model_dump(include={"case_id", "status", "error", "scenario_hash", "extract_backend"})
                    for c in prepared],
             runs=summarize_runs(store), complete=failed == 0 and all(c.status == "ok" for c in prepared))
+
+
+def _run_chunks(store: Store, engine, tasks: list[ChunkTask], worker, session: int, prepared: list[PreparedCase],
+                skipped: int, live: bool | None, quiet: bool) -> tuple[int, list[dict]]:
+    """Run every chunk on the engine, storing each one as it finishes; returns (chunks stored, failures)."""
+    ran = 0
+    failures: list[dict] = []
+    with CampaignProgress(sum(t.count for t in tasks), len(tasks), live=live, quiet=quiet) as progress:
+        for case in prepared:
+            if case.status != "ok":
+                progress.note(f"case {case.case_id}: skipped, {case.error}")
+        if skipped:
+            progress.note(f"resuming: {skipped} chunk(s) already done, {len(tasks)} to run")
+        for task, outcome in engine.run(tasks, worker):
+            if not isinstance(outcome, BaseException):
+                try:
+                    store.write_chunk(task, outcome, session)
+                except CampaignError as exc:  # rows that break the contract: this chunk fails
+                    outcome = exc
+            if isinstance(outcome, BaseException):
+                message = f"{type(outcome).__name__}: {outcome}"
+                store.write_chunk_error(task, session, message)
+                failures.append({"chunk": task.key, "error": message, "count": task.count})
+                progress.chunk_done(task.key, task.count, 0.0, failed=message)
+                continue
+            ran += 1
+            progress.chunk_done(task.key, task.count, outcome.seconds)
+    return ran, failures
 
 
 def _prepare_all(paths: list[Path], out: Path, config: CampaignConfig, engine) -> list[PreparedCase]:
