@@ -35,8 +35,8 @@ oracle: []
 
 
 def scenario(road_type="straight", ways=2, lanes=2, signs="", ego_behavior="go_forward", ego_ref="road", npcs=""):
-    return loads(BASE % dict(road_type=road_type, ways=ways, lanes=lanes, signs=signs, ego_behavior=ego_behavior,
-                             ego_ref=ego_ref, npcs=npcs))
+    return loads(BASE % {"road_type": road_type, "ways": ways, "lanes": lanes, "signs": signs, "ego_behavior": ego_behavior,
+                             "ego_ref": ego_ref, "npcs": npcs})
 
 
 @pytest.mark.parametrize("case", CASES)
@@ -69,8 +69,8 @@ def test_wet_surface_makes_clear_weather_wet():
 def test_time_of_day_hours():
     plan = convert(scenario())
     assert plan.hour == 12.0
-    night = loads(BASE.replace("daytime", "nighttime") % dict(road_type="straight", ways=2, lanes=2, signs="",
-                                                               ego_behavior="go_forward", ego_ref="road", npcs=""))
+    night = loads(BASE.replace("daytime", "nighttime") % {"road_type": "straight", "ways": 2, "lanes": 2, "signs": "",
+                                                               "ego_behavior": "go_forward", "ego_ref": "road", "npcs": ""})
     assert convert(night).hour == 22.0
 
 

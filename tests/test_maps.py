@@ -16,9 +16,9 @@ REPO_CACHE = Path(__file__).resolve().parent.parent / ".crashscene-cache" / "map
 
 
 def spec(**kw) -> MapSpec:
-    base = dict(topology="intersection", lanes_forward=1, lanes_backward=1, center_mark="double_solid_line",
-                speed_limit=15.6, back_length=300.0, ahead_length=300.0, arms=["ego", "left", "opposite", "right"],
-                controls={})
+    base = {"topology": "intersection", "lanes_forward": 1, "lanes_backward": 1, "center_mark": "double_solid_line",
+                "speed_limit": 15.6, "back_length": 300.0, "ahead_length": 300.0, "arms": ["ego", "left", "opposite", "right"],
+                "controls": {}}
     base.update(kw)
     return MapSpec(**base)
 

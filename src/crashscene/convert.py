@@ -14,13 +14,23 @@ reference point on a straight road).
 from __future__ import annotations
 
 import hashlib
+import itertools
 import re
 from enum import StrEnum
 
 from pydantic import BaseModel, ConfigDict, Field
 
 from crashscene.dsl.model import Actor, Scenario
-from crashscene.dsl.tokens import Behavior, Heading, Relation, RoadElement, RoadType, Sign, TimeOfDay, Weather
+from crashscene.dsl.tokens import (
+    Behavior,
+    Heading,
+    Relation,
+    RoadElement,
+    RoadType,
+    Sign,
+    TimeOfDay,
+    Weather,
+)
 
 # ---------------------------------------------------------------- defaults (the one table)
 
@@ -325,7 +335,7 @@ def _queue(actors: list[ActorPlan]) -> None:
             groups.setdefault(key, []).append(actor)
     for (_, kind, _), members in groups.items():
         members.sort(key=lambda a: a.behavior == Behavior.OVERTAKE.value)
-        for previous, actor in zip(members, members[1:]):
+        for previous, actor in itertools.pairwise(members):
             actor.placement_ref = previous.role
             if kind == Placement.ONCOMING.value:
                 actor.placement, actor.along = Placement.FOLLOW, "behind"
@@ -393,9 +403,9 @@ def _map_spec(scenario: Scenario, actors: list[ActorPlan], speed_limit: float | 
     ahead = run + reach
     if oncoming:
         back = max(back, run)  # oncoming actors drive past the ego's start
-    spec = dict(topology=rn.road_type.value, lanes_forward=forward, lanes_backward=backward,
-                center_mark=rn.road_marker.value, speed_limit=speed_limit, back_length=round(back, 1),
-                ahead_length=round(ahead, 1))
+    spec = {"topology": rn.road_type.value, "lanes_forward": forward, "lanes_backward": backward,
+            "center_mark": rn.road_marker.value, "speed_limit": speed_limit, "back_length": round(back, 1),
+            "ahead_length": round(ahead, 1)}
     if rn.road_type is RoadType.CURVE:
         limit = speed_limit or DEFAULT_SPEED
         radius = min(max(limit ** 2 / CURVE_LATERAL_ACC, CURVE_RADIUS_RANGE[0]), CURVE_RADIUS_RANGE[1])

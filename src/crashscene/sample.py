@@ -6,9 +6,11 @@ from `numpy.random.SeedSequence([seed, i])`, and their previous states are
 restored afterwards so nothing leaks into the caller. A campaign can therefore
 sample [0, 100), [100, 200), ... and get exactly the scenes of one n = 2000 call.
 
-Parameters use Scenic's `Range`, not `VerifaiRange`: VerifAI's samplers (Halton
-by default) keep their own sequence state inside the compiled scenario, so a
-scene would depend on how many scenes were drawn before it.
+Parameters are `VerifaiRange`s drawn by VerifAI's 'random' sampler
+(`param verifaiSamplerType = 'random'` in every program), which reads the
+reseeded global generators, so it is index-deterministic (measured). VerifAI's
+default Halton sampler is not: it keeps a sequence position inside the compiled
+scenario, so scene i would depend on how many scenes were drawn before it.
 """
 from __future__ import annotations
 
@@ -93,9 +95,7 @@ def to_sampled_scene(scene: Any, index: int, seed: int, digest: str, map_file: s
     for key, value in scene.params.items():
         if key in _SKIP_PARAMS:
             continue
-        if isinstance(value, (bool, np.bool_)):
-            params[key] = int(value)
-        elif isinstance(value, (int, np.integer)):
+        if isinstance(value, (bool, np.bool_, int, np.integer)):
             params[key] = int(value)
         elif isinstance(value, (float, np.floating)):
             params[key] = float(value)

@@ -4,7 +4,7 @@ from __future__ import annotations
 import json
 import sys
 from pathlib import Path
-from typing import Annotated, Optional
+from typing import Annotated
 
 import typer
 
@@ -27,11 +27,11 @@ def render(
     out: Annotated[Path, typer.Option("-o", "--out", help="Directory to write scenario.scenic and map.xodr into.")],
     map_mode: Annotated[str, typer.Option("--map", help="generated (OpenDRIVE built for the scenario) or carla "
                                                          "(a CARLA town from --carla-maps).")] = "generated",
-    carla_maps: Annotated[Optional[Path], typer.Option("--carla-maps", help="Folder of CARLA town .xodr files "
+    carla_maps: Annotated[Path | None, typer.Option("--carla-maps", help="Folder of CARLA town .xodr files "
                                                                              "(Town02, Town04, Town05).")] = None,
     town: Annotated[list[str], typer.Option("--town", help="Substitute a town, e.g. Town05=Town10HD "
                                                           "(repeatable).")] = [],  # noqa: B006
-    cache_dir: Annotated[Optional[Path], typer.Option("--cache-dir", help="Map cache (default "
+    cache_dir: Annotated[Path | None, typer.Option("--cache-dir", help="Map cache (default "
                                                                           "~/.cache/crashscene/maps).")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print the written paths and hash as JSON.")] = False,
 ) -> None:
@@ -71,7 +71,7 @@ def sample(
     model: Annotated[str, typer.Option("--model", help="carla or newtonian world model (2D mode).")] = "carla",
     as_json: Annotated[bool, typer.Option("--json", help="One JSON scene per line (SampledScene) instead of a "
                                                          "table.")] = False,
-    output: Annotated[Optional[Path], typer.Option("-o", "--output", help="Write the JSON lines to this file.")]
+    output: Annotated[Path | None, typer.Option("-o", "--output", help="Write the JSON lines to this file.")]
     = None,
 ) -> None:
     """Sample N scenes from a rendered program: positions, headings, speeds, properties, parameter values."""

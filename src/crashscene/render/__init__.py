@@ -25,11 +25,10 @@ from crashscene.convert import (
     convert,
     placement_order,
     scenario_hash,
-    speed_range,
 )
 from crashscene.dsl.model import Scenario
 
-__all__ = ["Rendered", "RenderError", "render", "render_program"]
+__all__ = ["RenderError", "Rendered", "render", "render_program"]
 
 PROGRAM_NAME = "scenario.scenic"
 MAP_NAME = "map.xodr"
@@ -54,7 +53,7 @@ def py(value: Any) -> str:
     if isinstance(value, float):
         if not math.isfinite(value):
             raise RenderError(f"non-finite number {value!r} cannot be rendered")
-        return repr(round(value, 6))
+        return repr(float(value))
     if isinstance(value, str):
         if not SAFE_TOKEN.match(value):
             raise RenderError(f"value {value!r} is not a closed-vocabulary token; refusing to render it into code")
@@ -74,11 +73,11 @@ def comment(value: Any) -> str:
 
 
 def rng(value: Range | dict) -> str:
-    """A sampled parameter as Scenic code: Range(low, high), or a constant when low == high."""
+    """A sampled parameter as Scenic code: VerifaiRange(low, high), or a constant when low == high."""
     low, high = (value["low"], value["high"]) if isinstance(value, dict) else (value.low, value.high)
     if low == high:
         return py(float(low))
-    return f"Range({py(float(low))}, {py(float(high))})"
+    return f"VerifaiRange({py(float(low))}, {py(float(high))})"
 
 
 _ENV = jinja2.Environment(loader=jinja2.PackageLoader("crashscene.render", "templates"), autoescape=False,
@@ -160,7 +159,8 @@ def render_program(plan: RenderPlan, *, scenario_hash_value: str, summary: str |
         actors.append(data)
     actor_specs = [{"role": a["role"], "placement": a["placement"], "ref": a["placement_ref"],
                     "heading": a["relative_heading"], "maneuver": a["maneuver"], "behavior": a["behavior"],
-                    "needs": _needs(next(x for x in plan.actors if x.role == a["role"]), plan.actors)}
+                    "needs": _needs(next(x for x in plan.actors if x.role == a["role"]), plan.actors),
+                    "dist": [a["init_dist"]["low"], a["init_dist"]["high"]], "along": a["along"]}
                    for a in actors]
     text = _ENV.get_template("scenario.scenic.j2").render(
         room=_room(actors),
@@ -190,6 +190,9 @@ def _room(actors: list[dict[str, Any]]) -> list[float]:
         elif a["placement"] == "follow" and a["placement_ref"] in extent:
             step = dist + a["gap"]
             extent[a["role"]] = extent[a["placement_ref"]] + (step if a["along"] == "front" else -step)
+        elif a["placement"] == "oncoming" and a["placement_ref"] in extent:
+            # the oncoming actor is placed by projecting a point of the ego's route: that point must exist
+            extent[a["role"]] = extent[a["placement_ref"]] + (dist if a["along"] == "front" else -dist)
     behind = max([-v for v in extent.values()] + [0.0]) + 10.0
     ahead = max(list(extent.values()) + [0.0]) + 10.0
     return [round(behind, 1), round(ahead, 1)]

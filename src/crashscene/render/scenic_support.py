@@ -9,7 +9,10 @@ rather than in each program because Scenic's parser is slow on long programs
 
 Scenic conventions here: headings 0 = +y, counter-clockwise [rad]; lengths [m].
 """
+import itertools as _itertools
 import math as _math
+from types import SimpleNamespace as _NS
+
 import shapely as _shapely
 from scenic.core.distributions import distributionFunction as _distributionFunction
 from scenic.core.vectors import Vector
@@ -17,9 +20,6 @@ from scenic.domains.driving.roads import ManeuverType as _ManeuverType
 
 _MIN_LANE = 30.0  # [m] shortest lane an actor may start on
 _LEAD_IN = 60.0  # [m] route length wanted before a junction entry or curve start
-
-
-from types import SimpleNamespace as _NS
 
 
 def _route(lanes, anchor):
@@ -186,7 +186,7 @@ def _curve_start(lane, sign, min_turn, step=2.0):
     if n < 3:
         return None
     pts = [line.interpolate(i * step) for i in range(n + 1)]
-    headings = [_math.atan2(-(b.x - a.x), b.y - a.y) for a, b in zip(pts, pts[1:])]
+    headings = [_math.atan2(-(b.x - a.x), b.y - a.y) for a, b in _itertools.pairwise(pts)]
     turn, start = 0.0, None
     for i in range(1, len(headings)):
         d = _angle_diff(headings[i], headings[i - 1]) * sign
@@ -270,9 +270,7 @@ def _needs_ok(actor, route, s_local_lane, lane, index=None):
         return False
     if need.get("right", 0) and _same_dir_count(lane, s_local_lane, "right") < need["right"]:
         return False
-    if need.get("oncoming") and _oncoming_lane(lane, s_local_lane, index) is None:
-        return False
-    return True
+    return not (need.get("oncoming") and _oncoming_lane(lane, s_local_lane, index) is None)
 
 
 def _local(route, s):
@@ -322,7 +320,7 @@ def _expand(actors, base, approach_candidates, cap):
     return combos
 
 
-def _road_combos(network, actors, topology, hint, curve_sign, ego_roads, cap=400):
+def _road_combos(network, actors, topology, hint, curve_sign, ego_roads, room=(0.0, 0.0), cap=400):
     ego_spec = actors[0]
     combos = []
     connecting = frozenset(network.connectingRoads)
@@ -340,7 +338,10 @@ def _road_combos(network, actors, topology, hint, curve_sign, ego_roads, cap=400
                 continue
             routes.append(_route(_follow_on(lead, 200.0), before + start))
         else:
-            routes.append(_route(_follow_on(lead, 200.0), before + min(hint, 0.5 * lane.centerline.length)))
+            route = _route(_follow_on(lead, 200.0), before + min(hint, 0.5 * lane.centerline.length))
+            if route.length >= room[0] + room[1]:  # slide the anchor so queued actors fit on the route
+                route.anchor = min(max(route.anchor, room[0]), route.length - room[1])
+            routes.append(route)
     if topology == "curve" and not routes and not ego_roads:
         routes = _turn_routes(network, curve_sign, connecting)  # towns whose bends are junction connectors
     for route in routes:
@@ -372,7 +373,6 @@ def _junction_combos(network, actors, legs, ego_roads, cap=400):
     index = _lane_index(_road_lanes(network))
 
     def approach_candidates(actor, combo):
-        ego_route = combo.routes["ego"]
         ego_lane, ego_man, inter = combo.meta["lane"], combo.meta["man"], combo.meta["inter"]
         found, conflicting = [], []
         for lane in inter.incomingLanes:
@@ -410,6 +410,38 @@ def _junction_combos(network, actors, legs, ego_roads, cap=400):
     return combos[:cap]
 
 
+_STRAIGHT_TOLERANCE = 0.35  # [rad] heading spread allowed along a "straight" ego route window
+_HEADING_TOLERANCE = 0.45  # [rad] error allowed on the expected heading of a placed actor
+
+
+def _plausible(combo, actors, topology, room):
+    """Compile-time check of a candidate at nominal distances: a straight ego window on straight roads, and
+    beside/oncoming actors facing the way their DSL heading says (CARLA towns bend where generated maps do not)."""
+    ego_route = combo.routes["ego"]
+    if topology == "straight":
+        h0 = _r_heading(ego_route, ego_route.anchor)
+        s = ego_route.anchor - room[0]
+        while s <= ego_route.anchor + room[1]:
+            if abs(_angle_diff(_r_heading(ego_route, s), h0)) > _STRAIGHT_TOLERANCE:
+                return False
+            s += 5.0
+    for actor in actors[1:]:
+        kind = actor["placement"]
+        if kind not in ("oncoming", "side_left", "side_right"):
+            continue
+        ref_route, route = combo.routes[actor["ref"]], combo.routes[actor["role"]]
+        expected = _math.pi if kind == "oncoming" else 0.0
+        for dist in actor.get("dist", (0.0,)):
+            along = dist if kind == "oncoming" and actor.get("along") != "behind" else -dist if kind == "oncoming" \
+                else 0.0
+            s_ref = ref_route.anchor + along
+            s_own = _r_project(route, _r_xy(ref_route, s_ref))
+            rel = _angle_diff(_r_heading(route, s_own), _r_heading(ref_route, s_ref))
+            if abs(_angle_diff(rel, expected)) > _HEADING_TOLERANCE:
+                return False
+    return True
+
+
 def candidates(network, actors, topology, hint, curve_sign, ego_roads=(), map_name="map", room=(0.0, 0.0)):
     """Every placement candidate of the program's actors on `network` (compile time).
 
@@ -419,10 +451,12 @@ def candidates(network, actors, topology, hint, curve_sign, ego_roads=(), map_na
     if topology in ("intersection", "t_intersection"):
         found = _junction_combos(network, actors, 4 if topology == "intersection" else 3, ego_roads)
     else:
-        found = _road_combos(network, actors, topology, hint, curve_sign, ego_roads)
+        found = _road_combos(network, actors, topology, hint, curve_sign, ego_roads, room)
     roomy = [c for c in found if c.routes["ego"].anchor >= room[0]
              and c.routes["ego"].length - c.routes["ego"].anchor >= room[1]]
     found = roomy or found
+    plausible = [c for c in found if _plausible(c, actors, topology, room)]
+    found = plausible or found
     if not found:
         raise RuntimeError(f"crashscene: no place on map {map_name!r} fits this {topology} "
                            f"scenario (lanes, junction legs or manoeuvres missing)")
@@ -431,5 +465,14 @@ def candidates(network, actors, topology, hint, curve_sign, ego_roads=(), map_na
 
 place_xy, place_heading, lane_uid, anchor_s, follow_s, project_s, approach_s, route_of = (
     _xy, _heading, _lane_uid, _anchor_s, _follow_s, _project_s, _approach_s, _pick)
-__all__ = ["candidates", "place_xy", "place_heading", "lane_uid", "anchor_s", "follow_s", "project_s",
-           "approach_s", "route_of"]
+__all__ = [
+    "anchor_s",
+    "approach_s",
+    "candidates",
+    "follow_s",
+    "lane_uid",
+    "place_heading",
+    "place_xy",
+    "project_s",
+    "route_of",
+]
