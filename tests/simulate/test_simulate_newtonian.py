@@ -5,6 +5,7 @@ Newtonian simulator on a hand-written program over a generated straight road.
 """
 from __future__ import annotations
 
+import json
 import math
 import random
 from pathlib import Path
@@ -29,6 +30,7 @@ from crashscene.simulate.newtonian import (
     generate_scenic_scene,
     newtonian_timing,
     seeded_globals,
+    simulate_program,
     time_newtonian_runs,
 )
 from crashscene.traces import TABLES
@@ -290,6 +292,41 @@ def test_a_run_scenic_rejects_is_invalid_with_its_reason_and_partial_trace(strai
     assert "not in a lane" in variation["invalid_reason"]
     xs = result.tables["traces"].column("x").to_pylist()
     assert len(xs) == 61 and xs[10] != xs[0]  # what ran before the rejection is kept, then held
+
+
+# Hand-written: no crashscene tags at all; the DSL scenario of case 109176 (V2 ahead, V1 runs into it).
+HAND_WRITTEN_PROGRAM = """
+param map = localPath('straight.xodr')
+model scenic.simulators.newtonian.driving_model
+param GAP = Range(25, 35)
+lane = Uniform(*network.lanes)
+ego = new Car on lane.centerline, with speed 12, with behavior FollowLaneBehavior(target_speed=12)
+other = new Car following roadDirection from ego for globalParameters.GAP, with speed 6,
+    with behavior FollowLaneBehavior(target_speed=6)
+"""
+
+
+@pytest.mark.slow
+def test_hand_written_program_runs_against_the_dsl_scenario(straight_map):
+    scenario = load_file(EXAMPLES / "109176" / "golden.yaml")
+    settings = SimulationSettings(mode="reproduce", horizon=8.0)
+    result = simulate_program(scenario, HAND_WRITTEN_PROGRAM, straight_map, n=2, seed=4, settings=settings)
+    assert result.tables["variations"].column("valid").to_pylist() == [True, True]
+    params = [json.loads(v) for v in result.tables["variations"].column("params").to_pylist()]
+    assert [set(p) for p in params] == [{"GAP"}] * 2 and params[0] != params[1]  # sampled values, not settings
+    actors = result.tables["actors"].to_pylist()
+    assert [(a["actor"], a["behavior"]) for a in actors[:2]] == [("ego", "go_forward"), ("npc1", "decelerate")]
+    hits = result.tables["collisions"].to_pylist()
+    assert [(h["actor_a"], h["actor_b"]) for h in hits] == [("ego", "npc1")] * 2  # the faster ego runs into V2
+    # with a 25-35 m gap closing at 6 m/s, contact (one car length, 4.5 m, apart) comes after 3.4-5.1 s
+    assert all(3.4 < h["t"] < 5.1 for h in hits)
+
+
+@pytest.mark.slow
+def test_hand_written_program_needs_one_object_per_actor(straight_map):
+    scenario = load_file(EXAMPLES / "3-C1-2017-006" / "golden.yaml")  # a single actor
+    with pytest.raises(SimulationError, match=r"places 2 objects but the scenario has 1 actors \(ego\)"):
+        simulate_program(scenario, HAND_WRITTEN_PROGRAM, straight_map, n=1, seed=4)
 
 
 # ------------------------------------------------------------------ slow: rendered CIREN cases

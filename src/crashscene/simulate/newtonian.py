@@ -20,6 +20,9 @@ What this backend adds around Scenic:
 - determinism: Scenic's behaviours draw from Python's `random` and numpy's
   global generator; both are seeded from (seed, variation) for the run and
   restored afterwards, so nothing leaks between runs or into the caller.
+
+Hand-written (or hand-edited) Scenic programs run through `simulate_program`
+(Python API), staged against a DSL scenario that names the roles.
 """
 from __future__ import annotations
 
@@ -36,7 +39,7 @@ from pathlib import Path
 
 import numpy as np
 
-from crashscene.scene import SampledScene
+from crashscene.scene import SampledActor, SampledScene
 from crashscene.simulate import scenic_trace
 from crashscene.simulate.backend import (
     BatchResult,
@@ -48,6 +51,8 @@ from crashscene.simulate.backend import (
 )
 
 NEWTONIAN_MODEL = "scenic.simulators.newtonian.driving_model"
+SCENIC_PARAMS = {"map", "render", "use2DMap", "carla_map", "address", "port", "timeout", "timestep", "record",
+                 "snapToGroundDefault", "debugRender", "verifaiSamplerType"}  # simulator settings, not sampled values
 PIN_TOLERANCE = 0.5  # [m] a Scenic scene farther than this from the sampled one means the program changed
 
 NOTES = (
@@ -357,6 +362,84 @@ def placement_mismatch(scenic_scene, scene: SampledScene, drift: float) -> str |
             return (f"scenic sampled parameter {key} = {ours!r} but the scene has {value!r}: "
                     f"the program and the scenes disagree (re-sample the scenes from this program)")
     return None
+
+
+# ---------------------------------------------------------------- hand-written Scenic programs
+
+def scenes_from_program(program: str, map_file: Path, scenario, n: int, seed: int, first: int = 0,
+                        scenario_hash: str | None = None) -> list[SampledScene]:
+    """Sampled scenes of a Scenic program that `crashscene render` did not write (hand-written or edited).
+
+    Scene i is Scenic's scene for (seed, i), as `crashscene.sample` draws it.
+    Objects tagged `cs_role` (or `role`) keep their role; untagged ones take the
+    DSL scenario's roles in order, the ego object first. What the program does
+    not say (type, behaviour, position relation, dispositions) comes from the
+    scenario's actor of that role, so the traces are monitored against it.
+    """
+    from crashscene.dsl.tokens import Behavior
+
+    scenario_roles = list(scenario.actors)
+    simulator = NewtonianSimulator()
+    compiled = simulator.compiled(program, map_file)
+    digest = scenario_hash or hashlib.sha256(program.encode()).hexdigest()[:16]
+    scenes = []
+    for index in range(first, first + n):
+        with quiet_scenic():
+            try:
+                scene = generate_scenic_scene(compiled, seed, index)
+            except Exception as exc:
+                raise SimulationError(f"the Scenic program gives no scene {index} (seed {seed}): "
+                                      f"{type(exc).__name__}: {exc}") from exc
+        objects = sorted(scene.objects, key=lambda obj: obj is not scene.egoObject)  # ego first, stable
+        if len(objects) != len(scenario_roles):
+            raise SimulationError(f"the Scenic program places {len(objects)} objects but the scenario has "
+                                  f"{len(scenario_roles)} actors ({', '.join(scenario_roles)}): one object per actor")
+        tagged = [getattr(obj, "cs_role", None) or getattr(obj, "role", None) for obj in objects]
+        roles = tagged if sorted(map(str, tagged)) == sorted(scenario_roles) else scenario_roles
+        actors = [_program_actor(obj, role, scenario, Behavior) for obj, role in zip(objects, roles)]
+        scenes.append(SampledScene(index=index, seed=seed, scenario_hash=digest, map_file=str(map_file),
+                                   params={k: v for k, v in scene.params.items() if k not in SCENIC_PARAMS
+                                           and isinstance(v, (int, float, str)) and not isinstance(v, bool)},
+                                   actors=actors))
+    return scenes
+
+
+def _program_actor(obj, role: str, scenario, behavior_enum) -> SampledActor:
+    """A SampledActor for a Scenic object, the DSL actor of its role filling what Scenic does not know."""
+    from crashscene.convert import ROUTE_INTENT
+
+    dsl = scenario.actors[role]
+    lane = getattr(obj, "_lane", None)
+    behavior = str(getattr(obj, "cs_behavior", None) or _token(dsl.behavior))
+    intent = getattr(obj, "cs_route_intent", None) or ROUTE_INTENT[behavior_enum(behavior)]
+    codes = [entry.code for entry in scenario.oracle if entry.actor == role]
+    return SampledActor(
+        role=role, label=dsl.label, type=str(getattr(obj, "cs_type", None) or _token(dsl.type)),
+        blueprint=str(getattr(obj, "blueprint", None) or "unknown"), behavior=behavior,
+        x=float(obj.position[0]), y=float(obj.position[1]),
+        yaw=float(scenic_trace.yaw_from_heading(obj.heading)), speed=max(0.0, float(obj.speed or 0.0)),
+        length=float(obj.length), width=float(obj.width), lane_id=lane.uid if lane is not None else None,
+        route_intent=str(intent), reference=_token(dsl.position.reference), relation=_token(dsl.position.relation),
+        heading_relation=_token(dsl.position.heading) if dsl.position.heading else None, dispositions=codes)
+
+
+def _token(value) -> str:
+    """The DSL token of an enum member, or the string itself (roles used as references)."""
+    return str(getattr(value, "value", value))
+
+
+def simulate_program(scenario, program: str | Path, map_file: Path, n: int, seed: int, first: int = 0,
+                     settings: SimulationSettings | None = None) -> BatchResult:
+    """Run a hand-written Scenic program on the newtonian backend: n variations from `first`, seeded `seed`.
+
+    `program` is Scenic source or a path to a .scenic file; `scenario` is the DSL
+    scenario it stages (roles, behaviours, oracle for the monitor).
+    """
+    text = Path(program).read_text(encoding="utf-8") if isinstance(program, Path) else program
+    scenes = scenes_from_program(text, Path(map_file), scenario, n, seed, first)
+    with NewtonianSimulator(settings) as simulator:
+        return simulator.simulate(SimulationRequest(scenario=scenario, scenes=scenes, map_file=Path(map_file),
+                                                    settings=simulator.settings, program=text))
 
 
 @dataclass(frozen=True)
