@@ -19,40 +19,42 @@ from crashscene.monitor.arrays import build_arrays
 from crashscene.monitor.collisions import classify_collisions
 from crashscene.monitor.context import EvalContext
 from crashscene.monitor.rulebook import Rulebook
-from crashscene.traces import ACTOR_SCHEMA, COLLISION_SCHEMA, TRACE_SCHEMA, VARIATION_SCHEMA
+from crashscene.traces import (
+    ACTOR_SCHEMA,
+    COLLISION_SCHEMA,
+    TRACE_SCHEMA,
+    VARIATION_SCHEMA,
+)
 
 DT = 0.1  # [s]
 BOX = 7.0  # [m] junction half size
 
 
 def synthetic(n_var: int, steps: int, seed: int = 0) -> dict[str, pa.Table]:
-    """Ego eastbound, npc1 northbound from the right (signal), npc2 westbound turning... straight, random speeds."""
+    """A signalised 4-leg junction: ego eastbound, npc1 northbound (its signal turns red at a random
+    time), npc2 westbound; random speeds [m/s] and start distances [m], so some variations collide."""
     rng = np.random.default_rng(seed)
     t = np.arange(steps) * DT
     roles = ["ego", "npc1", "npc2"]
-    starts = [(-1, 0.0, -1.75, 0.0), (1, 1.75, -1.0, np.pi / 2), (2, -1.0, 1.75, np.pi)]
     cols: dict[str, list] = {name: [] for name in TRACE_SCHEMA.names}
-    for a, (role, (_, x_off, y_off, yaw)) in enumerate(zip(roles, starts)):
+    for a, role in enumerate(roles):
         speed = rng.uniform(8, 14, n_var)[:, None] * np.ones(steps)
-        dist0 = rng.uniform(20, 60, n_var)[:, None]
-        s = speed * t - dist0
-        c, sn = np.cos(yaw), np.sin(yaw)
-        x = (x_off if a == 1 else 0.0) + s * c + (0 if a == 1 else 0)
-        y = (y_off if a != 1 else 0.0) + s * sn
-        if a == 1:
-            x = np.full_like(s, x_off)
-        if a == 2:
-            x = -s
-            y = np.full_like(s, y_off)
+        s = speed * t - rng.uniform(20, 60, n_var)[:, None]      # station, 0 at the junction centre
+        if role == "ego":
+            x, y, yaw = s, np.full_like(s, -1.75), 0.0
+        elif role == "npc1":
+            x, y, yaw = np.full_like(s, 1.75), s, np.pi / 2
+        else:
+            x, y, yaw = -s, np.full_like(s, 1.75), np.pi
         in_j = (np.abs(x) < BOX) & (np.abs(y) < BOX)
-        red = (t[None, :] > rng.uniform(0, 6, n_var)[:, None]) if a == 1 else np.zeros((n_var, steps), bool)
+        red = (t[None, :] > rng.uniform(0, 6, n_var)[:, None]) if role == "npc1" else np.zeros((n_var, steps), bool)
         n = n_var * steps
         cols["variation"].append(np.repeat(np.arange(n_var), steps))
         cols["actor"].append(np.full(n, role, dtype=object))
         cols["step"].append(np.tile(np.arange(steps), n_var))
         cols["t"].append(np.tile(t, n_var))
         for name, value in (("x", x), ("y", y), ("yaw", np.full_like(x, yaw)), ("speed", speed),
-                            ("accel", np.zeros_like(x)), ("lat_accel", np.zeros_like(x)), ("route_s", s + dist0),
+                            ("accel", np.zeros_like(x)), ("lat_accel", np.zeros_like(x)), ("route_s", s - s[:, :1]),
                             ("centerline_intrusion", np.full_like(x, -1.0)), ("stop_line_dist", -BOX - 2.25 - s),
                             ("speed_limit", np.full_like(x, 13.4))):
             cols[name].append(value.ravel())

@@ -9,7 +9,12 @@ from __future__ import annotations
 import numpy as np
 import pyarrow as pa
 
-from crashscene.traces import ACTOR_SCHEMA, COLLISION_SCHEMA, TRACE_SCHEMA, VARIATION_SCHEMA
+from crashscene.traces import (
+    ACTOR_SCHEMA,
+    COLLISION_SCHEMA,
+    TRACE_SCHEMA,
+    VARIATION_SCHEMA,
+)
 
 DT = 0.1  # [s]
 ACTOR_FIELDS = ("length", "width", "behavior", "is_ads", "type", "dispositions", "label")

@@ -7,8 +7,18 @@ import textwrap
 import numpy as np
 import pytest
 
-from crashscene.monitor import (Rule, RuleOutcome, RuleParams, Rulebook, RulebookError, evaluate, load_rulebook,
-                                register_rule, registered_rules, unregister_rule)
+from crashscene.monitor import (
+    Rule,
+    Rulebook,
+    RulebookError,
+    RuleOutcome,
+    RuleParams,
+    evaluate,
+    load_rulebook,
+    register_rule,
+    registered_rules,
+    unregister_rule,
+)
 from crashscene.monitor.errors import RegistryError
 from tests.monitor.builders import tables, track
 from tests.monitor.conftest import rule_row

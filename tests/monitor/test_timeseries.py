@@ -5,7 +5,15 @@ import numpy as np
 import pytest
 from numpy.lib.stride_tricks import sliding_window_view
 
-from crashscene.monitor.timeseries import crossings, first_index, last_index, run_length, runs, window_max, window_min
+from crashscene.monitor.timeseries import (
+    crossings,
+    first_index,
+    last_index,
+    run_length,
+    runs,
+    window_max,
+    window_min,
+)
 
 
 @pytest.mark.parametrize("k", [1, 2, 3, 5, 10, 13, 16, 64])

@@ -7,11 +7,23 @@ thresholds come from a `Rulebook` (defaults of rules.md, YAML overrides).
 """
 from crashscene.monitor.collisions import COLLISION_CLASSES, classify
 from crashscene.monitor.context import EvalContext
-from crashscene.monitor.errors import MonitorError, RegistryError, RulebookError, TraceError
+from crashscene.monitor.errors import (
+           MonitorError,
+           RegistryError,
+           RulebookError,
+           TraceError,
+)
 from crashscene.monitor.evaluate import evaluate
 from crashscene.monitor.result import MonitorResult
 from crashscene.monitor.rulebook import Rulebook, load_rulebook
-from crashscene.monitor.rules import Rule, RuleOutcome, RuleParams, register_rule, registered_rules, unregister_rule
+from crashscene.monitor.rules import (
+           Rule,
+           RuleOutcome,
+           RuleParams,
+           register_rule,
+           registered_rules,
+           unregister_rule,
+)
 from crashscene.monitor.run import monitor_run
 from crashscene.monitor.verdicts import VERDICTS, ExpectedCollision, expected_collision
 

@@ -15,7 +15,13 @@ import pyarrow.compute as pc
 
 from crashscene.dsl.model import actor_order
 from crashscene.monitor.errors import TraceError
-from crashscene.traces import CENTERLINE_MARKERS, CONTROLS, MANEUVERS, SIGNAL_STATES, TABLES
+from crashscene.traces import (
+    CENTERLINE_MARKERS,
+    CONTROLS,
+    MANEUVERS,
+    SIGNAL_STATES,
+    TABLES,
+)
 
 FLOAT_COLUMNS = ("t", "x", "y", "yaw", "speed", "accel", "lat_accel", "route_s", "centerline_intrusion",
                  "stop_line_dist", "speed_limit")

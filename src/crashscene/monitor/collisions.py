@@ -13,7 +13,12 @@ import numpy as np
 import pyarrow as pa
 
 from crashscene.monitor.arrays import TraceArrays
-from crashscene.monitor.geometry import corners, pair_indices, rectangles_overlap, relative_position
+from crashscene.monitor.geometry import (
+    corners,
+    pair_indices,
+    rectangles_overlap,
+    relative_position,
+)
 from crashscene.monitor.timeseries import first_index, wrap_angle
 
 COLLISION_CLASSES = ("rear_end", "head_on", "angle", "sideswipe")
@@ -84,7 +89,7 @@ def classify_collisions(arrays: TraceArrays, contacts: pa.Table | None, ads: np.
 
     `ads` (V, A) marks the actors under test.
     """
-    n_var, n_act, n_steps = arrays.shape
+    n_var, _, n_steps = arrays.shape
     ia, ib, first = footprint_contacts(arrays)
     pair_of = {(int(a), int(b)): p for p, (a, b) in enumerate(zip(ia, ib))}
     t_first = np.full(first.shape, np.inf)

@@ -56,7 +56,7 @@ def relevant_steps(arrays: TraceArrays, stride: int, around: float) -> np.ndarra
     """
     n_steps = arrays.shape[2]
     junction = arrays.flag("in_junction") & arrays.alive
-    k = max(1, int(round(around / arrays.dt)))
+    k = max(1, round(around / arrays.dt))
     csum = np.concatenate([np.zeros(junction.shape[:2] + (1,)), np.cumsum(junction, axis=2)], axis=2)
     steps = np.arange(n_steps)
     hi = np.minimum(steps + k + 1, n_steps)
@@ -86,7 +86,7 @@ def path_conflicts(arrays: TraceArrays, stride: int = 2, extension: float = 20.0
     idx = relevant_steps(arrays, stride, around)
     if idx.shape[2] == 0:
         return out
-    n_ext = max(0, int(round(extension / extension_step)))
+    n_ext = max(0, round(extension / extension_step))
     px, py, pyaw, ps = _sampled_paths(arrays, s_full, idx, n_ext, extension_step)
     ia, ib = pair_indices(n_act)
     for lo in range(0, n_var, chunk):
@@ -101,7 +101,7 @@ def _sampled_paths(arrays: TraceArrays, s_full: np.ndarray, idx: np.ndarray, n_e
     y = np.where(arrays.alive, arrays.floats["y"], np.nan)
     yaw = arrays.floats["yaw"]
     last = np.where(arrays.alive.any(axis=2), arrays.shape[2] - 1 - np.argmax(arrays.alive[..., ::-1], axis=2), 0)
-    take = lambda arr: np.take_along_axis(arr, last[..., None], axis=2)  # noqa: E731
+    take = lambda arr: np.take_along_axis(arr, last[..., None], axis=2)
     lx, ly, lyaw, ls = take(x), take(y), take(yaw), take(s_full)
     steps = np.arange(1, n_ext + 1) * ds
     ex = lx + steps * np.cos(lyaw)
@@ -109,7 +109,7 @@ def _sampled_paths(arrays: TraceArrays, s_full: np.ndarray, idx: np.ndarray, n_e
     es = ls + steps
     safe = np.clip(idx, 0, None)
     pad = idx < 0
-    gather = lambda arr: np.where(pad, np.nan, np.take_along_axis(arr, safe, axis=2))  # noqa: E731
+    gather = lambda arr: np.where(pad, np.nan, np.take_along_axis(arr, safe, axis=2))
     # float32 around a per-variation origin: half the memory traffic, centimetre precision
     origin_x = np.nanmean(np.where(np.isfinite(lx), lx, np.nan), axis=(1, 2), keepdims=True)
     origin_y = np.nanmean(np.where(np.isfinite(ly), ly, np.nan), axis=(1, 2), keepdims=True)

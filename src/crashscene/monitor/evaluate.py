@@ -13,7 +13,12 @@ from crashscene.monitor.context import EvalContext
 from crashscene.monitor.errors import MonitorError
 from crashscene.monitor.result import MonitorResult, rule_results_table
 from crashscene.monitor.rulebook import Rulebook
-from crashscene.monitor.verdicts import ExpectedCollision, ads_mask, expected_collision, verdict_table
+from crashscene.monitor.verdicts import (
+    ExpectedCollision,
+    ads_mask,
+    expected_collision,
+    verdict_table,
+)
 
 
 def evaluate(tables: dict[str, pa.Table], scenario: Scenario | None, rulebook: Rulebook | None = None, *,
@@ -36,7 +41,7 @@ def evaluate(tables: dict[str, pa.Table], scenario: Scenario | None, rulebook: R
     collisions = classify_collisions(arrays, tables.get("collisions"), under_test)
     if stop_at_collision:
         contact = first_contact_steps(arrays, collisions)
-        grace = int(round(after_collision / arrays.dt))
+        grace = round(after_collision / arrays.dt)
         arrays.truncate(np.where(contact >= 0, contact + grace, -1))
     ctx = EvalContext(arrays=arrays, scenario=scenario, collisions=collisions)
     outcomes = []

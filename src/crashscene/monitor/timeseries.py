@@ -10,7 +10,7 @@ import numpy as np
 
 def steps_for(duration: float, dt: float) -> int:
     """Samples spanning `duration` [s] at step `dt` [s] (at least 1)."""
-    return max(1, int(round(duration / dt)))
+    return max(1, round(duration / dt))
 
 
 def first_index(mask: np.ndarray) -> np.ndarray:

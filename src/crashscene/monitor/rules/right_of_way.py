@@ -125,7 +125,7 @@ class LeftTurnYield(Rule):
         # a's heading before it turned: at its junction entry, else 2 s before it entered b's path
         ref = np.where(ctx.junction_entry >= 0, ctx.junction_entry, -1)
         out = np.zeros(s.enter_a.shape, dtype=bool)
-        back = int(round(2.0 / ctx.dt))
+        back = round(2.0 / ctx.dt)
         for i in range(a.shape[1]):
             for j in range(a.shape[1]):
                 if i == j:
@@ -204,7 +204,7 @@ class IntersectionRightOfWay(Rule):
         arrival = ctx.time_at(first_index(arrived & a.alive))
         yaw, accel = a.floats["yaw"], a.floats["accel"]
         steps = np.arange(n_steps)
-        react = int(round(p.reaction_window / ctx.dt))
+        react = round(p.reaction_window / ctx.dt)
         pet_all = np.full((n_var, n_act, n_act), np.inf)
         margin_all = np.full((n_var, n_act, n_act), np.inf)
         bad_all = np.zeros((n_var, n_act, n_act), dtype=bool)

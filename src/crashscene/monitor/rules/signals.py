@@ -12,7 +12,12 @@ from pydantic import Field
 
 from crashscene.monitor.context import EvalContext
 from crashscene.monitor.rules.base import Rule, RuleOutcome, RuleParams, register_rule
-from crashscene.monitor.timeseries import crossings, first_index, run_length, segment_running_min
+from crashscene.monitor.timeseries import (
+    crossings,
+    first_index,
+    run_length,
+    segment_running_min,
+)
 
 
 def _previous(values: np.ndarray, fill) -> np.ndarray:

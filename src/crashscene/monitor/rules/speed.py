@@ -14,7 +14,12 @@ from pydantic import Field
 
 from crashscene.monitor.context import MPH, EvalContext
 from crashscene.monitor.rules.base import Rule, RuleOutcome, RuleParams, register_rule
-from crashscene.monitor.timeseries import first_index, margin_in, steps_for, take, window_min
+from crashscene.monitor.timeseries import (
+    first_index,
+    margin_in,
+    steps_for,
+    window_min,
+)
 
 G = 9.81  # [m/s2]
 
