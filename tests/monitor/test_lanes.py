@@ -114,3 +114,16 @@ def test_lane_change_forcing_hard_braking_is_violated(check):
 
 def test_no_lane_change_is_not_applicable(check):
     assert check(tables({"ego": track(STEPS)}), "CVC_22107", "ego")["verdict"] == "not_applicable"
+
+
+def test_lane_change_into_a_vehicle_alongside_is_violated(check):
+    actors = lane_change(0.0)
+    actors["npc1"] = track(STEPS, x0=3.0, y0=3.5, speed=15.0, lane_id="B")  # slightly ahead, overlapping
+    row = check(tables(actors), "CVC_22107", "ego")
+    assert row["verdict"] == "violated" and row["measured"] < 0
+
+
+def test_lane_change_behind_a_vehicle_clear_ahead_is_not_this_rules_business(check):
+    actors = lane_change(0.0)
+    actors["npc1"] = track(STEPS, x0=30.0, y0=3.5, speed=15.0, lane_id="B")
+    assert check(tables(actors), "CVC_22107", "ego")["verdict"] == "satisfied"

@@ -148,7 +148,8 @@ class UnsafeLaneChange(Rule):
     code = "CVC_22107"
     violation = "unsafe_lane_change"
     unit = "m"
-    summary = "a target-lane follower ends closer than its safe gap or must brake harder than the limit"
+    summary = ("a target-lane vehicle behind or alongside ends closer than its safe gap or must brake harder than "
+               "the limit")
     Params = LaneChangeParams
 
     def evaluate(self, ctx: EvalContext) -> RuleOutcome:
@@ -172,10 +173,12 @@ class UnsafeLaneChange(Rule):
                 if i == j:
                     continue
                 lon, _ = relative_position(x[:, j], y[:, j], yaw[:, j], x[:, i], y[:, i])  # i seen from j
-                gap = lon - (a.length[:, i, None] + a.length[:, j, None]) / 2
+                half_sum = (a.length[:, i, None] + a.length[:, j, None]) / 2
+                gap = np.abs(lon) - half_sum        # negative: side by side
                 safe = np.maximum(p.time_headway * speed[:, j], p.min_gap)
                 with np.errstate(invalid="ignore"):
-                    affected = ((target_lane[:, i] >= 0) & (lane[:, j] == target_lane[:, i]) & (lon > 0)
+                    # the target-lane vehicle behind the changer, or alongside it (changing into its side)
+                    affected = ((target_lane[:, i] >= 0) & (lane[:, j] == target_lane[:, i]) & (lon > -half_sum)
                                 & a.alive[:, j])
                 brake = np.where(np.isfinite(accel[:, j]), margin_in(safe, accel[:, j] + p.max_brake, p.max_brake),
                                  np.inf)
