@@ -24,7 +24,8 @@ def test_bad_option_values_are_named(tmp_path, two_cases):
     cases = str(two_cases[0].parent)
     for args, expected in ((["--mode", "fast"], "--mode"), (["--map", "osm"], "--map"), (["-n", "0"], "-n 0"),
                            (["--engine", "spark"], "spark"), (["--address", "1.2.3.4:6379"], "--address"),
-                           (["--rules", str(tmp_path / "none.yaml")], "--rules")):
+                           (["--rules", str(tmp_path / "none.yaml")], "--rules"),
+                           (["--extractor", "gpt5"], "--extractor"), (["--simulator", "unity"], "--simulator")):
         result = runner.invoke(app, ["campaign", cases, "--out", str(tmp_path / "o"), *args])
         assert result.exit_code == 2, args
         assert expected in result.output, (args, result.output)

@@ -74,23 +74,22 @@ def test_cli_campaign_killed_then_resumed_with_the_real_pipeline(tmp_path, two_c
     """`crashscene campaign` (real extract/render/simulate/monitor) SIGKILLed mid-way, then `--resume`."""
     out, cases_dir = tmp_path / "cli", tmp_path / "cases"
     cases_dir.mkdir()
-    for case in two_cases:
-        (cases_dir / case.name).symlink_to(case)
-    cli = [str(Path(sys.executable).with_name("crashscene")), "campaign", str(cases_dir), "-n", "12",
-           "--chunk-size", "3", "--workers", "1", "--mode", "test", "--dsl", "golden.yaml", "--no-report",
+    (cases_dir / two_cases[0].name).symlink_to(two_cases[0])
+    cli = [str(Path(sys.executable).with_name("crashscene")), "campaign", str(cases_dir), "-n", "8",
+           "--chunk-size", "2", "--workers", "1", "--mode", "test", "--dsl", "golden.yaml", "--no-report",
            "--out", str(out)]
-    seen = _kill_after_chunks(cli, dict(os.environ), chunks=2, timeout=300)
-    assert len(seen) >= 2
+    seen = _kill_after_chunks(cli, dict(os.environ), chunks=1, timeout=300)
+    assert len(seen) >= 1
     with Store(out) as store:
         before = store.query("SELECT scenario_hash, mode, first, session FROM chunks ORDER BY ALL")
-    assert 2 <= len(before) < 8
+    assert 1 <= len(before) < 4
     done = subprocess.run([*cli, "--resume", "--json"], capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr[-3000:]
     summary = json.loads(done.stdout)
     assert summary["complete"] and summary["chunks_skipped"] == len(before)
-    assert summary["chunks_run"] == 8 - len(before)
+    assert summary["chunks_run"] == 4 - len(before)
     with Store(out, read_only=True) as store:
         counts = store.query("SELECT scenario_hash, variation, count(*) AS c FROM variations GROUP BY ALL")
         after = store.query("SELECT scenario_hash, mode, first, session FROM chunks ORDER BY ALL")
-    assert len(counts) == 2 * 12 and all(r["c"] == 1 for r in counts)
+    assert len(counts) == 8 and all(r["c"] == 1 for r in counts)
     assert [r for r in after if r["session"] == 1] == before

@@ -9,7 +9,7 @@ from tests.campaign import fakes
 ray = pytest.importorskip("ray")
 
 
-@pytest.fixture
+@pytest.fixture(scope="module")
 def local_ray():
     """A small local Ray (2 CPUs, 100 MB object store), shut down after the test."""
     import ray.cloudpickle

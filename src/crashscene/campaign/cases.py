@@ -52,6 +52,7 @@ class PrepareTask(BaseModel):
     options: SimOptions
     extract_backend: str = "rules"
     dsl_name: str | None = None
+    llm: dict[str, str] = {}  # model, base_url, model_path for the openai/local extractors
 
     @property
     def key(self) -> str:
@@ -59,7 +60,7 @@ class PrepareTask(BaseModel):
 
 
 def prepare_task(task: PrepareTask) -> PreparedCase:
-    return prepare_case(task.path, task.out_dir, task.options, task.extract_backend, task.dsl_name)
+    return prepare_case(task.path, task.out_dir, task.options, task.extract_backend, task.dsl_name, task.llm)
 
 
 def is_case_folder(path: Path) -> bool:
@@ -98,7 +99,7 @@ def scenario_hash(scenario: Scenario, options: SimOptions) -> str:
 
 
 def prepare_case(path: Path, out_dir: Path, options: SimOptions, extract_backend: str = "rules",
-                 dsl_name: str | None = None) -> PreparedCase:
+                 dsl_name: str | None = None, llm: dict[str, str] | None = None) -> PreparedCase:
     """Extract (or read), validate and render one case; errors are returned in the record, not raised."""
     start = time.perf_counter()
     case_id = case_id_of(path)
@@ -106,7 +107,7 @@ def prepare_case(path: Path, out_dir: Path, options: SimOptions, extract_backend
     work.mkdir(parents=True, exist_ok=True)
     record = dict(case_id=case_id, case_dir=str(path), work_dir=str(work))
     try:
-        scenario, backend, warnings = _scenario_of(path, work, extract_backend, dsl_name)
+        scenario, backend, warnings = _scenario_of(path, work, extract_backend, dsl_name, llm or {})
         (work / "scenario.yaml").write_text(dumps(scenario), encoding="utf-8")
         digest = _render(scenario, work / "render", options) or scenario_hash(scenario, options)
     except Exception as exc:  # noqa: BLE001  (a case that fails is reported; the campaign goes on)
@@ -115,14 +116,15 @@ def prepare_case(path: Path, out_dir: Path, options: SimOptions, extract_backend
                         extract_backend=backend, warnings=warnings, seconds=time.perf_counter() - start)
 
 
-def _scenario_of(path: Path, work: Path, backend: str, dsl_name: str | None) -> tuple[Scenario, str, list[str]]:
+def _scenario_of(path: Path, work: Path, backend: str, dsl_name: str | None,
+                 llm: dict[str, str]) -> tuple[Scenario, str, list[str]]:
     dsl_file = path if path.is_file() else (path / dsl_name if dsl_name else None)
     if dsl_file is not None and dsl_file.is_file():
         scenario, warnings = validate_file(dsl_file)
         return scenario, f"file:{dsl_file.name}", [str(w) for w in warnings]
     from crashscene.extract.pipeline import extract_case
 
-    result = extract_case(path, backend=backend)
+    result = extract_case(path, backend=backend, **llm)
     meta = _extraction_meta(result, backend)
     (work / "extraction.json").write_text(json.dumps(meta, indent=2, default=str), encoding="utf-8")
     if result.scenario is None:

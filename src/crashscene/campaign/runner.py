@@ -45,6 +45,7 @@ class CampaignConfig(BaseModel):
     keep_traces: bool = Field(default=False, description="keep each chunk's run directory (traces) under OUT")
     extract_backend: str = "rules"
     dsl_name: str | None = Field(default=None, description="use CASE/<dsl_name> when present instead of extracting")
+    llm: dict[str, str] = Field(default_factory=dict, description="model, base_url, model_path for the LLM extractors")
     sim: SimOptions = SimOptions()
 
 
@@ -167,10 +168,11 @@ def _run_chunks(store: Store, engine, tasks: list[ChunkTask], worker, session: i
 def _prepare_all(paths: list[Path], out: Path, config: CampaignConfig, engine) -> list[PreparedCase]:
     """Extract/validate/render every case: in the local pool when there are several, else in the driver."""
     tasks = [PrepareTask(path=p, out_dir=out, options=config.sim, extract_backend=config.extract_backend,
-                         dsl_name=config.dsl_name) for p in paths]
+                         dsl_name=config.dsl_name, llm=config.llm) for p in paths]
     # a pool worker pays ~3 s of imports (Scenic, OCR) first: worth it from a handful of cases on;
     # Ray nodes may not share OUT, so with Ray the driver renders where the files are kept
-    if len(tasks) < PARALLEL_PREPARE_MIN or engine.name != "local":
+    # an LLM extractor runs one server or client in the driver, not one per worker
+    if len(tasks) < PARALLEL_PREPARE_MIN or engine.name != "local" or config.extract_backend != "rules":
         return [prepare_task(t) for t in tasks]
     done: dict[Path, PreparedCase] = {}
     for task, outcome in engine.run(tasks, prepare_task):

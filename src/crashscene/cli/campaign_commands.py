@@ -8,6 +8,7 @@ import typer
 
 from crashscene.cli import app
 
+EXTRACTORS = ("rules", "openai", "local", "auto")
 ModeOpt = Annotated[str, typer.Option("--mode", help="reproduce (re-enact the crash), test (ego = ADS under test), "
                                                      "or both.")]
 
@@ -25,6 +26,12 @@ def build_config(n: int, seed: int, mode: str, engine: str, workers: int | None,
         raise CampaignError(f"--map {map_mode!r}: allowed: generated, carla")
     if n <= 0:
         raise CampaignError(f"-n {n}: the number of variations must be positive")
+    if extractor not in EXTRACTORS:
+        raise CampaignError(f"--extractor {extractor!r}: allowed: {', '.join(EXTRACTORS)}")
+    from crashscene.simulate import backend_names
+
+    if simulator not in backend_names():
+        raise CampaignError(f"--simulator {simulator!r}: allowed: {', '.join(backend_names())}")
     if rules is not None and not rules.is_file():
         raise CampaignError(f"--rules {rules}: no such rulebook file")
     if chunk_size <= 0:
@@ -84,6 +91,9 @@ def campaign(
     mode: ModeOpt = "both",
     chunk_size: Annotated[int, typer.Option("--chunk-size", help="Variations per chunk (the unit of resume).")] = 250,
     extractor: Annotated[str, typer.Option("--extractor", help="Extraction backend: rules (offline), openai, local.")] = "rules",
+    model: Annotated[Optional[str], typer.Option("--model", help="LLM for --extractor openai (default gpt-4o-mini).")] = None,
+    base_url: Annotated[Optional[str], typer.Option("--base-url", help="OpenAI-compatible endpoint for --extractor openai.")] = None,
+    model_path: Annotated[Optional[Path], typer.Option("--model-path", help="GGUF file for --extractor local.")] = None,
     dsl: Annotated[Optional[str], typer.Option("--dsl", help="Use CASE/<NAME> (e.g. golden.yaml) instead of extracting, when present.")] = None,
     simulator: Annotated[str, typer.Option("--simulator", help="Simulation backend: embedded, newtonian, carla.")] = "embedded",
     ego: Annotated[str, typer.Option("--ego", help="DSL role driven by the ADS under test.")] = "ego",
@@ -100,6 +110,8 @@ def campaign(
     try:
         config = build_config(n, seed, mode, engine, workers, address, resume, chunk_size, extractor, dsl,
                               simulator, ego, map_mode, carla_maps, rules)
+        llm = {k: str(v) for k, v in (("model", model), ("base_url", base_url), ("model_path", model_path)) if v}
+        config = config.model_copy(update={"llm": llm})
         config = config.model_copy(update={"keep_traces": keep_traces})
         summary = run_campaign(cases_dir, out, config, quiet=as_json)
     except CampaignError as exc:

@@ -21,6 +21,9 @@ def run(
     chunk_size: Annotated[int, typer.Option("--chunk-size", help="Variations per chunk.")] = 250,
     resume: Annotated[bool, typer.Option("--resume", help="Continue an interrupted run in --out.")] = False,
     extractor: Annotated[str, typer.Option("--extractor", help="Extraction backend: rules (offline), openai, local.")] = "rules",
+    model: Annotated[Optional[str], typer.Option("--model", help="LLM for --extractor openai (default gpt-4o-mini).")] = None,
+    base_url: Annotated[Optional[str], typer.Option("--base-url", help="OpenAI-compatible endpoint for --extractor openai.")] = None,
+    model_path: Annotated[Optional[Path], typer.Option("--model-path", help="GGUF file for --extractor local.")] = None,
     dsl: Annotated[Optional[str], typer.Option("--dsl", help="Use CASE/<NAME> (e.g. golden.yaml) instead of extracting.")] = None,
     simulator: Annotated[str, typer.Option("--simulator", help="Simulation backend: embedded, newtonian, carla.")] = "embedded",
     ego: Annotated[str, typer.Option("--ego", help="DSL role driven by the ADS under test.")] = "ego",
@@ -38,6 +41,8 @@ def run(
     try:
         config = build_config(n, seed, mode, "local", workers, None, resume, chunk_size, extractor, dsl,
                               simulator, ego, map_mode, carla_maps, rules)
+        llm = {k: str(v) for k, v in (("model", model), ("base_url", base_url), ("model_path", model_path)) if v}
+        config = config.model_copy(update={"llm": llm})
         result = run_case(case_dir, out, config, report=report, quiet=as_json)
     except (CampaignError, ReportError) as exc:
         typer.echo(f"error: {exc}", err=True)
