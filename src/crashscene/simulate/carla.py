@@ -7,11 +7,12 @@ Both are checked before anything else, and either missing gives a
 a server. The import is guarded as in Scenic's `simulators/carla/__init__.py`,
 so this module imports fine without `carla`.
 
-Runs mirror the newtonian backend: the Scenic scene of each variation, its
-objects placed at the sampled scene's poses (CARLA cannot spawn a moving actor:
-the sampled speed is given as a target velocity right after spawning), traces
-recorded every tick by `scenic_trace.StateRecorder`, footprint contacts as
-collisions (CARLA's own physics handles the crash itself).
+Runs mirror the newtonian backend: the Scenic scene of each variation
+(checked to be the sampled one), each actor started at its sampled speed
+(CARLA cannot spawn a moving actor: the speed is given as a target velocity
+right after spawning), traces recorded every tick by
+`scenic_trace.StateRecorder` and laid out by `scenic_trace.record_tables`,
+footprint contacts as collisions (CARLA's own physics handles the crash itself).
 
 World: a map file named after a CARLA town (`Town04.xodr`) loads that town;
 any other OpenDRIVE file is loaded with `generate_opendrive_world` (road
@@ -189,8 +190,10 @@ def _tracing_classes(carla):
 
         def createObjectInSimulator(self, obj):
             index = len(self.objects) - 1
-            x, y, heading, speed = self._pins[index]
-            obj.position, obj.heading = Vector(x, y, 0), heading
+            # The Scenic scene is the sampled one (placement_mismatch checked it): only the speed needs
+            # pinning. CARLA spawns from `orientation`, which a heading set here would not update.
+            _, _, _, speed = self._pins[index]
+            heading = float(obj.heading)
             if index == self._agent_index and self._agent is not None:
                 obj.rolename = EGO_ROLE_NAME
             actor = super().createObjectInSimulator(obj)
