@@ -127,3 +127,14 @@ def test_lane_change_behind_a_vehicle_clear_ahead_is_not_this_rules_business(che
     actors = lane_change(0.0)
     actors["npc1"] = track(STEPS, x0=30.0, y0=3.5, speed=15.0, lane_id="B")
     assert check(tables(actors), "CVC_22107", "ego")["verdict"] == "satisfied"
+
+
+def test_wrong_side_cut_short_by_a_crash_is_violated(check):
+    ego = track(STEPS, opposing_lane=opposing(3), in_junction=False, centerline_marker="broken_line")
+    oncoming = track(STEPS, x0=200.0, y0=0.0, yaw=np.pi, speed=10.0)
+    contact = {"variation": 0, "t": 2.2, "actor_a": "ego", "actor_b": "npc1", "speed_a": 10.0, "speed_b": 10.0,
+               "yaw_a": 0.0, "yaw_b": np.pi, "x": 22.0, "y": 0.0}
+    row = check(tables({"ego": ego, "npc1": oncoming}, collisions=[contact]), "CVC_21650", "ego")
+    assert row["verdict"] == "violated" and row["first_violation_t"] == 2.0
+    # the same short stay without a crash is a momentary touch
+    assert check(tables({"ego": ego, "npc1": oncoming}), "CVC_21650", "ego")["verdict"] == "satisfied"

@@ -110,6 +110,15 @@ class EvalContext:
         lead_speed = np.where(best_idx >= 0, lead_speed, np.nan)
         return Leaders(index=best_idx, gap=best_gap, speed=lead_speed)
 
+    @cached_property
+    def first_contact(self) -> np.ndarray:
+        """(V, A) step of each actor's first collision, -1 never."""
+        from crashscene.monitor.collisions import first_contact_steps
+
+        if self.collisions is None:
+            return np.full(self.shape, -1, dtype=np.int64)
+        return first_contact_steps(self.arrays, self.collisions)
+
     def struck_stopped(self, stopped_speed: float) -> np.ndarray:
         """(V, A) time [s] an actor first rear-ended a vehicle slower than `stopped_speed` [m/s], NaN never."""
         out = np.full(self.shape, np.nan)

@@ -71,7 +71,8 @@ class WrongSide(Rule):
     code = "CVC_21650"
     violation = "wrong_side"
     unit = "s"
-    summary = "centre in an opposing lane outside junctions for the minimum duration, outside a permitted overtake"
+    summary = ("centre in an opposing lane outside junctions for the minimum duration (or until a crash ends it), "
+               "outside a permitted overtake")
     Params = WrongSideParams
 
     def evaluate(self, ctx: EvalContext) -> RuleOutcome:
@@ -94,15 +95,18 @@ class WrongSide(Rule):
         has_double = np.bincount(run_of, weights=double.astype(float), minlength=n_runs) > 0
         close = self._oncoming_close(ctx, p).ravel()[inside]
         not_clear = np.bincount(run_of, weights=close.astype(float), minlength=n_runs) > 0
-        permitted = ~has_double & ~not_clear & (length <= p.max_overtake_duration)
-        bad_run = (length >= p.min_duration - 1e-9) & ~permitted
         start_flat = np.nonzero(inside)[0][np.unique(run_of, return_index=True)[1]]
         v_idx, a_idx, t_idx = np.unravel_index(start_flat, a.shape)
         va = v_idx * n_act + a_idx
+        # a stay cut short by a crash counts whatever its length: the collision ended it, not the driver
+        contact = ctx.first_contact[v_idx, a_idx]
+        crashed = (contact >= t_idx) & (contact <= t_idx + np.round(length / ctx.dt) + 1)
+        permitted = ~has_double & ~not_clear & ~crashed & (length <= p.max_overtake_duration)
+        bad_run = ((length >= p.min_duration - 1e-9) | crashed) & ~permitted
         longest = np.zeros(n_var * n_act)
         np.maximum.at(longest, va[~permitted], length[~permitted])
         first = np.full(n_var * n_act, np.inf)
-        reach = t_idx + steps_for(p.min_duration, ctx.dt) - 1
+        reach = np.where(crashed, t_idx, t_idx + steps_for(p.min_duration, ctx.dt) - 1)
         times = ctx.time[v_idx, a_idx, np.minimum(reach, n_steps - 1)]
         np.minimum.at(first, va[bad_run], times[bad_run])
         longest = longest.reshape(ctx.shape)
