@@ -130,7 +130,7 @@ def write_report_cli(out: Path, quiet: bool = False) -> None:
     from crashscene.report import ReportError, write_report
 
     try:
-        written = write_report(out)
+        written = write_report(out, progress=None if quiet else (lambda line: typer.echo(line, err=True)))
     except ReportError as exc:
         typer.echo(f"report: {exc}", err=True)
         raise typer.Exit(2) from None

@@ -18,7 +18,7 @@ def report(
     from crashscene.report import ReportError, write_report
 
     try:
-        written = write_report(out_dir, gifs=gifs)
+        written = write_report(out_dir, gifs=gifs, progress=lambda line: typer.echo(line, err=True))
     except ReportError as exc:
         typer.echo(f"error: {exc}", err=True)
         raise typer.Exit(2) from None

@@ -10,6 +10,7 @@ import base64
 import io
 import json
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
@@ -41,8 +42,11 @@ def data_uri(data: bytes, mime: str) -> str:
     return f"data:{mime};base64,{base64.b64encode(data).decode('ascii')}"
 
 
-def write_report(out_dir: str | Path, gifs: bool = True) -> WrittenReport:
-    """Write OUT/report.html, OUT/results.json and OUT/junit.xml from OUT/campaign.duckdb."""
+def write_report(out_dir: str | Path, gifs: bool = True, progress: Callable[[str], None] | None = None
+                 ) -> WrittenReport:
+    """Write OUT/report.html, OUT/results.json and OUT/junit.xml from OUT/campaign.duckdb.
+
+    `progress` is called with a line per case (figures may need a variation re-simulated)."""
     from crashscene.campaign.engines import quiet_scenic_warnings
 
     quiet_scenic_warnings()
@@ -52,7 +56,7 @@ def write_report(out_dir: str | Path, gifs: bool = True) -> WrittenReport:
         raise ReportError(f"{out}: no {DB_NAME}; give the --out folder of `crashscene run` or `crashscene campaign`")
     try:
         with Store(out, read_only=True) as store:
-            cases, figures = _gather(store, out, gifs)
+            cases, figures = _gather(store, out, gifs, progress)
     except CampaignError as exc:
         raise ReportError(str(exc)) from exc
     generated = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
@@ -83,13 +87,16 @@ def _totals(cases: list[dict]) -> dict:
     return totals
 
 
-def _gather(store: Store, out: Path, gifs: bool) -> tuple[list[dict], dict[str, dict]]:
+def _gather(store: Store, out: Path, gifs: bool, progress: Callable[[str], None] | None = None
+            ) -> tuple[list[dict], dict[str, dict]]:
     runs_by_case: dict[str, list] = {}
     for run in summarize_runs(store):
         runs_by_case.setdefault(run.case_id, []).append(run)
     case_rows = store.query("SELECT * FROM cases ORDER BY case_id")
     cases, figures = [], {}
-    for row in case_rows:
+    for k, row in enumerate(case_rows, 1):
+        if progress is not None:
+            progress(f"report: case {row['case_id']} ({k}/{len(case_rows)})")
         case_id = row["case_id"]
         work = out / "cases" / case_id
         scenario_text = _read(work / "scenario.yaml")
