@@ -41,9 +41,18 @@ def main() -> None:
     options = ExtractOptions(backend=args.backend, model=args.model, base_url=args.base_url,
                              model_path=args.model_path, revise=not args.no_revise, exemplars=args.exemplars)
     started = time.perf_counter()
-    results = extract_batch([CIREN / case for case in cases], args.out, options=options,
-                            progress=lambda r: print(f"{r.case_id}: {r.status} {r.seconds:.1f} s "
-                                                     f"{r.tokens.total} tok {r.error or ''}", flush=True))
+    cpu: list[float] = []  # [s] CPU time of this process per case: the llama.cpp server runs in-process,
+    last = [time.process_time()]  # so on a machine shared with other jobs this is what the case cost
+
+    def progress(result) -> None:  # noqa: ANN001
+        now = time.process_time()
+        cpu.append(now - last[0])
+        last[0] = now
+        print(f"{result.case_id}: {result.status} {result.seconds:.1f} s wall, {cpu[-1]:.1f} s cpu, "
+              f"{result.tokens.total} tok ({result.tokens.cached} cached), {result.tokens.requests} requests "
+              f"{result.error or ''}", flush=True)
+
+    results = extract_batch([CIREN / case for case in cases], args.out, options=options, progress=progress)
     wall = time.perf_counter() - started
     pairs = {r.case_id: (load_file(CIREN / r.case_id / "golden.yaml"), r.scenario) for r in results}
     print(format_result(evaluate(pairs, {r.case_id: r.error for r in results if r.error}), diffs=args.diffs,
@@ -51,7 +60,8 @@ def main() -> None:
     seconds = [r.seconds for r in results]
     ok = [r for r in results if r.status == "ok"]
     print(f"\n{len(results)} cases, {len(ok)} ok; per case: mean {statistics.mean(seconds):.1f} s, "
-          f"median {statistics.median(seconds):.1f} s, max {max(seconds):.1f} s; wall {wall:.0f} s "
+          f"median {statistics.median(seconds):.1f} s, max {max(seconds):.1f} s; cpu mean "
+          f"{statistics.mean(cpu):.1f} s (first case includes model load); wall {wall:.0f} s "
           f"(model load included); tokens per case {statistics.mean(r.tokens.total for r in results):.0f}; "
           f"requests per case {statistics.mean(r.tokens.requests for r in results):.1f}; "
           f"cost {sum(r.cost_usd or 0 for r in results):.4f} USD")
