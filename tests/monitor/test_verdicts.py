@@ -116,3 +116,10 @@ def test_reproduce_mode_without_ads_the_ego_stands_in_for_the_verdict():
     assert result.verdicts.to_pylist()[0]["verdict"] == "violation"
     assert not any(result.rule_results.column("is_ads").to_pylist())
     assert result.collisions.to_pylist()[0]["involves_ads"] is False
+
+
+def test_summary_per_rule_counts_and_closest_margins():
+    summary = evaluate(crash(variations=2, valid=[True, False]), REAR_END).summary()
+    assert summary["rule_verdicts"]["CVC_21703"] == {"violated": 1, "satisfied": 0, "not_applicable": 1}
+    assert summary["min_robustness"]["CVC_21703"]["ego"] < 0
+    assert "CVC_21453" not in summary["min_robustness"]  # never applicable: no margin to report

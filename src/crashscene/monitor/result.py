@@ -39,6 +39,26 @@ class MonitorResult:
     oracle: dict[str, Any] = field(default_factory=dict)       # observable/unmonitored entries, expected collision
     rulebook: str | None = None
 
+    def _per_rule(self, valid: set[int], order: list[str]) -> tuple[dict, dict]:
+        """Verdict counts per code (actor rows of valid variations) and, per code and actor, the smallest
+        finite robustness: how close the batch came to (or how far it went past) each threshold."""
+        rr = self.rule_results
+        if not rr.num_rows:
+            return {}, {}
+        rr = rr.filter(pc.is_in(rr["variation"], value_set=pa.array(sorted(valid), type=pa.int32())))
+        counts: dict[str, Counter] = {}
+        for row in rr.group_by(["code", "verdict"]).aggregate([("verdict", "count")]).to_pylist():
+            counts.setdefault(row["code"], Counter())[row["verdict"]] = row["verdict_count"]
+        finite = rr.filter(pc.is_finite(rr["robustness"]))
+        closest: dict[str, dict[str, float]] = {}
+        for row in finite.group_by(["code", "actor"]).aggregate([("robustness", "min")]).to_pylist():
+            closest.setdefault(row["code"], {})[row["actor"]] = row["robustness_min"]
+        verdict_names = ("violated", "satisfied", "not_applicable")
+        return ({code: {name: int(counts[code].get(name, 0)) for name in verdict_names}
+                 for code in order if code in counts},
+                {code: {actor: _json_number(value) for actor, value in sorted(closest[code].items())}
+                 for code in order if code in closest})
+
     def summary(self) -> dict[str, Any]:
         """JSON-ready summary; counts are over valid variations unless said otherwise."""
         verdicts = self.verdicts.to_pydict()
@@ -67,6 +87,7 @@ class MonitorResult:
                 by_pair.setdefault(f"{a}-{b}", Counter())[klass] += 1
         invalid_reasons = Counter(r for r, verdict in zip(verdicts["reason"], verdicts["verdict"])
                                   if verdict == "invalid")
+        rule_verdicts, closest = self._per_rule(valid, order)
         return {
             "variations": len(verdicts["variation"]),
             "valid": n_valid,
@@ -77,11 +98,17 @@ class MonitorResult:
             "collisions": {name: int(by_class.get(name, 0)) for name in COLLISION_CLASSES},
             "collision_pairs": {pair: dict(c) for pair, c in sorted(by_pair.items())},
             "invalid_reasons": dict(invalid_reasons),
+            "rule_verdicts": rule_verdicts,
+            "min_robustness": closest,
             "oracle": self.oracle.get("oracle", []),
             "expected_collision": self.oracle.get("expected_collision"),
             "rules": [r["code"] for r in self.rules],
             "rulebook": self.rulebook,
         }
+
+
+def _json_number(value: float) -> float | None:
+    return round(float(value), 4) if np.isfinite(value) else None
 
 
 def rule_results_table(variations: np.ndarray, roles: list[str], present: np.ndarray, ads: np.ndarray,
