@@ -183,13 +183,19 @@ def build(scenario: Scenario, scenes: list[SampledScene], roadmap: RoadMap,
     conflict_time = np.full(n_v, np.inf)
     planned = np.zeros((n_v, n_a))
     moved = np.zeros((n_v, n_a), dtype=bool)
+    drifted = np.zeros((n_v, n_a))  # [m] lateral head start of a swerve that began before t = 0
     runs_red = "CVC_21453" in columns[anchor].dispositions
     for v, scene in enumerate(scenes):
         rng = variation_rng(scene.seed, scene.index)
         _plan_variation(v, scene, rng, columns, anchor, arrays, route, s0, d0, speed, length, entry_control,
                         lateral_target, hold, trigger, scale, phase, conflict_time, runs_red,
                         condition_factor(scenario), _mph(scenario.road_network.speed_limit_mph), planned, moved,
-                        settings.mode == "reproduce")
+                        settings.mode == "reproduce", drifted)
+    if drifted.any():
+        vv, aa = np.nonzero(drifted)
+        _, _, ryaw = arrays.point(route[vv, aa], s0[vv, aa])
+        x[vv, aa] -= np.sin(ryaw) * drifted[vv, aa]
+        y[vv, aa] += np.cos(ryaw) * drifted[vv, aa]
     if moved.any():
         # actors advanced along their approach by the timing plan start on their lane centre there
         vv, aa = np.nonzero(moved)
@@ -441,14 +447,14 @@ def _plan_variation(v: int, scene: SampledScene, rng: np.random.Generator, colum
                     length: np.ndarray, entry_control: np.ndarray, lateral_target: np.ndarray, hold: np.ndarray,
                     trigger: np.ndarray, scale: np.ndarray, phase: np.ndarray, conflict_time: np.ndarray,
                     runs_red: bool, cond: float, default_limit: float, planned_out: np.ndarray,
-                    moved: np.ndarray, reproduce: bool) -> None:
+                    moved: np.ndarray, reproduce: bool, drifted: np.ndarray) -> None:
     """Fill row v of the timing arrays (draws from rng in a fixed order)."""
     n_a = len(columns)
     planned = [_planned_speed(arrays, route[v, a], s0[v, a], speed[v, a], columns[a], cond, default_limit)
                for a in range(n_a)]
     planned_out[v] = planned
     draws = {"offset": rng.normal(timing.ARRIVAL_OFFSET_MEAN, timing.ARRIVAL_OFFSET_SD, n_a),
-             "lead": rng.uniform(0.3, 1.5, n_a), "trigger": rng.uniform(1.0, 4.0, n_a),
+             "lead": rng.uniform(0.8, 2.0, n_a), "trigger": rng.uniform(1.0, 4.0, n_a),
              "green": rng.uniform(3.0, 15.0), "spin": rng.choice([-1.0, 1.0], n_a)}
     ra = route[v, anchor]
     va = planned[anchor]
@@ -479,6 +485,8 @@ def _plan_variation(v: int, scene: SampledScene, rng: np.random.Generator, colum
             else:
                 dist = lateral_target[v, a] - d0[v, a]
             lead = _param(params, col.role, ("LEAD_TIME",), draws["lead"][a])
+            if col.behavior == "lose_control":
+                lead = (draws["lead"][a] - 0.8) / 1.2 * 0.5 - 0.2  # a spinning car crosses the lane quickly
             rate = timing.lateral_rate(col.behavior)
             p_col = columns[partner]
             if opposite and not p_col.is_ads and p_col.behavior not in LATERAL_BEHAVIORS and gap > 0:
@@ -488,7 +496,13 @@ def _plan_variation(v: int, scene: SampledScene, rng: np.random.Generator, colum
                 if closing < planned[a] + planned[partner]:
                     scale[v, partner] = max(timing.SPEED_SCALE[0], (closing - planned[a]) / planned[partner])
                     planned[partner] *= scale[v, partner]
-            trigger[v, a] = timing.lateral_trigger(gap, planned[a], planned[partner], opposite, dist, lead, rate)
+            t_trig = timing.lateral_trigger(gap, planned[a], planned[partner], opposite, dist, lead, rate)
+            if t_trig < 0 and col.behavior in ("cross_centerline", "overtake") and opposite:
+                # too close for the whole manoeuvre: the actor is already drifting across at t = 0
+                shift = float(np.clip(-t_trig * rate, 0.0, abs(dist) * 0.6)) * math.copysign(1.0, dist)
+                d0[v, a] += shift
+                drifted[v, a] = shift
+            trigger[v, a] = max(0.0, t_trig)
             continue
         if col.behavior in ("decelerate", "stop"):
             trigger[v, a] = _param(params, col.role, ("TRIGGER_TIME", "MANEUVER_TIME"), draws["trigger"][a])

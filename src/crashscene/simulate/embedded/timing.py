@@ -91,6 +91,8 @@ def lateral_trigger(gap: float, speed: float, partner_speed: float, opposite: bo
                     lead_time: float, rate: float = LATERAL_RATE) -> float:
     """Trigger time [s] of a lateral manoeuvre so that it is complete `lead_time` [s] before the meeting.
 
+    A negative result means the manoeuvre should have started before the scene begins.
+
     gap: partner's station ahead along the actor's route minus the actor's [m] (negative: behind).
     opposite: the partner comes the other way (closing speed = sum of speeds).
     """
@@ -103,4 +105,4 @@ def lateral_trigger(gap: float, speed: float, partner_speed: float, opposite: bo
         if abs(rel) < 0.3 or gap * rel <= 0:
             return max(0.0, 1.5 - duration / 2)
         t_meet = gap / rel
-    return max(0.0, t_meet - duration - lead_time)
+    return t_meet - duration - lead_time  # negative: the manoeuvre should already be under way at t = 0
