@@ -60,6 +60,8 @@ def main() -> None:
             status = "" if summary.complete else f"  INCOMPLETE ({summary.chunks_failed} chunks failed)"
             print(f"{engine:<10} {summary.workers:>7} {rows:>10} {seconds:>8.1f} {rows / seconds:>8.1f}{status}",
                   flush=True)
+            for failure in summary.failures[:3]:
+                print(f"    {failure['chunk']}: {failure['error'].splitlines()[0][:300]}", flush=True)
     finally:
         shutil.rmtree(root, ignore_errors=True)
 
