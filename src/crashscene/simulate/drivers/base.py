@@ -82,6 +82,7 @@ class Observation:
     #                          braking at 2 m/s2 before them (a driver scales it to its own lateral limit)
     lead_gap: np.ndarray  # [m] bumper to bumper to the nearest vehicle ahead in the actor's path, inf if none
     lead_speed: np.ndarray  # [m/s] its speed along the route, NaN if none
+    lead_rel_yaw: np.ndarray  # [rad] its heading minus the route's there, in [-pi, pi], NaN if none
     control: np.ndarray  # int: CONTROL_* of the approach to the next junction
     signal: np.ndarray  # int: SIGNAL_* governing the next stop line
     stop_line_dist: np.ndarray  # [m] front bumper to the next stop line (>0 before it), NaN if none

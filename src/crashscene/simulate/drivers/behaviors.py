@@ -5,7 +5,7 @@ CVC_21453 ignores red lights; CVC_22450 does not stop at stop signs; CVC_21703
 follows too closely and reacts late; CVC_22350 drives too fast for conditions,
 reacts late and does not slow for curves (and loses control when its behaviour
 says so); CVC_22349 exceeds the limit; CVC_21650 / CVC_21460 cross the centre
-line; CVC_21800 / 21801 / 21802 / 21803 do not yield; CVC_22107 changes lanes
+line; CVC_21800 / 21801 / 21802 / 21803 / 21804 (driveway) do not yield; CVC_22107 changes lanes
 without checking the gap.
 """
 from __future__ import annotations
@@ -22,9 +22,10 @@ from crashscene.simulate.drivers.longitudinal import (
     longitudinal_accel,
 )
 
-NO_YIELD_CODES = frozenset({"CVC_21800", "CVC_21801", "CVC_21802", "CVC_21803", "CVC_22450"})
+NO_YIELD_CODES = frozenset({"CVC_21800", "CVC_21801", "CVC_21802", "CVC_21803", "CVC_21804", "CVC_22450"})
 CLOSE_HEADWAY = 0.5  # [s] CVC_21703
 REACTION = 1.0  # [s] perception-reaction time of an ordinary human driver
+CROSSING_YAW = 0.7  # [rad] a lead more than this off the route's heading is crossing, not followed
 LATE_REACTION = 1.8  # [s] perception delay of an inattentive driver (CVC_21703, CVC_22350)
 OVERSPEED = 1.25  # [-] CVC_22350 / CVC_22349: cruise speed factor
 DECELERATE_TO = 0.25  # [-] decelerate: fraction of cruise speed it slows to
@@ -59,13 +60,18 @@ def rules_for(dispositions: frozenset[str], friction: float = 0.8) -> Longitudin
 
 
 class DelayedPerception:
-    """Lead-vehicle perception delayed by a reaction time (an inattentive driver)."""
+    """Lead-vehicle perception delayed by a reaction time; a vehicle cutting across the path from the side
+    (more than CROSSING_YAW off the route's heading) is not anticipated at all: scripted drivers re-enact
+    the report, where the vehicle with priority did not avoid the one that pulled out."""
 
     def __init__(self, delay: float, dt: float):
         self.buffer: deque = deque(maxlen=max(1, int(round(delay / dt)) + 1))
 
     def __call__(self, obs: Observation) -> tuple[np.ndarray, np.ndarray]:
-        self.buffer.append((obs.lead_gap.copy(), obs.lead_speed.copy()))
+        crossing = np.abs(np.sin(np.nan_to_num(obs.lead_rel_yaw))) > np.sin(CROSSING_YAW)
+        gap = np.where(crossing, np.inf, obs.lead_gap)
+        speed = np.where(crossing, np.nan, obs.lead_speed)
+        self.buffer.append((gap, speed))
         gap, speed = self.buffer[0]
         return gap, speed
 

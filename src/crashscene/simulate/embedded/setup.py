@@ -482,6 +482,10 @@ def _plan_variation(v: int, scene: SampledScene, rng: np.random.Generator, colum
             if col.behavior == "lose_control":
                 lateral_target[v, a] = 1.0 if lateral >= 0 else -1.0
                 dist = 2.5
+            elif col.behavior == "cross_centerline" and opposite and lateral > lateral_target[v, a] > 0:
+                # several opposing lanes: drift as far as the oncoming partner's lane
+                lateral_target[v, a] = lateral
+                dist = lateral - d0[v, a]
             else:
                 dist = lateral_target[v, a] - d0[v, a]
             lead = _param(params, col.role, ("LEAD_TIME",), draws["lead"][a])

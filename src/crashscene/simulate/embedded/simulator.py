@@ -221,6 +221,7 @@ def _observe(batch: batch_setup.BatchSetup, state: State, geo: Geometry, a: int,
     la, wa = batch.length[:, a], batch.width[:, a]
     lead_gap = np.full(n_v, np.inf)
     lead_speed = np.full(n_v, np.nan)
+    lead_rel_yaw = np.full(n_v, np.nan)
     tgt_front = np.full(n_v, np.inf)
     tgt_rear = np.full(n_v, np.inf)
     tgt_rear_speed = np.full(n_v, np.nan)
@@ -242,12 +243,14 @@ def _observe(batch: batch_setup.BatchSetup, state: State, geo: Geometry, a: int,
         lb, wb = batch.length[:, b], batch.width[:, b]
         ds, lat = _relative_on_route(batch, state, a, b)
         near_route = np.abs(ds) < 150.0
-        speed_along = state.v[:, b] * np.cos(state.yaw[:, b] - routes.point(r, state.s[:, a] + ds)[2])
+        rel_yaw = np.remainder(state.yaw[:, b] - routes.point(r, state.s[:, a] + ds)[2] + np.pi, 2 * np.pi) - np.pi
+        speed_along = state.v[:, b] * np.cos(rel_yaw)
         in_path = visible & near_route & (np.abs(lat - state.d[:, a]) < (wa + wb) / 2 + 0.3) & (ds > 0)
         gap = ds - (la + lb) / 2
         closer = in_path & (gap < lead_gap)
         lead_gap = np.where(closer, gap, lead_gap)
         lead_speed = np.where(closer, speed_along, lead_speed)
+        lead_rel_yaw = np.where(closer, rel_yaw, lead_rel_yaw)
         lane_w = geo.lane_width[:, a]
         in_target = visible & near_route & (np.abs(lat - target) < lane_w / 2 + wb / 4)
         ahead = in_target & (gap > -lb) & (ds >= 0)
@@ -281,7 +284,7 @@ def _observe(batch: batch_setup.BatchSetup, state: State, geo: Geometry, a: int,
         accel=state.a[:, a], s=state.s[:, a], d=state.d[:, a], route_remaining=routes.length[r] - state.s[:, a],
         lane_width=geo.lane_width[:, a], speed_limit=geo.speed_limit[:, a], curvature_ahead=curvature,
         curve_speed=curve_speed,
-        lead_gap=lead_gap, lead_speed=lead_speed, control=geo.control[:, a], signal=geo.signal[:, a],
+        lead_gap=lead_gap, lead_speed=lead_speed, lead_rel_yaw=lead_rel_yaw, control=geo.control[:, a], signal=geo.signal[:, a],
         stop_line_dist=geo.stop_line_dist[:, a], junction_dist=geo.junction_dist[:, a],
         in_junction=geo.in_junction_route[:, a], maneuver=geo.maneuver[:, a], yield_tta=yield_tta,
         yield_occupied=yield_occ, conflict_dist=conflict_dist, target_gap_front=tgt_front,
