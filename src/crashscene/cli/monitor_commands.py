@@ -46,7 +46,7 @@ def _print_summary(run_dir: Path, summary: dict) -> None:
     rate = summary["reproduction_rate"]
     console.print(f"reproduced: {summary['reproduced']}" + (f" ({rate:.1%} of valid)" if rate is not None else ""))
     if summary["violations"]:
-        table = Table(title="violations (variations per actor)")
+        table = Table(title="violations", caption="variations in which each actor violated the rule")
         table.add_column("code")
         roles = sorted({r for per in summary["violations"].values() for r in per})
         for role in roles:
@@ -56,6 +56,10 @@ def _print_summary(run_dir: Path, summary: dict) -> None:
         console.print(table)
     collisions = ", ".join(f"{k} {v}" for k, v in summary["collisions"].items() if v)
     console.print(f"collisions: {collisions or 'none'}")
+    expected = summary.get("expected_collision")
+    if expected:
+        accepted = "/".join(expected["accepted"] or ["any class"])
+        console.print(f"expected crash: {accepted} between {' and '.join(expected['actors'])}")
     for entry in summary["oracle"]:
         seen = "unmonitored" if not entry["monitored"] else f"observed in {entry['observed']}"
         console.print(f"oracle {entry['code']} by {entry['actor']}: {seen}")
