@@ -7,7 +7,7 @@ import pytest
 
 from crashscene.dsl import load_file
 from crashscene.dsl.tokens import Behavior, TimeOfDay, Weather
-from crashscene.extract.revise import review, stated_speed_limits
+from crashscene.extract.revise import oracle_conflict, prune_oracle, review, stated_speed_limits
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples" / "ciren"
 CASES = sorted(p.name for p in EXAMPLES.iterdir() if (p / "golden.yaml").is_file())
@@ -77,3 +77,27 @@ def test_invented_quote_is_a_note_not_a_revision() -> None:
 ])
 def test_stated_speed_limits(text: str, limits: list[int]) -> None:
     assert stated_speed_limits(text) == limits
+
+
+@pytest.mark.parametrize("case", CASES)
+def test_golden_oracles_hold_in_their_scenarios(case: str) -> None:
+    scenario, _ = golden(case)
+    assert [oracle_conflict(scenario, entry) for entry in scenario.oracle] == [None] * len(scenario.oracle)
+
+
+def test_impossible_oracle_entries_are_flagged_and_pruned() -> None:
+    from crashscene.dsl import validate
+    from crashscene.dsl.model import OracleEntry
+
+    scenario, narrative = golden("103378")  # straight road, no signs but the speed limit, nobody turns
+    spam = [OracleEntry(code=code, violation=token, actor="ego", description="")
+            for code, token in (("CVC_21802", "stop_sign_yield"), ("CVC_21801", "left_turn_yield"))]
+    noisy = scenario.model_copy(update={"oracle": spam + list(scenario.oracle),
+                                        "evidence": {"oracle[2]": "V1 drifted across the centerline"}})
+    found = [f for f in review(noisy, narrative) if f.path.startswith("oracle[")]
+    assert [f.path for f in found] == ["oracle[0].code", "oracle[1].code"]
+    assert "needs a stop_sign" in found[0].message and "junction" in found[1].message
+    pruned, dropped = prune_oracle(noisy)
+    assert [e.code for e in pruned.oracle] == ["CVC_21650", "CVC_21460"] and len(dropped) == 2
+    assert pruned.evidence == {"oracle[0]": "V1 drifted across the centerline"}
+    validate(pruned)

@@ -193,7 +193,7 @@ def _extract_llm(report: Any, facts: list[Any], chat: ChatBackend, options: Extr
                  warnings: list[str], scenario_id: str) -> Scenario:
     from crashscene.extract.openai_backend import image_part
     from crashscene.extract.prompt import DEFAULT_EXEMPLARS, build_messages, fact_lines as prompt_fact_lines
-    from crashscene.extract.revise import ask_until_valid, review, revise
+    from crashscene.extract.revise import ask_until_valid, prune_oracle, review, revise
 
     fact_lines = prompt_fact_lines(facts)
     image = image_part(report.sketch) if chat.send_image and report.sketch is not None and options.use_sketch \
@@ -208,7 +208,8 @@ def _extract_llm(report: Any, facts: list[Any], chat: ChatBackend, options: Extr
                                     options.max_reasks, source)
     else:
         scenario = draft
-    warnings += [f"review: {finding}" for finding in findings]
+    scenario, dropped = prune_oracle(scenario)
+    warnings += [f"review: {finding}" for finding in findings] + dropped
     return scenario
 
 

@@ -28,7 +28,8 @@ from typing import Any
 
 from crashscene.dsl import DslError, Scenario, validate
 from crashscene.dsl.errors import Severity
-from crashscene.dsl.tokens import Behavior, RoadMarker, RoadType, TimeOfDay, Weather
+from crashscene.dsl.model import OracleEntry
+from crashscene.dsl.tokens import Behavior, RoadMarker, RoadType, Sign, TimeOfDay, Weather
 from crashscene.dsl.validate import check
 from crashscene.extract.errors import ExtractError
 from crashscene.extract.llm_schema import from_scenario, to_scenario
@@ -116,8 +117,9 @@ _TIME_WORDS = {
     TimeOfDay.DUSK: r"\bdusk|twilight",
 }
 _BEHAVIOR_WORDS = {
-    Behavior.CROSS_CENTERLINE: r"cent(er|re) ?line|left of cent|across the|opposing|oncoming|bound (travel )?lane|"
-                               r"wrong (side|way|direction)|crossed|drift|to the left|into the path|head-on",
+    Behavior.CROSS_CENTERLINE: r"cent(er|re) ?line|left of cent|wrong (side|way|direction)|opposing|oncoming|"
+                               r"(enter\w*|into|across) the (north|south|east|west)bound|head-on|yellow|"
+                               r"into the path of|left side of the road",
     Behavior.TURN_LEFT: r"left turn|turn(ed|ing)? left|turn to the left|left-turn",
     Behavior.TURN_RIGHT: r"right turn|turn(ed|ing)? right|turn to the right|right-turn",
     Behavior.U_TURN: r"u-?turn",
@@ -262,9 +264,35 @@ def _oracle_findings(s: Scenario) -> list[Finding]:
             found.append(Finding("oracle", f"{name} enters the opposing lanes over a double solid line: "
                                  "CVC_21460 double_line_crossing is missing"))
     for index, entry in enumerate(s.oracle):
-        if entry.code == "CVC_21460" and not double:
-            found.append(Finding(f"oracle[{index}].code", "CVC_21460 needs road_marker double_solid_line"))
+        problem = oracle_conflict(s, entry)
+        if problem:
+            found.append(Finding(f"oracle[{index}].code", problem))
     return found
+
+
+_BEHAVIOR_CODES = {"CVC_21801": {Behavior.TURN_LEFT, Behavior.U_TURN},
+                   "CVC_22107": {Behavior.CHANGE_LANE_LEFT, Behavior.CHANGE_LANE_RIGHT}}
+_SIGN_CODES = {"CVC_21453": Sign.TRAFFIC_LIGHT, "CVC_22450": Sign.STOP_SIGN, "CVC_21802": Sign.STOP_SIGN,
+               "CVC_21803": Sign.YIELD_SIGN}
+_JUNCTION_CODES = {"CVC_21800", "CVC_21801", "CVC_21802", "CVC_21803", "CVC_21453", "CVC_22450"}
+
+
+def oracle_conflict(s: Scenario, entry: OracleEntry) -> str | None:
+    """Why a monitored oracle entry cannot hold in this scenario (dsl.md 5.9), or None when it can."""
+    actor = s.actors.get(entry.actor)
+    if actor is None:
+        return None  # the validator reports unknown actors
+    road = s.road_network
+    if entry.code == "CVC_21460" and road.road_marker != RoadMarker.DOUBLE_SOLID_LINE:
+        return "CVC_21460 needs road_marker double_solid_line"
+    if entry.code in _SIGN_CODES and _SIGN_CODES[entry.code] not in road.traffic_signs:
+        return f"{entry.code} ({entry.violation}) needs a {_SIGN_CODES[entry.code].value} in traffic_signs"
+    if entry.code in _JUNCTION_CODES and road.road_type not in (RoadType.INTERSECTION, RoadType.T_INTERSECTION):
+        return f"{entry.code} ({entry.violation}) happens at a junction, but road_type is {road.road_type.value}"
+    if entry.code in _BEHAVIOR_CODES and actor.behavior not in _BEHAVIOR_CODES[entry.code]:
+        allowed = " or ".join(sorted(b.value for b in _BEHAVIOR_CODES[entry.code]))
+        return f"{entry.code} ({entry.violation}) needs {entry.actor} to {allowed}, not {actor.behavior.value}"
+    return None
 
 
 def _lane_counts(text: str) -> set[int]:
@@ -276,6 +304,28 @@ def _lane_counts(text: str) -> set[int]:
         if 0 < count <= 16:
             counts.add(count)
     return counts
+
+
+def prune_oracle(s: Scenario) -> tuple[Scenario, list[str]]:
+    """Drop oracle entries that cannot hold in the scenario (see `oracle_conflict`); say which and why.
+
+    The last step after revision: small models list every code they know, and an
+    entry the monitor can never observe (a stop-sign code with no stop sign) would
+    only make the scenario unreproducible.
+    """
+    kept, dropped, evidence = [], [], {}
+    for index, entry in enumerate(s.oracle):
+        problem = oracle_conflict(s, entry)
+        if problem:
+            dropped.append(f"oracle: dropped {entry.code} for {entry.actor}: {problem}")
+            continue
+        if f"oracle[{index}]" in s.evidence:
+            evidence[f"oracle[{len(kept)}]"] = s.evidence[f"oracle[{index}]"]
+        kept.append(entry)
+    if not dropped:
+        return s, []
+    evidence.update({key: text for key, text in s.evidence.items() if not key.startswith("oracle[")})
+    return s.model_copy(update={"oracle": kept, "evidence": evidence}), dropped
 
 
 def _squash(text: str) -> str:
