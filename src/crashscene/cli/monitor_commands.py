@@ -46,7 +46,7 @@ def _print_summary(run_dir: Path, summary: dict) -> None:
     rate = summary["reproduction_rate"]
     console.print(f"reproduced: {summary['reproduced']}" + (f" ({rate:.1%} of valid)" if rate is not None else ""))
     if summary["violations"]:
-        table = Table(title="violations", caption="variations in which each actor violated the rule")
+        table = Table(title="violations", caption="(variations)")
         table.add_column("code")
         roles = sorted({r for per in summary["violations"].values() for r in per})
         for role in roles:
