@@ -172,6 +172,15 @@ def test_spawn_overlap_is_flagged_invalid(straight_map):
     assert not row["valid"] and "spawn overlap" in row["invalid_reason"]
 
 
+def test_an_ego_that_never_moves_is_invalid(four_way_map):
+    scenes = crossing_scenes(four_way_map, 2)
+    for scene in scenes:
+        scene.actors[0].speed = 0.0  # starts at rest and its driver never accelerates
+    tables = run(YIELD_CASE, scenes, four_way_map, mode="test", ads="tests.simulate.user_ads:Parked")
+    rows = tables["variations"].to_pylist()
+    assert [r["invalid_reason"] for r in rows] == ["ego never moved"] * 2
+
+
 def test_user_ads_plugs_in_and_bad_spec_is_clear(four_way_map):
     scenes = crossing_scenes(four_way_map, 3)
     tables = run(YIELD_CASE, scenes, four_way_map, mode="test", ads="tests.simulate.user_ads:ConstantSpeed",

@@ -15,3 +15,16 @@ class ConstantSpeed:
 
     def step(self, obs: Observation) -> Action:
         return Action(accel=np.clip(self.target - obs.speed, -3.0, 3.0), lateral_offset=np.zeros_like(obs.speed))
+
+
+class Parked:
+    """Never drives off: the variation must be flagged invalid ("ego never moved")."""
+
+    def __init__(self, params: dict):
+        pass
+
+    def reset(self, ctx: DriverContext) -> None:
+        pass
+
+    def step(self, obs: Observation) -> Action:
+        return Action(accel=np.full_like(obs.speed, -8.0))
