@@ -151,12 +151,16 @@ def test_carla_town_from_the_program_wins():
 @pytest.mark.slow
 def test_program_compiles_under_the_carla_model_without_a_client(no_carla, tmp_path):
     # Scenic's CARLA model compiles and samples without `carla`: only the run needs it.
+    from scenariogeneration import xodr
+
     from crashscene.simulate.newtonian import compile_program
 
-    town02 = tmp_path / "Town02.xodr"  # a copy, so Scenic's .snet cache lands in tmp_path
-    town02.write_bytes((Path(__file__).resolve().parents[1] / "data" / "maps" / "carla" / "Town02.xodr").read_bytes())
+    odr = xodr.OpenDrive("straight")
+    odr.add_road(xodr.create_road(xodr.Line(200), id=1, left_lanes=1, right_lanes=1, lane_width=3.5))
+    odr.adjust_roads_and_lanes()
+    odr.write_xml(str(tmp_path / "map.xodr"))
     program = "model scenic.domains.driving.model\nego = new Car on road\n"
-    scenario = compile_program(program, town02, model=carla_backend.CARLA_MODEL,
+    scenario = compile_program(program, tmp_path / "map.xodr", model=carla_backend.CARLA_MODEL,
                                extra_params={"render": 0, "carla_map": None})
     scene, _ = scenario.generate(maxIterations=100)
     assert len(scene.objects) == 1
