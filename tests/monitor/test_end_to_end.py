@@ -29,7 +29,7 @@ def cases():
         yield pytest.param(path, id=path.stem, marks=marks)
 
 
-@pytest.mark.parametrize("path", cases())
+@pytest.mark.parametrize("path", list(cases()))
 def test_injected_violation_is_flagged_in_most_variations(path, tmp_path):
     from crashscene.simulate.pipeline import simulate_scenario
 

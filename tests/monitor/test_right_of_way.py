@@ -120,3 +120,23 @@ def test_uncontrolled_forcing_priority_vehicle_to_brake_is_violated(check):
     accel[15:20] = -3.0
     actors["npc1"]["accel"] = accel
     assert check(tables(actors), "CVC_21800", "ego")["verdict"] == "violated"
+
+
+def test_all_way_stop_the_first_to_arrive_goes_first(check):
+    # both stop-controlled; npc1 is at its line from the start, the ego arrives later and goes first
+    actors = uncontrolled(0.8)
+    for d, axis in ((actors["ego"], "x"), (actors["npc1"], "y")):
+        junction_columns(d, "stop", axis=axis)
+    row = check(tables(actors), "CVC_21800", "ego")
+    assert row["verdict"] == "violated"
+    # with a signal, 21800 does not apply at all
+    for d, axis in ((actors["ego"], "x"), (actors["npc1"], "y")):
+        junction_columns(d, "signal", axis=axis)
+    assert check(tables(actors), "CVC_21800", "ego")["verdict"] == "not_applicable"
+
+
+def test_all_way_stop_vehicle_without_stop_sign_is_not_all_way(check):
+    actors = uncontrolled(0.8)
+    junction_columns(actors["ego"], "stop", axis="x")   # only the ego has a stop sign: 21802's business
+    row = check(tables(actors), "CVC_21800", "ego")
+    assert row["verdict"] == "satisfied"
