@@ -38,7 +38,7 @@ class EvalContext:
     conflict_stride: int = 2
     lane_half_width: float = 1.6       # [m] lateral offset still counted as the same lane
     leader_range: float = 150.0        # [m] farthest leader considered
-    _cache: dict = field(default_factory=dict, repr=False)
+    cache: dict = field(default_factory=dict, repr=False)  # derived quantities rules share, by name
 
     @property
     def shape(self) -> tuple[int, int]:

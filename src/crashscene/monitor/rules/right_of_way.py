@@ -33,7 +33,7 @@ class PairState:
 
 
 def pair_state(ctx: EvalContext) -> PairState:
-    cached = ctx._cache.get("pair_state")
+    cached = ctx.cache.get("pair_state")
     if cached is not None:
         return cached
     a = ctx.arrays
@@ -67,7 +67,7 @@ def pair_state(ctx: EvalContext) -> PairState:
             ttr[:, i, j] = np.where(enter >= 0, value, np.nan)
     state = PairState(enter_a=c.enter, t_enter_a=t_enter, ttr_b=ttr, ctrl_a=ctrl_a, ctrl_b=ctrl_b,
                       maneuver_a=maneuver_a, crossing=c.crossing)
-    ctx._cache["pair_state"] = state
+    ctx.cache["pair_state"] = state
     return state
 
 
