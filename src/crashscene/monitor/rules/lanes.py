@@ -93,7 +93,7 @@ class WrongSide(Rule):
         length = np.bincount(run_of, minlength=n_runs) * ctx.dt
         double = ctx.is_code("centerline_marker", "double_solid_line").ravel()[inside]
         has_double = np.bincount(run_of, weights=double.astype(float), minlength=n_runs) > 0
-        close = self._oncoming_close(ctx, p).ravel()[inside]
+        close = self._oncoming_close(ctx, p, opposing).ravel()[inside]
         not_clear = np.bincount(run_of, weights=close.astype(float), minlength=n_runs) > 0
         start_flat = np.nonzero(inside)[0][np.unique(run_of, return_index=True)[1]]
         v_idx, a_idx, t_idx = np.unravel_index(start_flat, a.shape)
@@ -121,20 +121,23 @@ class WrongSide(Rule):
         return out.finalize()
 
     @staticmethod
-    def _oncoming_close(ctx: EvalContext, p: WrongSideParams) -> np.ndarray:
+    def _oncoming_close(ctx: EvalContext, p: WrongSideParams, opposing: np.ndarray) -> np.ndarray:
         """(V, A, T) an oncoming vehicle is ahead in the actor's lane within the clear distance."""
         a = ctx.arrays
         x, y, yaw = a.floats["x"], a.floats["y"], a.floats["yaw"]
         close = np.zeros(a.shape, dtype=bool)
         for i in range(a.shape[1]):
+            rows = np.nonzero(opposing[:, i].any(axis=1))[0]   # only where i is ever in an opposing lane
+            if not len(rows):
+                continue
             for j in range(a.shape[1]):
                 if i == j:
                     continue
-                lon, lat = relative_position(x[:, i], y[:, i], yaw[:, i], x[:, j], y[:, j])
+                lon, lat = relative_position(x[rows, i], y[rows, i], yaw[rows, i], x[rows, j], y[rows, j])
                 with np.errstate(invalid="ignore"):
-                    hit = ((heading_difference(yaw[:, i], yaw[:, j]) > np.pi / 2) & (lon > 0)
+                    hit = ((heading_difference(yaw[rows, i], yaw[rows, j]) > np.pi / 2) & (lon > 0)
                            & (lon < p.clear_distance) & (np.abs(lat) < p.lane_half_width))
-                close[:, i] |= hit & a.alive[:, j]
+                close[rows, i] |= hit & a.alive[rows, j]
         return close
 
 
@@ -173,24 +176,28 @@ class UnsafeLaneChange(Rule):
         gap_at = np.full((n_var, n_act, n_steps), np.nan)
         safe_at = np.full((n_var, n_act, n_steps), np.nan)
         for i in range(n_act):
+            rows = np.nonzero((target_lane[:, i] >= 0).any(axis=1))[0]   # variations where i changes lanes
+            if not len(rows):
+                continue
+            tl = target_lane[rows, i]
             for j in range(n_act):
                 if i == j:
                     continue
-                lon, _ = relative_position(x[:, j], y[:, j], yaw[:, j], x[:, i], y[:, i])  # i seen from j
-                half_sum = (a.length[:, i, None] + a.length[:, j, None]) / 2
+                lon, _ = relative_position(x[rows, j], y[rows, j], yaw[rows, j], x[rows, i], y[rows, i])  # i from j
+                half_sum = (a.length[rows, i, None] + a.length[rows, j, None]) / 2
                 gap = np.abs(lon) - half_sum        # negative: side by side
-                safe = np.maximum(p.time_headway * speed[:, j], p.min_gap)
+                safe = np.maximum(p.time_headway * speed[rows, j], p.min_gap)
                 with np.errstate(invalid="ignore"):
                     # the target-lane vehicle behind the changer, or alongside it (changing into its side)
-                    affected = ((target_lane[:, i] >= 0) & (lane[:, j] == target_lane[:, i]) & (lon > -half_sum)
-                                & a.alive[:, j])
-                brake = np.where(np.isfinite(accel[:, j]), margin_in(safe, accel[:, j] + p.max_brake, p.max_brake),
-                                 np.inf)
+                    affected = (tl >= 0) & (lane[rows, j] == tl) & (lon > -half_sum) & a.alive[rows, j]
+                brake = np.where(np.isfinite(accel[rows, j]),
+                                 margin_in(safe, accel[rows, j] + p.max_brake, p.max_brake), np.inf)
                 margin = np.where(affected, np.fmin(gap - safe, brake), np.inf)
-                better = margin < worst[:, i]
-                worst[:, i] = np.where(better, margin, worst[:, i])
-                gap_at[:, i] = np.where(better, gap, gap_at[:, i])
-                safe_at[:, i] = np.where(better, safe, safe_at[:, i])
+                current = worst[rows, i]
+                better = margin < current
+                worst[rows, i] = np.where(better, margin, current)
+                gap_at[rows, i] = np.where(better, gap, gap_at[rows, i])
+                safe_at[rows, i] = np.where(better, safe, safe_at[rows, i])
         bad = worst < 0
         out = RuleOutcome.empty(ctx.shape, np.nan)
         out.applicable = changing.any(axis=2)
