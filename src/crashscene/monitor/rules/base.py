@@ -3,9 +3,30 @@
 A rule is a small class: its CVC code, violation token, unit, a pydantic
 `Params` model holding its thresholds (defaults from rules.md), and an
 `evaluate(ctx)` returning one `RuleOutcome` of (variation, actor) arrays.
-Registering a class by its code is all it takes to add a rule
-(`@register_rule class Cvc22108(Rule): ...`): the rulebook, the monitor and the
-reports pick it up without touching the other rules.
+Registering a class by its code is all it takes to add a rule: the rulebook
+(YAML overrides, `crashscene rules`), the monitor and the reports pick it up
+without touching the other rules. For example, CVC 22108 (signal for 100 ft
+before turning), assuming a backend that records a `turn_signal` flag::
+
+    from pydantic import Field
+    from crashscene.monitor import Rule, RuleOutcome, RuleParams, register_rule
+
+    class SignalParams(RuleParams):
+        min_distance: float = Field(default=30.5, gt=0, description="[m] signal this far before the turn")
+
+    @register_rule
+    class TurnSignal(Rule):
+        code, violation, unit = "CVC_22108", "no_turn_signal", "m"
+        summary = "turn signal on for the last 100 ft before a turn"
+        Params = SignalParams
+
+        def evaluate(self, ctx):
+            out = RuleOutcome.empty(ctx.shape, self.params.min_distance)
+            ...  # fill out.applicable, violated, first_t, measured, robustness from ctx.arrays
+            return out.finalize()
+
+Put it in an importable module and name that module under `imports:` in a
+rulebook file (`crashscene monitor RUN --rules rules.yaml`).
 """
 from __future__ import annotations
 
