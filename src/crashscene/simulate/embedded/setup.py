@@ -11,6 +11,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+import shapely
 
 from crashscene.dsl import Scenario
 from crashscene.scene import SampledActor, SampledScene
@@ -303,25 +304,21 @@ def _straight_route(key: tuple, actor: SampledActor, length: float) -> Route:
 
 
 def _project_many(route: Route, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(s, d) of many points on one route, chunked to bound memory."""
-    s_out = np.empty(len(x))
-    d_out = np.empty(len(x))
-    a = route.xy[:-1]
-    seg = route.xy[1:] - a
-    seg_len2 = np.maximum((seg ** 2).sum(axis=1), 1e-12)
-    for start in range(0, len(x), 256):
-        px = x[start:start + 256, None]
-        py = y[start:start + 256, None]
-        rx, ry = px - a[:, 0], py - a[:, 1]
-        u = np.clip((rx * seg[:, 0] + ry * seg[:, 1]) / seg_len2, 0.0, 1.0)
-        fx, fy = rx - seg[:, 0] * u, ry - seg[:, 1] * u
-        dist = np.hypot(fx, fy)
-        k = np.argmin(dist, axis=1)
-        rows = np.arange(len(k))
-        s_out[start:start + 256] = (k + u[rows, k]) * ROUTE_DS
-        cross = seg[k, 0] * ry[rows, k] - seg[k, 1] * rx[rows, k]
-        d_out[start:start + 256] = np.sign(cross) * dist[rows, k]
-    return s_out, d_out
+    """(s, d) of many points on one route (s along the stitched polyline, d left positive)."""
+    # actors start on the route's first lane: project onto that piece only (routes run for hundreds of metres)
+    first = np.flatnonzero(route.lane != route.lane[0])
+    end = int(first[0]) + 2 if len(first) else len(route.xy)
+    line = shapely.LineString(route.xy[:max(end, 2)])
+    s = shapely.line_locate_point(line, shapely.points(x, y))
+    s = np.minimum(s, route.length)
+    k = np.minimum((s / ROUTE_DS).astype(np.int64), len(route.xy) - 2)
+    u = s / ROUTE_DS - k
+    p0, p1 = route.xy[k], route.xy[k + 1]
+    foot = p0 + (p1 - p0) * u[:, None]
+    tangent = p1 - p0
+    norm = np.maximum(np.hypot(tangent[:, 0], tangent[:, 1]), 1e-12)
+    d = (tangent[:, 0] * (y - foot[:, 1]) - tangent[:, 1] * (x - foot[:, 0])) / norm
+    return s, d
 
 
 # ------------------------------------------------------------------ control and priority

@@ -85,11 +85,20 @@ class RouteArrays:
 
     def point(self, r: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(x, y, yaw) of the route centre line at station s; r and s broadcast together."""
-        k, u = self.index(s)
-        p0 = self.xy[r, k]
-        p1 = self.xy[r, k + 1]
-        xy = p0 + (p1 - p0) * u[..., None]
-        return xy[..., 0], xy[..., 1], self.yaw[r, k]
+        if not hasattr(self, "_flat_x"):
+            self._flat_x = np.ascontiguousarray(self.xy[..., 0]).ravel()
+            self._flat_y = np.ascontiguousarray(self.xy[..., 1]).ravel()
+            self._flat_yaw = np.ascontiguousarray(self.yaw).ravel()
+        n_k = self.xy.shape[1]
+        f = np.clip(s * (1.0 / ROUTE_DS), 0.0, n_k - 1.000001)
+        k = f.astype(np.int64)
+        u = f - k
+        flat = np.asarray(r) * n_k + k
+        x0 = self._flat_x[flat]
+        y0 = self._flat_y[flat]
+        x = x0 + (self._flat_x[flat + 1] - x0) * u
+        y = y0 + (self._flat_y[flat + 1] - y0) * u
+        return x, y, self._flat_yaw[flat]
 
     def sample(self, table: np.ndarray, r: np.ndarray, s: np.ndarray) -> np.ndarray:
         k, _ = self.index(s)
@@ -104,6 +113,10 @@ class RouteArrays:
         k0, k1 = int(s0 / ROUTE_DS), min(int(np.ceil(s1 / ROUTE_DS)), self.curvature.shape[1] - 1)
         if k1 <= k0:
             return (s1 - s0) / max(speed, 0.5)
+        speed = max(speed, 0.5)
+        if (v0 is None or v0 >= speed - 1e-9) and \
+                speed ** 2 * float(np.abs(self.curvature[r, k0:k1 + 1]).max()) <= lat_accel:
+            return (s1 - s0) / speed  # no curve to slow down for, already at speed
         step = 4  # every 2 m is enough for a speed profile
         kappa = np.abs(self.curvature[r, k0:k1 + 1]).copy()
         if len(kappa) > step:
