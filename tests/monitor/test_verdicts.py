@@ -123,3 +123,9 @@ def test_summary_per_rule_counts_and_closest_margins():
     assert summary["rule_verdicts"]["CVC_21703"] == {"violated": 1, "satisfied": 0, "not_applicable": 1}
     assert summary["min_robustness"]["CVC_21703"]["ego"] < 0
     assert "CVC_21453" not in summary["min_robustness"]  # never applicable: no margin to report
+
+
+def test_stationary_ads_struck_at_once_took_part_in_the_test():
+    actors = {"ego": track(STEPS, speed=0.0, lane_id="L"), "npc1": track(STEPS, x0=-20.0, speed=15.0, lane_id="L")}
+    row = evaluate(tables(actors), None).verdicts.to_pylist()[0]
+    assert row["verdict"] == "collision" and row["collision_classes"] == ["rear_end"]

@@ -17,6 +17,7 @@ from crashscene.monitor.verdicts import (
     ExpectedCollision,
     ads_mask,
     expected_collision,
+    invalid_reasons,
     verdict_table,
 )
 
@@ -39,8 +40,9 @@ def evaluate(tables: dict[str, pa.Table], scenario: Scenario | None, rulebook: R
     ads = ads_mask(arrays)                        # is_ads, or the ego standing in (reproduce mode): verdicts
     under_test = arrays.is_ads & arrays.present    # the tables report is_ads as the simulator set it
     collisions = classify_collisions(arrays, tables.get("collisions"), under_test)
+    contact = first_contact_steps(arrays, collisions)
+    invalid = invalid_reasons(arrays, ads, contact >= 0)   # on whole traces, before truncation
     if stop_at_collision:
-        contact = first_contact_steps(arrays, collisions)
         grace = round(after_collision / arrays.dt)
         arrays.truncate(np.where(contact >= 0, contact + grace, -1))
     ctx = EvalContext(arrays=arrays, scenario=scenario, collisions=collisions)
@@ -57,7 +59,8 @@ def evaluate(tables: dict[str, pa.Table], scenario: Scenario | None, rulebook: R
     rule_results = rule_results_table(arrays.variations, arrays.roles, arrays.present, under_test, outcomes)
     if expected == "auto":
         expected = expected_collision(scenario)
-    verdicts, oracle = verdict_table(arrays, {r.code: o for r, o in outcomes}, collisions, scenario, ads, expected)
+    verdicts, oracle = verdict_table(arrays, {r.code: o for r, o in outcomes}, collisions, scenario, ads, expected,
+                                     invalid)
     rules = [{"code": r.code, "violation": r.violation, "unit": r.unit, "summary": r.summary,
               "params": r.params.model_dump(mode="json")} for r, _ in outcomes]
     return MonitorResult(rule_results=rule_results, collisions=collisions, verdicts=verdicts, rules=rules,

@@ -96,11 +96,14 @@ def ads_mask(arrays: TraceArrays) -> np.ndarray:
     return ads
 
 
-def invalid_reasons(arrays: TraceArrays, ads: np.ndarray) -> list[str | None]:
-    """Why each variation is invalid, None when it is valid."""
+def invalid_reasons(arrays: TraceArrays, ads: np.ndarray, collided: np.ndarray | None = None) -> list[str | None]:
+    """Why each variation is invalid, None when it is valid. An actor under test that collided took part
+    in the test even if it never moved (`collided`, (V, A))."""
     travel = arc_length(arrays)[..., -1] if arrays.shape[2] else np.zeros(arrays.shape[:2])
     moving_role = ~np.isin(arrays.behavior.astype(str), STATIONARY_BEHAVIORS)
     never_moved = ads & moving_role & (travel < MIN_TRAVEL)
+    if collided is not None:
+        never_moved &= ~collided
     out: list[str | None] = []
     for v in range(arrays.shape[0]):
         if not arrays.valid[v]:
@@ -116,11 +119,15 @@ def invalid_reasons(arrays: TraceArrays, ads: np.ndarray) -> list[str | None]:
 
 
 def verdict_table(arrays: TraceArrays, outcomes: dict[str, RuleOutcome], collisions: pa.Table,
-                  scenario: Scenario | None, ads: np.ndarray,
-                  expected: ExpectedCollision | None) -> tuple[pa.Table, dict]:
-    """The verdicts table and what the summary needs about the oracle."""
+                  scenario: Scenario | None, ads: np.ndarray, expected: ExpectedCollision | None,
+                  reasons: list[str | None] | None = None) -> tuple[pa.Table, dict]:
+    """The verdicts table and what the summary needs about the oracle.
+
+    `reasons` (from `invalid_reasons` on the untruncated traces) say which variations are invalid.
+    """
     n_var = arrays.shape[0]
-    reasons = invalid_reasons(arrays, ads)
+    if reasons is None:
+        reasons = invalid_reasons(arrays, ads)
     role_index = {r: i for i, r in enumerate(arrays.roles)}
     var_index = {int(v): i for i, v in enumerate(arrays.variations)}
     ads_codes: list[list[str]] = [[] for _ in range(n_var)]
