@@ -487,7 +487,7 @@ def _plan_variation(v: int, scene: SampledScene, rng: np.random.Generator, colum
                 dist = lateral_target[v, a] - d0[v, a]
             lead = _param(params, col.role, ("LEAD_TIME",), draws["lead"][a])
             if col.behavior == "lose_control":
-                lead = (draws["lead"][a] - 0.8) / 1.2 * 0.5 - 0.2  # a spinning car crosses the lane quickly
+                lead = (draws["lead"][a] - 1.4) / 1.2 * 0.6  # [-0.3, 0.3] s around reaching the partner's lane
             rate = timing.lateral_rate(col.behavior)
             p_col = columns[partner]
             if opposite and not p_col.is_ads and p_col.behavior not in LATERAL_BEHAVIORS and gap > 0:
@@ -497,7 +497,11 @@ def _plan_variation(v: int, scene: SampledScene, rng: np.random.Generator, colum
                 if closing < planned[a] + planned[partner]:
                     scale[v, partner] = max(timing.SPEED_SCALE[0], (closing - planned[a]) / planned[partner])
                     planned[partner] *= scale[v, partner]
-            t_trig = timing.lateral_trigger(gap, planned[a], planned[partner], opposite, dist, lead, rate)
+            if col.behavior == "lose_control":
+                t_trig = timing.skid_trigger(gap, planned[a], planned[partner], lateral, timing.SPIN_RATE,
+                                             opposite=opposite) - lead
+            else:
+                t_trig = timing.lateral_trigger(gap, planned[a], planned[partner], opposite, dist, lead, rate)
             if t_trig < 0 and col.behavior in ("cross_centerline", "overtake") and opposite:
                 # too close for the whole manoeuvre: the actor is already drifting across at t = 0
                 shift = float(np.clip(-t_trig * rate, 0.0, abs(dist) * 0.6)) * math.copysign(1.0, dist)

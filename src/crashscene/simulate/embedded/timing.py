@@ -23,6 +23,7 @@ ARRIVAL_OFFSET_MAX = 0.8  # [s]
 TURNER_LEAD = 0.5  # [s] a turning vehicle reaches a crossing conflict point this much before a straight one
 REPRODUCE_OFFSET_SCALE = 0.4  # [-] reproduce mode narrows the sampled offset window (the crash must happen)
 LATERAL_RATE = 1.2  # [m/s] lateral speed of a lane change
+SPIN_RATE = 0.35  # [rad/s] yaw rate of a car out of control (drivers.behaviors.SPIN_RATE)
 SWERVE_RATE = 2.0  # [m/s] lateral speed of a drift or swerve across the centre line or off the road
 SWERVE_BEHAVIORS = ("cross_centerline", "overtake", "leave_road", "lose_control")
 
@@ -106,3 +107,24 @@ def lateral_trigger(gap: float, speed: float, partner_speed: float, opposite: bo
             return max(0.0, 1.5 - duration / 2)
         t_meet = gap / rel
     return t_meet - duration - lead_time  # negative: the manoeuvre should already be under way at t = 0
+
+
+def skid_trigger(gap: float, speed: float, partner_speed: float, lateral: float, spin: float = 0.35,
+                 decel: float = 3.0, opposite: bool = True) -> float:
+    """Trigger time [s] of a loss of control so that the skidding car reaches the partner's lane
+    (`lateral` [m] to its side) just as they meet `gap` [m] ahead (negative: too late to reach it).
+
+    The skid is integrated as the embedded simulator moves it: yaw rate `spin` [rad/s] (scaled down
+    below 5 m/s), speed falling at `decel` [m/s2].
+    """
+    dt = 0.05
+    v, yaw, y, x, t = max(speed, 0.5), 0.0, 0.0, 0.0, 0.0
+    target = max(abs(lateral), 0.5)
+    while y < target and t < 6.0 and v > 0.1:
+        yaw += spin * min(v / 5.0, 1.0) * dt
+        x += v * math.cos(yaw) * dt
+        y += v * math.sin(yaw) * dt
+        v = max(v - decel * dt, 0.0)
+        t += dt
+    partner = partner_speed * t if opposite else -partner_speed * t
+    return (gap - x - partner) / max(speed + (partner_speed if opposite else -partner_speed), 0.5)
