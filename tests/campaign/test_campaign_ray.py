@@ -3,8 +3,9 @@ from __future__ import annotations
 
 import pytest
 
-from crashscene.campaign import CampaignConfig, Store, run_campaign
+from crashscene.campaign import CampaignConfig, run_campaign
 from tests.campaign import fakes
+from tests.campaign.rows import table_rows
 
 ray = pytest.importorskip("ray")
 
@@ -23,8 +24,7 @@ def local_ray():
 
 
 def _rows(out, table):
-    with Store(out, read_only=True) as store:
-        return store.query(f"SELECT * FROM {table} ORDER BY ALL")
+    return table_rows(out, table)
 
 
 @pytest.mark.slow

@@ -5,11 +5,11 @@ import pytest
 
 from crashscene.campaign import CampaignConfig, CampaignError, Store, plan_chunks, run_campaign
 from tests.campaign.fakes import fake_chunk
+from tests.campaign.rows import table_rows
 
 
 def _rows(out, table="variations"):
-    with Store(out, read_only=True) as store:
-        return store.query(f"SELECT * EXCLUDE (scenario_hash) FROM {table} ORDER BY ALL")
+    return table_rows(out, table)
 
 
 @pytest.mark.parametrize("n,size", [(1, 1), (10, 3), (10, 10), (10, 250), (2000, 250)])
