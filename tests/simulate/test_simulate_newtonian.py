@@ -342,6 +342,7 @@ def case_runs(tmp_path_factory):
     map_cache = tmp_path_factory.mktemp("map-cache")
 
     def run(case: str):
+        """(scenario, scenes, result, rendered) of the case, simulated once."""
         if case not in cache:
             render = pytest.importorskip("crashscene.render")
             sample = pytest.importorskip("crashscene.sample")
@@ -352,7 +353,7 @@ def case_runs(tmp_path_factory):
                 result = simulator.simulate(SimulationRequest(
                     scenario=scenario, scenes=scenes, map_file=Path(rendered.map),
                     program=Path(rendered.program).read_text()))
-            cache[case] = (scenario, scenes, result)
+            cache[case] = (scenario, scenes, result, rendered)
         return cache[case]
 
     return run
@@ -361,7 +362,7 @@ def case_runs(tmp_path_factory):
 @pytest.mark.slow
 @pytest.mark.parametrize("case", REAL_CASES)
 def test_rendered_case_runs_from_the_sampled_scenes(case, case_runs):
-    scenario, scenes, result = case_runs(case)
+    scenario, scenes, result, _ = case_runs(case)
     variations = result.tables["variations"].to_pylist()
     assert [v["invalid_reason"] for v in variations] == [None] * len(scenes)
     traces = result.tables["traces"]
@@ -380,7 +381,7 @@ def test_rendered_case_runs_from_the_sampled_scenes(case, case_runs):
 @pytest.mark.slow
 def test_junction_columns_on_a_yield_controlled_crossing(case_runs):
     # 100237: V1 (ego) straight through a 4-leg junction, V2 (npc1) from the right on a yield-controlled arm
-    _, scenes, result = case_runs("100237")
+    _, scenes, result, _ = case_runs("100237")
     rows = result.tables["traces"].to_pylist()
     for scene in scenes:
         npc = [r for r in rows if r["variation"] == scene.index and r["actor"] == "npc1"]
@@ -396,3 +397,13 @@ def test_junction_columns_on_a_yield_controlled_crossing(case_runs):
         assert all(math.isnan(r["stop_line_dist"]) for r in ego)  # no device on the ego's approach
         assert npc[0]["route_s"] == ego[0]["route_s"] == 0.0  # stations count from each actor's start
         assert all(r["signal"] == "none" for r in npc + ego)
+
+
+@pytest.mark.slow
+def test_rendered_case_same_seed_same_bytes(case_runs):
+    scenario, scenes, result, rendered = case_runs("100237")
+    with NewtonianSimulator(SimulationSettings(mode="reproduce")) as simulator:
+        again = simulator.simulate(SimulationRequest(scenario=scenario, scenes=scenes, map_file=Path(rendered.map),
+                                                     program=Path(rendered.program).read_text()))
+    for name in ("traces", "collisions", "variations", "actors"):
+        assert table_bytes(again.tables[name]) == table_bytes(result.tables[name]), name
