@@ -25,6 +25,7 @@ from crashscene.simulate.drivers.longitudinal import (
 NO_YIELD_CODES = frozenset({"CVC_21800", "CVC_21801", "CVC_21802", "CVC_21803", "CVC_21804", "CVC_22450"})
 CLOSE_HEADWAY = 0.5  # [s] CVC_21703
 REACTION = 1.0  # [s] perception-reaction time of an ordinary human driver
+TAILGATE_RANGE = 80.0  # [m] a tailgater matches the speed of a car ahead closer than this
 CROSSING_YAW = 0.7  # [rad] a lead more than this off the route's heading is crossing, not followed
 LATE_REACTION = 1.8  # [s] perception delay of an inattentive driver (CVC_21703, CVC_22350)
 OVERSPEED = 1.25  # [-] CVC_22350 / CVC_22349: cruise speed factor
@@ -90,6 +91,7 @@ class BehaviorDriver(Driver):
         self.perception = DelayedPerception(LATE_REACTION if inattentive else REACTION, ctx.dt)
         self.cruise = ctx.cruise_speed * speed_factor(disp)
         self.check_gap = "CVC_22107" not in disp
+        self.tailgater = "CVC_21703" in disp
         self.lane_changed = np.zeros(ctx.n_variations, dtype=bool)
         self.stopping = np.zeros(ctx.n_variations, dtype=bool)
 
@@ -117,6 +119,11 @@ class BehaviorDriver(Driver):
             lead_gap = np.where(triggered, np.inf, gap)
             lead_speed = np.where(triggered, np.nan, obs.lead_speed if lead_speed is None else lead_speed)
         cruise = self._cruise(obs)
+        if self.tailgater:
+            # a tailgater keeps up with the car ahead: it closes in to its short headway
+            near = np.nan_to_num(obs.lead_gap, posinf=np.inf) < TAILGATE_RANGE
+            cruise = np.where(near & ~np.isnan(obs.lead_speed), np.maximum(cruise, np.nan_to_num(obs.lead_speed)),
+                              cruise)
         if behavior == "decelerate":
             cruise = np.where(triggered, cruise * DECELERATE_TO, cruise)
         accel = longitudinal_accel(obs, ctx, self.state, self.rules, desired_speed(obs, cruise, self.rules),

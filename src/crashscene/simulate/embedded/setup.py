@@ -29,6 +29,7 @@ LATERAL_BEHAVIORS = ("change_lane_left", "change_lane_right", "cross_centerline"
 JUNCTION_INTENTS = {"straight": "straight", "left": "left", "right": "right", "u_turn": "u_turn"}
 BEHAVIOR_INTENTS = {"turn_left": "left", "turn_right": "right", "u_turn": "u_turn"}
 OPPOSITE_HEADINGS = ("opposite_direction",)
+ROUTE_SPEED = 40.0  # [m/s] routes are built long enough for this speed over the horizon (or to the map's end)
 STOP_APPROACH_DECEL = 2.5  # [m/s2] a driver approaching a stop sign is slowing down at most this hard
 ADVANCE_MARGIN = 3.0  # [m] an actor advanced by its timing plan stays this far before its junction entry
 
@@ -128,7 +129,8 @@ def build(scenario: Scenario, scenes: list[SampledScene], roadmap: RoadMap,
     x, y, yaw, speed = grid("x"), grid("y"), grid("yaw"), grid("speed")
     length, width = grid("length"), grid("width")
     invalid: list[str | None] = [None] * n_v
-    min_length = 100.0 * math.ceil((float(speed.max(initial=10.0)) * 1.5 * settings.horizon + 60.0) / 100.0)
+    # fixed by the settings, never by the batch, so that a variation's routes do not depend on its chunk
+    min_length = 100.0 * math.ceil((ROUTE_SPEED * settings.horizon + 60.0) / 100.0)
 
     # ---- routes: one per distinct (start lane, junction intent), plus synthetic ones for off-road starts
     route_index: dict[tuple, int] = {}
