@@ -78,7 +78,7 @@ def longitudinal_accel(obs: Observation, ctx: DriverContext, state: Longitudinal
     accel = idm_accel(v, desired, gap, lspeed, limits.accel_max, rules.brake_comfort, rules.headway, rules.min_gap)
 
     line = obs.stop_line_dist
-    before_line = np.nan_to_num(line, nan=-np.inf) > -0.5
+    before_line = line > -0.5  # False where there is no stop line (NaN)
     zero = np.zeros_like(v)
 
     def stop_at(dist: np.ndarray) -> np.ndarray:
@@ -88,21 +88,25 @@ def longitudinal_accel(obs: Observation, ctx: DriverContext, state: Longitudinal
     if rules.obey_red:
         can_stop = v ** 2 / (2 * np.maximum(np.nan_to_num(line, nan=0.0), 0.1)) < rules.yellow_decel
         red = (obs.signal == SIGNAL_RED) | ((obs.signal == SIGNAL_YELLOW) & can_stop)
-        accel = np.where(red & before_line, np.minimum(accel, stop_at(line)), accel)
+        stop_red = red & before_line
+        if stop_red.any():
+            accel = np.where(stop_red, np.minimum(accel, stop_at(line)), accel)
 
     state.new_approach(obs.junction_dist)
     if rules.obey_stop:
         stop_control = (obs.control == CONTROL_STOP) & before_line
-        state.stopped_at_sign |= stop_control & (v < STOP_SPEED) & (np.nan_to_num(line, nan=np.inf) < STOP_ZONE)
+        state.stopped_at_sign |= stop_control & (v < STOP_SPEED) & (line < STOP_ZONE)
         state.stop_timer = np.where(state.stopped_at_sign & (v < STOP_SPEED), state.stop_timer + obs.dt,
                                     state.stop_timer)
         must_stop = stop_control & (~state.stopped_at_sign | (state.stop_timer < rules.stop_dwell))
-        accel = np.where(must_stop, np.minimum(accel, stop_at(line)), accel)
+        if must_stop.any():
+            accel = np.where(must_stop, np.minimum(accel, stop_at(line)), accel)
 
     if rules.yields:
         hazard = (obs.yield_tta < rules.gap_time) | obs.yield_occupied
         wait_dist = np.where(before_line, line, obs.conflict_dist - WAIT_BEFORE_CONFLICT)
-        committed = np.nan_to_num(obs.conflict_dist, nan=np.inf) < 1.0
-        wait = hazard & (np.nan_to_num(wait_dist, nan=-np.inf) > -0.3) & ~committed
-        accel = np.where(wait, np.minimum(accel, stop_at(wait_dist)), accel)
+        committed = obs.conflict_dist < 1.0  # NaN (no conflict point) is not committed
+        wait = hazard & (wait_dist > -0.3) & ~committed
+        if wait.any():
+            accel = np.where(wait, np.minimum(accel, stop_at(wait_dist)), accel)
     return accel

@@ -197,19 +197,19 @@ def _geometry(batch: batch_setup.BatchSetup, state: State, t: float) -> Geometry
     return g
 
 
-def _relative_on_route(batch: batch_setup.BatchSetup, state: State, a: int, b: int) -> tuple[np.ndarray, np.ndarray]:
-    """Station of b's centre on a's route minus a's station, and b's lateral offset from a's route [m]."""
+def _relative_on_route(batch: batch_setup.BatchSetup, state: State, a: int, b: int,
+                       here: tuple[np.ndarray, np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Station of b's centre on a's route minus a's station, b's lateral offset from a's route [m],
+    and the route's heading there [rad]; `here` is a's route point (x, y, yaw) at its station."""
     routes = batch.routes
     r = batch.route[:, a]
-    px, py, pyaw = routes.point(r, state.s[:, a])
+    px, py, pyaw = here
     dx, dy = state.x[:, b] - px, state.y[:, b] - py
     g0 = dx * np.cos(pyaw) + dy * np.sin(pyaw)
-    s_q = state.s[:, a] + g0
-    qx, qy, qyaw = routes.point(r, s_q)
+    qx, qy, qyaw = routes.point(r, state.s[:, a] + g0)
     ex, ey = state.x[:, b] - qx, state.y[:, b] - qy
-    corr = ex * np.cos(qyaw) + ey * np.sin(qyaw)
-    lateral = -ex * np.sin(qyaw) + ey * np.cos(qyaw)
-    return g0 + corr, lateral
+    cq, sq = np.cos(qyaw), np.sin(qyaw)
+    return g0 + ex * cq + ey * sq, -ex * sq + ey * cq, qyaw
 
 
 def _observe(batch: batch_setup.BatchSetup, state: State, geo: Geometry, a: int, t: float,
@@ -236,14 +236,15 @@ def _observe(batch: batch_setup.BatchSetup, state: State, geo: Geometry, a: int,
     hidden[:, a] = False
     others_x[hidden] = np.nan
     others_y[hidden] = np.nan
+    here = routes.point(r, state.s[:, a])
     for b in range(n_a):
         if b == a:
             continue
         visible = ~hidden[:, b]
         lb, wb = batch.length[:, b], batch.width[:, b]
-        ds, lat = _relative_on_route(batch, state, a, b)
+        ds, lat, qyaw = _relative_on_route(batch, state, a, b, here)
         near_route = np.abs(ds) < 150.0
-        rel_yaw = np.remainder(state.yaw[:, b] - routes.point(r, state.s[:, a] + ds)[2] + np.pi, 2 * np.pi) - np.pi
+        rel_yaw = np.remainder(state.yaw[:, b] - qyaw + np.pi, 2 * np.pi) - np.pi
         speed_along = state.v[:, b] * np.cos(rel_yaw)
         in_path = visible & near_route & (np.abs(lat - state.d[:, a]) < (wa + wb) / 2 + 0.3) & (ds > 0)
         gap = ds - (la + lb) / 2
@@ -276,9 +277,7 @@ def _observe(batch: batch_setup.BatchSetup, state: State, geo: Geometry, a: int,
             mine = cs_a - geo.front[:, a]
             relevant = prio & (mine > -wb / 2)
             conflict_dist = np.where(relevant & ~(conflict_dist < mine), mine, conflict_dist)
-    ahead = np.maximum(20.0, 3.0 * v)
-    curvature = routes.max_abs_curvature(r, state.s[:, a], ahead)
-    curve_speed = routes.curve_speed(r, state.s[:, a], ahead + v * v / 4.0, 2.5, 2.0)
+    curvature, curve_speed = routes.curve_lookahead(r, state.s[:, a], v)
     return Observation(
         t=t, dt=batch.settings.dt, x=state.x[:, a], y=state.y[:, a], yaw=state.yaw[:, a], speed=v,
         accel=state.a[:, a], s=state.s[:, a], d=state.d[:, a], route_remaining=routes.length[r] - state.s[:, a],

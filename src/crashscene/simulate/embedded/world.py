@@ -149,6 +149,22 @@ class RouteArrays:
         v_curve2 = lat_accel / np.maximum(kappa, 1e-4)
         return np.sqrt(np.min(v_curve2 + 2.0 * decel * dist, axis=-1))
 
+    def curve_lookahead(self, r: np.ndarray, s: np.ndarray, v: np.ndarray, n: int = 12
+                        ) -> tuple[np.ndarray, np.ndarray]:
+        """(largest |curvature| [1/m] on the next max(20 m, 3 s), curve speed [m/s] as `curve_speed` with
+        2.5 m/s2 lateral and 2 m/s2 braking over that distance plus the braking distance), one gather."""
+        near = np.maximum(20.0, 3.0 * v)
+        reach = near + v * v / 4.0
+        dist = reach[..., None] * np.linspace(0.0, 1.0, n)
+        f = np.clip((s[..., None] + dist) * (1.0 / ROUTE_DS), 0.0, self.curvature.shape[1] - 1)
+        flat = np.asarray(r)[..., None] * self.curvature.shape[1] + f.astype(np.int64)
+        if not hasattr(self, "_flat_kappa"):
+            self._flat_kappa = np.abs(np.ascontiguousarray(self.curvature)).ravel()
+        kappa = self._flat_kappa[flat]
+        curvature = np.where(dist <= near[..., None], kappa, 0.0).max(axis=-1)
+        speed = np.sqrt(np.min(2.5 / np.maximum(kappa, 1e-4) + 4.0 * dist, axis=-1))
+        return curvature, speed
+
     def max_abs_curvature(self, r: np.ndarray, s: np.ndarray, ahead: np.ndarray, n: int = 8) -> np.ndarray:
         """Largest |curvature| [1/m] on [s, s + ahead], sampled at n points."""
         frac = np.linspace(0.0, 1.0, n)
