@@ -145,6 +145,9 @@ def test_sampled_fields_are_complete(tmp_path):
     assert {"npc1_ARRIVAL_OFFSET", "NPC_INIT_DIST", "npc1_SPEED", "weather"} <= set(scene.params)
     assert -1.0 <= scene.params["npc1_ARRIVAL_OFFSET"] <= 1.0
     assert ego.speed == pytest.approx(scene.params["EGO_SPEED"])
+    # the route the actor was placed on: approach lane, junction connector, exit lane (map lane uids)
+    lanes = ego.properties["route_lanes"].split(",")
+    assert len(lanes) >= 3 and ego.lane_id in lanes
 
 
 def test_sample_cli_json_lines(tmp_path):

@@ -111,7 +111,7 @@ def _actor(obj: Any) -> SampledActor:
     yaw = math.remainder(float(obj.heading) + math.pi / 2, 2 * math.pi)  # Scenic 0 = +y -> OpenDRIVE 0 = +x
     codes = str(obj.cs_dispositions or "")
     props = {key: _scalar(getattr(obj, key)) for key in ("cs_placement", "cs_maneuver", "cs_controlled_by",
-                                                         "cs_target_speed")}
+                                                         "cs_target_speed", "cs_route_lanes")}
     props = {key[3:]: value for key, value in props.items()}
     return SampledActor(
         role=obj.cs_role, label=obj.cs_label, type=obj.cs_type, blueprint=str(obj.blueprint),

@@ -160,7 +160,8 @@ def render_program(plan: RenderPlan, *, scenario_hash_value: str, summary: str |
     actor_specs = [{"role": a["role"], "placement": a["placement"], "ref": a["placement_ref"],
                     "heading": a["relative_heading"], "maneuver": a["maneuver"], "behavior": a["behavior"],
                     "needs": _needs(next(x for x in plan.actors if x.role == a["role"]), plan.actors),
-                    "dist": [a["init_dist"]["low"], a["init_dist"]["high"]], "along": a["along"]}
+                    "dist": [a["init_dist"]["low"], a["init_dist"]["high"]], "along": a["along"],
+                    "gap": a["gap"]}
                    for a in actors]
     text = _ENV.get_template("scenario.scenic.j2").render(
         room=_room(actors),
@@ -181,20 +182,26 @@ def render_program(plan: RenderPlan, *, scenario_hash_value: str, summary: str |
 
 
 def _room(actors: list[dict[str, Any]]) -> list[float]:
-    """[m] (behind, ahead) of the anchor that actors queued on the ego's route occupy, at their largest."""
-    extent = {}
+    """[m] (behind, ahead) of the anchor, along the ego's route, that the actors placed from it reach at most."""
+    extent: dict[str, float] = {}  # [m] position along the ego's route, relative to the anchor
+    direction: dict[str, float] = {}  # +1: drives the ego's way, -1: oncoming
     for a in actors:
         dist = a["init_dist"]["high"]
+        sign = 1.0 if a["along"] == "front" else -1.0
+        ref = a["placement_ref"]
         if a["placement"] == "anchor":
-            extent[a["role"]] = -dist if a["along"] == "behind" else dist
-        elif a["placement"] == "follow" and a["placement_ref"] in extent:
-            step = dist + a["gap"]
-            extent[a["role"]] = extent[a["placement_ref"]] + (step if a["along"] == "front" else -step)
-        elif a["placement"] == "oncoming" and a["placement_ref"] in extent:
-            # the oncoming actor is placed by projecting a point of the ego's route: that point must exist
-            extent[a["role"]] = extent[a["placement_ref"]] + (dist if a["along"] == "front" else -dist)
+            extent[a["role"]], direction[a["role"]] = sign * dist, 1.0
+        elif a["placement"] == "follow" and ref in extent:
+            extent[a["role"]] = extent[ref] + direction[ref] * sign * (dist + a["gap"])
+            direction[a["role"]] = direction[ref]
+        elif a["placement"] == "oncoming" and ref in extent:
+            # placed by projecting a point of the reference's route: that point must exist
+            extent[a["role"]], direction[a["role"]] = extent[ref] + direction[ref] * sign * dist, -direction[ref]
+        elif a["placement"] in ("side_left", "side_right") and ref in extent:
+            extent[a["role"]] = extent[ref] + direction[ref] * a["side_offset"]["high"]
+            direction[a["role"]] = direction[ref]
     behind = max([-v for v in extent.values()] + [0.0]) + 10.0
-    ahead = max(list(extent.values()) + [0.0]) + 10.0
+    ahead = max([*extent.values(), 0.0]) + 10.0
     return [round(behind, 1), round(ahead, 1)]
 
 

@@ -255,6 +255,12 @@ def _approach_s(combo, role, dist):
 
 
 @_distributionFunction
+def _route_lanes(combo, role):
+    """Comma-joined lane uids of the actor's route (its lane chain, junction connector included)."""
+    return ",".join(lane.uid for lane in combo.routes[role].lanes)
+
+
+@_distributionFunction
 def _pick(combo, role):
     return combo.routes[role]
 
@@ -373,21 +379,22 @@ def _junction_combos(network, actors, legs, ego_roads, cap=400):
     index = _lane_index(_road_lanes(network))
 
     def approach_candidates(actor, combo):
+        """Other approaches of the junction whose direction matches the actor's DSL heading (best first),
+        taking the manoeuvre its behaviour asks for; manoeuvres crossing the ego's path preferred."""
         ego_lane, ego_man, inter = combo.meta["lane"], combo.meta["man"], combo.meta["inter"]
         found, conflicting = [], []
         for lane in inter.incomingLanes:
             if lane is ego_lane:
                 continue
             rel = _angle_diff(_end_heading(lane), _end_heading(ego_lane))
-            if abs(_angle_diff(rel, actor["heading"])) > 0.7:
+            error = abs(_angle_diff(rel, actor["heading"]))
+            if error > 0.7:
                 continue
             for man in _maneuvers(lane, actor["maneuver"]) or list(lane.maneuvers):
                 route = _maneuver_route(lane, man, 200.0, connecting)
-                if man in ego_man.conflictingManeuvers or man.endLane is ego_man.endLane:
-                    conflicting.append(route)
-                else:
-                    found.append(route)
-        return conflicting or found
+                crossing = man in ego_man.conflictingManeuvers or man.endLane is ego_man.endLane
+                (conflicting if crossing else found).append((error, len(found) + len(conflicting), route))
+        return [route for _, _, route in sorted(conflicting or found, key=lambda item: item[:2])]
 
     for inter in network.intersections:
         if (legs == 4 and not inter.is4Way) or (legs == 3 and not inter.is3Way):
@@ -411,12 +418,33 @@ def _junction_combos(network, actors, legs, ego_roads, cap=400):
 
 
 _STRAIGHT_TOLERANCE = 0.35  # [rad] heading spread allowed along a "straight" ego route window
-_HEADING_TOLERANCE = 0.45  # [rad] error allowed on the expected heading of a placed actor
+_HEADING_TOLERANCE = 0.4  # [rad] error allowed on the expected heading of a placed actor (nominal placement)
+
+
+def _nominal_s(combo, actors, end):
+    """Arc length of every actor with all distances at one `end` (0 low, 1 high) of their ranges, as the
+    template's helpers compute it."""
+    s_of = {}
+    for actor in actors:
+        role, kind = actor["role"], actor["placement"]
+        dist = actor["dist"][end]
+        sign = -1.0 if actor["along"] == "behind" else 1.0
+        route = combo.routes[role]
+        if kind == "anchor":
+            s_of[role] = route.anchor + combo.passed + dist if sign > 0 else route.anchor - dist
+        elif kind == "follow":
+            s_of[role] = s_of[actor["ref"]] + sign * (dist + actor.get("gap", 0.0))
+        elif kind == "approach":
+            s_of[role] = route.anchor - dist
+        else:
+            along = sign * dist if kind == "oncoming" else 0.0
+            s_of[role] = _r_project(route, _r_xy(combo.routes[actor["ref"]], s_of[actor["ref"]] + along))
+    return s_of
 
 
 def _plausible(combo, actors, topology, room):
-    """Compile-time check of a candidate at nominal distances: a straight ego window on straight roads, and
-    beside/oncoming actors facing the way their DSL heading says (CARLA towns bend where generated maps do not)."""
+    """Compile-time check of a candidate at nominal distances: a straight ego window on straight roads, and every
+    actor facing the way its DSL heading says relative to the ego (CARLA towns bend where generated maps do not)."""
     ego_route = combo.routes["ego"]
     if topology == "straight":
         h0 = _r_heading(ego_route, ego_route.anchor)
@@ -425,19 +453,14 @@ def _plausible(combo, actors, topology, room):
             if abs(_angle_diff(_r_heading(ego_route, s), h0)) > _STRAIGHT_TOLERANCE:
                 return False
             s += 5.0
-    for actor in actors[1:]:
-        kind = actor["placement"]
-        if kind not in ("oncoming", "side_left", "side_right"):
-            continue
-        ref_route, route = combo.routes[actor["ref"]], combo.routes[actor["role"]]
-        expected = _math.pi if kind == "oncoming" else 0.0
-        for dist in actor.get("dist", (0.0,)):
-            along = dist if kind == "oncoming" and actor.get("along") != "behind" else -dist if kind == "oncoming" \
-                else 0.0
-            s_ref = ref_route.anchor + along
-            s_own = _r_project(route, _r_xy(ref_route, s_ref))
-            rel = _angle_diff(_r_heading(route, s_own), _r_heading(ref_route, s_ref))
-            if abs(_angle_diff(rel, expected)) > _HEADING_TOLERANCE:
+    if topology == "curve":
+        return True  # headings change along a bend by design
+    for end in (0, 1):
+        s_of = _nominal_s(combo, actors, end)
+        ego_heading = _r_heading(ego_route, s_of["ego"])
+        for actor in actors[1:]:
+            rel = _angle_diff(_r_heading(combo.routes[actor["role"]], s_of[actor["role"]]), ego_heading)
+            if abs(_angle_diff(rel, actor["heading"])) > _HEADING_TOLERANCE:
                 return False
     return True
 
@@ -463,8 +486,8 @@ def candidates(network, actors, topology, hint, curve_sign, ego_roads=(), map_na
     return found
 
 
-place_xy, place_heading, lane_uid, anchor_s, follow_s, project_s, approach_s, route_of = (
-    _xy, _heading, _lane_uid, _anchor_s, _follow_s, _project_s, _approach_s, _pick)
+place_xy, place_heading, lane_uid, anchor_s, follow_s, project_s, approach_s, route_of, route_lanes = (
+    _xy, _heading, _lane_uid, _anchor_s, _follow_s, _project_s, _approach_s, _pick, _route_lanes)
 __all__ = [
     "anchor_s",
     "approach_s",
@@ -474,5 +497,6 @@ __all__ = [
     "place_heading",
     "place_xy",
     "project_s",
+    "route_lanes",
     "route_of",
 ]
