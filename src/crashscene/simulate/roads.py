@@ -142,7 +142,10 @@ class RoadMap:
         from scenic.domains.driving.roads import Network
 
         try:
-            network = Network.fromFile(str(path), useCache=False)
+            try:  # Scenic's .snet cache beside the map (keyed by the map's hash) saves seconds on big towns
+                network = Network.fromFile(str(path))
+            except OSError:  # read-only folder: parse without writing the cache
+                network = Network.fromFile(str(path), useCache=False, writeCache=False)
         except Exception as exc:  # Scenic raises many types on a bad map
             raise SimulationError(f"{path}: Scenic cannot parse this OpenDRIVE map: {exc}") from exc
         markers = _center_markers(path)
