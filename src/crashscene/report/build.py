@@ -9,8 +9,11 @@ from __future__ import annotations
 import base64
 import io
 import json
+import multiprocessing as mp
+import os
 import time
 from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
@@ -21,12 +24,14 @@ from PIL import Image
 from crashscene.campaign.errors import CampaignError
 from crashscene.campaign.runner import summarize_runs
 from crashscene.campaign.store import DB_NAME, Store
-from crashscene.report import birdseye, charts, tracks
+from crashscene.report import charts
 from crashscene.report.errors import ReportError
+from crashscene.report.shots import Shot, draw_shots, plan_shots
 from crashscene.report.junit import junit_xml
 
 SKETCH_MAX_PX = 900  # longest side of the embedded sketch
-GIF_BEFORE, GIF_AFTER = 6.0, 1.5  # [s] around the impact
+PARALLEL_DRAW_MIN = 3  # cases from which pictures are drawn in a process pool (each pays ~3 s of imports)
+DRAW_WORKERS = 2
 NARRATIVES = ("narrative.txt", "narrative.md", "narrative.pdf")
 SKETCHES = ("sketch.jpg", "sketch.jpeg", "sketch.png")
 
@@ -93,10 +98,8 @@ def _gather(store: Store, out: Path, gifs: bool, progress: Callable[[str], None]
     for run in summarize_runs(store):
         runs_by_case.setdefault(run.case_id, []).append(run)
     case_rows = store.query("SELECT * FROM cases ORDER BY case_id")
-    cases, figures = [], {}
-    for k, row in enumerate(case_rows, 1):
-        if progress is not None:
-            progress(f"report: case {row['case_id']} ({k}/{len(case_rows)})")
+    cases, figures, shots = [], {}, {}
+    for row in case_rows:
         case_id = row["case_id"]
         work = out / "cases" / case_id
         scenario_text = _read(work / "scenario.yaml")
@@ -113,7 +116,34 @@ def _gather(store: Store, out: Path, gifs: bool, progress: Callable[[str], None]
             case["modes"][mode] = entry
         cases.append(case)
         figures[case_id] = _case_figures(store, out, case, scenario_text, gifs)
+        shots[case_id] = plan_shots(store, out, case, gifs)
+    for case_id, drawn in _draw_all(shots, progress):
+        notes = figures[case_id]["notes"] + drawn.pop("notes")
+        figures[case_id].update(drawn, notes=notes)
     return cases, figures
+
+
+def _draw_all(shots: dict[str, list[Shot]], progress: Callable[[str], None] | None):
+    """(case_id, figures) per case, drawn in a 2-process pool when several cases need pictures."""
+    todo = [(case_id, s) for case_id, s in shots.items() if s]
+    total = len(todo)
+    if total < PARALLEL_DRAW_MIN:
+        for k, (case_id, case_shots) in enumerate(todo, 1):
+            if progress is not None:
+                progress(f"report: drawing case {case_id} ({k}/{total})")
+            yield case_id, draw_shots(case_shots)
+        return
+    workers = min(DRAW_WORKERS, os.cpu_count() or 1)
+    with ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn")) as pool:
+        futures = {pool.submit(draw_shots, case_shots): case_id for case_id, case_shots in todo}
+        for k, fut in enumerate(as_completed(futures), 1):
+            case_id = futures[fut]
+            if progress is not None:
+                progress(f"report: drew case {case_id} ({k}/{total})")
+            try:
+                yield case_id, fut.result()
+            except Exception as exc:  # noqa: BLE001  (a dead drawing process costs pictures, not the report)
+                yield case_id, {"notes": [f"pictures not drawn: {type(exc).__name__}: {exc}"]}
 
 
 def _scenario_fields(text: str | None) -> dict:
@@ -182,11 +212,6 @@ def _sketch(case_dir: Path) -> str | None:
     return None
 
 
-def _run_row(store: Store, scenario_hash: str, mode: str) -> dict:
-    return store.query("SELECT * FROM runs WHERE scenario_hash=? AND mode=? ORDER BY seed LIMIT 1",
-                       [scenario_hash, mode])[0]
-
-
 def _case_figures(store: Store, out: Path, case: dict, scenario_text: str | None, gifs: bool) -> dict:
     """Every image of one case as data URIs, plus notes on what could not be drawn."""
     fig: dict = {"narrative": _narrative(Path(case["case_dir"] or "")), "sketch": _sketch(Path(case["case_dir"] or "")),
@@ -207,73 +232,4 @@ def _case_figures(store: Store, out: Path, case: dict, scenario_text: str | None
         png = charts.failing_scatter(rows, f"failing variations ({mode})")
         if png:
             fig["scatter"][mode] = data_uri(png, "image/png")
-    _impact_and_gifs(store, out, case, fig, gifs)
     return fig
-
-
-def _impact_and_gifs(store: Store, out: Path, case: dict, fig: dict, gifs: bool) -> None:
-    work = out / "cases" / case["case_id"]
-    modes = case["modes"]
-    # the still: the first reproducing variation at impact, else the first collision, else variation 0's end
-    pick = None
-    rep = modes.get("reproduce", {})
-    if rep.get("first_reproducing") is not None:
-        pick = ("reproduce", rep["first_reproducing"], "first reproducing variation")
-    else:
-        for mode, run in modes.items():
-            if run.get("first_collision"):
-                pick = (mode, run["first_collision"]["v"], "first variation with a collision")
-                break
-    if pick is None:
-        mode = next(iter(modes))
-        pick = (mode, 0, "no collision in any variation: variation 0")
-    wanted = [("still", *pick)]
-    if gifs and rep.get("first_reproducing") is not None:
-        wanted.append(("gif_reproduce", "reproduce", rep["first_reproducing"], "first reproducing variation"))
-    elif gifs and rep.get("first_collision"):  # nothing reproduced: show what the re-enactment did instead
-        wanted.append(("gif_reproduce", "reproduce", rep["first_collision"]["v"],
-                       "no variation reproduced the report; first variation with a collision"))
-    ads = modes.get("test", {}).get("first_ads_violation")
-    if gifs and ads:
-        wanted.append(("gif_ads", "test", ads["v"], f"first ADS violation ({ads['codes']})"))
-    for name, mode, variation, label in wanted:
-        try:
-            run = _run_row(store, case["scenario_hash"], mode)
-            run_dir = tracks.ensure_run_dir(work, case["case_id"], run, variation)
-            map_file = tracks.map_file_of(run_dir, work)
-            if map_file is None:
-                raise ReportError(f"{run_dir}: no map.xodr")
-            actor_tracks = tracks.load_tracks(run_dir, variation)
-            if not actor_tracks:
-                raise ReportError(f"{run_dir}: no trace rows for variation {variation}")
-            t_end = float(max(tr.t[-1] for tr in actor_tracks))
-            t_impact = _impact_time(store, case["scenario_hash"], mode, variation)
-            title = f"{case['case_id']} {mode} #{variation}: {label}"
-            if name == "still":
-                t = t_impact if t_impact is not None else t_end
-                point = _impact_point(store, case["scenario_hash"], mode, variation)
-                fig["still"] = data_uri(birdseye.still_png(map_file, actor_tracks, t, title, impact=point),
-                                        "image/png")
-                fig["still_caption"] = (f"{label} ({mode} mode, variation {variation}) at "
-                                        f"{'impact' if t_impact is not None else 'the end'}, t = {t:.1f} s")
-            else:
-                t_key = t_impact if name == "gif_reproduce" else ads["t"]
-                t_key = t_end if t_key is None else float(t_key)
-                t0, t1 = max(0.0, t_key - GIF_BEFORE), min(t_end, t_key + GIF_AFTER + (0 if name == "gif_reproduce" else 1.5))
-                fig[name] = data_uri(birdseye.animation_gif(map_file, actor_tracks, t0, t1, f"{mode} #{variation}"),
-                                     "image/gif")
-                fig[name + "_caption"] = f"{label}: {mode} mode, variation {variation}, t = {t0:.1f}-{t1:.1f} s"
-        except Exception as exc:  # noqa: BLE001  (one missing picture must not sink the whole report)
-            fig["notes"].append(f"{name} ({mode} #{variation}) not drawn: {type(exc).__name__}: {exc}")
-
-
-def _impact_time(store: Store, scenario_hash: str, mode: str, variation: int) -> float | None:
-    row = store.query("SELECT min(t) AS t FROM collisions WHERE scenario_hash=? AND mode=? AND variation=?",
-                      [scenario_hash, mode, variation])
-    return row[0]["t"] if row and row[0]["t"] is not None else None
-
-
-def _impact_point(store: Store, scenario_hash: str, mode: str, variation: int) -> tuple[float, float] | None:
-    rows = store.query("SELECT x, y FROM collisions WHERE scenario_hash=? AND mode=? AND variation=? ORDER BY t LIMIT 1",
-                       [scenario_hash, mode, variation])
-    return (rows[0]["x"], rows[0]["y"]) if rows else None
