@@ -183,3 +183,11 @@ def test_scenario_hash_is_stable_and_option_sensitive():
     assert scenario_hash(s, map_mode="generated") == scenario_hash(load_file(EXAMPLES / "100237" / "golden.yaml"),
                                                                     map_mode="generated")
     assert scenario_hash(s, map_mode="generated") != scenario_hash(s, map_mode="carla")
+
+
+@pytest.mark.parametrize("relation,along", [("behind", "behind"), ("front", "front"), ("left", "behind"),
+                                            ("right", "behind")])
+def test_ego_relation_to_its_road_element(relation, along):
+    s = loads((BASE % dict(road_type="intersection", ways=2, lanes=2, signs="", ego_behavior="go_forward",
+                           ego_ref="intersection", npcs="")).replace("relation: behind", f"relation: {relation}"))
+    assert convert(s).actors[0].along == along

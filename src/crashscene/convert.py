@@ -288,12 +288,20 @@ def _actor_plan(name: str, actor: Actor, scenario: Scenario, junction: bool, spe
         blueprints=[EGO_BLUEPRINT] if name == "ego" else list(BLUEPRINT_POOLS[actor.type.value]),
         reference=pos.reference, relation=pos.relation.value,
         heading_relation=pos.heading.value if pos.heading else None, placement=placement, placement_ref=ref,
-        along="behind" if pos.relation is Relation.BEHIND else "front",
+        along=_along(name, pos.relation),
         relative_heading=HEADING_ANGLE[heading] if heading else 0.0, maneuver=maneuver,
         route_intent=ROUTE_INTENT[actor.behavior], speed=speed_range(actor, speed_limit),
         init_dist=Range(low=dist[0], high=dist[1]), side_offset=Range(low=SIDE_OFFSET[0], high=SIDE_OFFSET[1]),
         arrival_offset=arrival, maneuver_time=Range(low=MANEUVER_TIME[0], high=MANEUVER_TIME[1]),
         stop_duration=Range(low=STOP_DURATION[0], high=STOP_DURATION[1]), dispositions=codes)
+
+
+def _along(name: str, relation: Relation) -> str:
+    """front | behind along the route. The ego approaching a road element from its left or right is behind it
+    (dsl.md: left|right = approaching it from that side); an NPC beside or oncoming counts as ahead."""
+    if name == "ego":
+        return "front" if relation is Relation.FRONT else "behind"
+    return "behind" if relation is Relation.BEHIND else "front"
 
 
 def _placement(name: str, reference: str, relation: Relation, heading: Heading, junction: bool,
