@@ -53,7 +53,8 @@ class RunSummary(BaseModel):
     case_id: str
     mode: str
     scenario_hash: str
-    variations: int
+    n: int  # variations planned
+    variations: int  # variations stored
     valid: int
     verdicts: dict[str, int]
     reproduced: int
@@ -213,7 +214,7 @@ def _plan(store: Store, prepared: list[PreparedCase], config: CampaignConfig, ou
 def summarize_runs(store: Store) -> list[RunSummary]:
     """Per (case, mode): counts of verdicts, reproduction, violations by code and actor, collisions by class."""
     out = []
-    for run in store.query("SELECT case_id, scenario_hash, seed, mode FROM runs ORDER BY case_id, mode"):
+    for run in store.query("SELECT case_id, scenario_hash, seed, mode, n FROM runs ORDER BY case_id, mode"):
         key = [run["scenario_hash"], run["seed"], run["mode"]]
         where = "scenario_hash=? AND seed=? AND mode=?"
         counts = store.query(f"SELECT count(*) AS n, count(*) FILTER (WHERE valid) AS valid, "
@@ -233,7 +234,7 @@ def summarize_runs(store: Store) -> list[RunSummary]:
             f"WHERE {where} AND NOT valid GROUP BY ALL ORDER BY c DESC, reason LIMIT 10", key)}
         rate = counts["reproduced"] / counts["valid"] if counts["valid"] else None
         out.append(RunSummary(case_id=run["case_id"], mode=run["mode"], scenario_hash=run["scenario_hash"],
-                              variations=counts["n"], valid=counts["valid"], verdicts=verdicts,
+                              n=run["n"], variations=counts["n"], valid=counts["valid"], verdicts=verdicts,
                               reproduced=counts["reproduced"],
                               reproduction_rate=None if rate is None else round(rate, 4),
                               violations=violations, collisions=collisions, invalid_reasons=invalid))

@@ -114,6 +114,11 @@ def _gather(store: Store, out: Path, gifs: bool, progress: Callable[[str], None]
             entry = run.model_dump(exclude={"case_id", "mode", "scenario_hash"})
             entry.update(_firsts(store, run))
             case["modes"][mode] = entry
+        missing = {m: r["n"] - r["variations"] for m, r in case["modes"].items() if r["variations"] < r["n"]}
+        if case["status"] == "ok" and missing:
+            case["status"] = "incomplete"
+            case["error"] = ("variations not stored (failed or unfinished chunks; see table chunk_errors, rerun with "
+                             "--resume): " + ", ".join(f"{m} {k}" for m, k in missing.items()))
         cases.append(case)
         figures[case_id] = _case_figures(store, out, case, scenario_text, gifs)
         shots[case_id] = plan_shots(store, out, case, gifs)

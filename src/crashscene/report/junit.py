@@ -23,7 +23,8 @@ def junit_xml(cases: list[dict], seconds: float = 0.0) -> str:
                 ET.SubElement(props, "property", name=f"{mode}.{verdict}", value=str(count))
         if case["status"] != "ok":
             errors += 1
-            ET.SubElement(tc, "error", message=case.get("error") or "case failed", type="CaseError").text = case.get("error")
+            kind = "IncompleteRun" if case["status"] == "incomplete" else "CaseError"
+            ET.SubElement(tc, "error", message=case.get("error") or "case failed", type=kind).text = case.get("error")
             continue
         test = case.get("modes", {}).get("test")
         if test is None:
