@@ -185,7 +185,6 @@ def _tracing_classes(carla):
     class PinnedCarlaSimulation(scenic_trace.StateRecorder, CarlaSimulation):
         def __init__(self, scene, *args, pins, agent_index, agent, agent_setup, **kwargs):
             self._pins, self._agent_index, self._agent, self._agent_setup = pins, agent_index, agent, agent_setup
-            self._target_speeds: list[float] = []
             super().__init__(scene, *args, **kwargs)
 
         def createObjectInSimulator(self, obj):
