@@ -60,3 +60,20 @@ def test_chromium_shows_the_report_images(written, tmp_path):
     with Image.open(shot) as img:
         colors = img.convert("RGB").resize((320, 600)).getcolors(maxcolors=1 << 20)
     assert colors is not None and len(colors) > 200, "the page rendered as (almost) a single colour"
+
+
+def test_incomplete_run_is_an_error_in_junit_and_the_report(tmp_path, monkeypatch):
+    from crashscene.campaign import CampaignConfig, run_campaign
+    from tests.campaign.fakes import fake_chunk
+    from tests.report.conftest import EXAMPLES
+
+    monkeypatch.setenv("CRASHSCENE_FAKE_FAIL", "4")
+    run_campaign([EXAMPLES / "120013"], tmp_path, CampaignConfig(n=8, chunk_size=4, workers=1, modes=("test",),
+                                                                 dsl_name="golden.yaml"),
+                 worker=fake_chunk, quiet=True)
+    written = write_report(tmp_path, gifs=False)
+    case = json.loads(written.results.read_text())["cases"][0]
+    assert case["status"] == "incomplete" and "test 4" in case["error"]
+    error = ET.parse(written.junit).getroot().find("testcase/error")
+    assert error is not None and error.get("type") == "IncompleteRun"
+    assert "Incomplete:" in written.html.read_text()
