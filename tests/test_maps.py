@@ -131,3 +131,13 @@ def test_carla_mode_needs_a_folder_and_unknown_modes_fail(tmp_path):
         prepare_map(plan, "carla", cache_dir=tmp_path, warm=False)
     with pytest.raises(RenderError, match="allowed: generated, carla"):
         prepare_map(plan, "osm", cache_dir=tmp_path, warm=False)
+
+
+@pytest.mark.slow
+def test_unreadable_carla_map_is_a_clear_error(tmp_path):
+    towns = tmp_path / "towns"
+    towns.mkdir()
+    (towns / "Town02.xodr").write_text("<OpenDRIVE><road>not a map")
+    plan = convert(load_file(EXAMPLES / "120013" / "golden.yaml"))
+    with pytest.raises(RenderError, match="Town02.xodr"):
+        prepare_map(plan, "carla", carla_maps=towns, cache_dir=tmp_path / "cache")

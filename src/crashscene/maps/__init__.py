@@ -50,7 +50,11 @@ def prepare_map(plan: RenderPlan, mode: str = "generated", carla_maps: Path | No
         path = cache / f"generated_{plan.topology}_{key}.xodr"
         if not path.exists():
             tmp = path.with_suffix(f".{os.getpid()}.tmp.xodr")
-            build_map(plan.map, tmp)
+            try:
+                build_map(plan.map, tmp)
+            except Exception as exc:  # scenariogeneration raises its own exception types
+                raise RenderError(f"could not generate the {plan.topology} map ({plan.map.model_dump_json()}): "
+                                  f"{type(exc).__name__}: {exc}") from exc
             os.replace(tmp, path)
         town = None
     elif mode == "carla":
@@ -75,9 +79,17 @@ def prepare_map(plan: RenderPlan, mode: str = "generated", carla_maps: Path | No
     else:
         raise RenderError(f"unknown map mode {mode!r}; allowed: {', '.join(MAP_MODES)}")
     if warm and not path.with_suffix(".snet").exists():
+        import warnings
+
         from scenic.domains.driving.roads import Network
 
-        Network.fromFile(path)  # writes <map>.snet beside the cached map
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")  # OpenDRIVE features Scenic skips (shoulders, objects...)
+                Network.fromFile(path)  # writes <map>.snet beside the cached map
+        except Exception as exc:  # Scenic's OpenDRIVE parser raises many types
+            source = f"{carla_maps}/{town}.xodr" if town else str(path)
+            raise RenderError(f"Scenic cannot read the map {source}: {type(exc).__name__}: {exc}") from exc
     return path, town
 
 
