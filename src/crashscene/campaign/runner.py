@@ -89,7 +89,14 @@ def plan_chunks(n: int, chunk_size: int) -> list[tuple[int, int]]:
 def run_campaign(cases: str | Path | Sequence[str | Path], out_dir: str | Path, config: CampaignConfig,
                  worker: Callable[[ChunkTask], ChunkResult] | None = None, live: bool | None = None,
                  quiet: bool = False) -> CampaignSummary:
-    """Run (or resume) a campaign over `cases` into `out_dir`; returns its summary."""
+    """Run (or resume) a campaign over `cases` into `out_dir`; returns its summary.
+
+    `cases` is a folder (see `cases.discover_cases`) or a list of case folders / DSL files.
+    `worker(task) -> ChunkResult` must be a picklable top-level function (default: the real
+    pipeline, `worker.simulate_chunk`). The local engine spawns its processes, so a script
+    calling this must guard its entry point with `if __name__ == "__main__":`.
+    `live` forces the progress bars on/off (default: on when stderr is a terminal).
+    """
     quiet_scenic_warnings()
     if worker is None:
         from crashscene.campaign.worker import simulate_chunk as worker
