@@ -90,8 +90,8 @@ def test_reproduce_collides_and_the_reference_ads_yields(four_way_map):
     row = reproduce["collisions"].to_pylist()[0]
     assert {row["actor_a"], row["actor_b"]} == {"ego", "npc1"}
     assert classify(row["yaw_a"], row["yaw_b"]) == "angle"
-    # the ADS under test has priority here and the NPC does not yield: it cannot avoid every crash,
-    # but it must never be the one that enters on red or fails to stop; its trace is well formed
+    # the reference ADS watches crossing traffic that is not slowing for its yield line and lets it pass
+    assert len(set(test["collisions"]["variation"].to_pylist())) < len(crashed) / 2
     ads = test["actors"].filter(pc.equal(test["actors"]["actor"], "ego")).to_pylist()[0]
     assert ads["is_ads"] and ads["dispositions"] == []
     assert all(test["variations"]["valid"].to_pylist())

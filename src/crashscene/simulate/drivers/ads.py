@@ -40,6 +40,11 @@ class ReferenceAdsParams(BaseModel):
     lane_change_time: float = Field(2.0, ge=0, description="[s] after which a lane change behaviour starts")
     lat_accel: float = Field(2.0, gt=0, description="[m/s2] lateral acceleration accepted in curves")
     yellow_decel: float = Field(3.5, gt=0, description="[m/s2] stops on yellow when that suffices")
+    defensive: bool = Field(True, description="also slow for a crossing vehicle without the right of way that is "
+                                              "not braking for its own stop or yield line")
+    defensive_window: float = Field(3.0, gt=0, description="[s] such a vehicle is a threat when it reaches the "
+                                                           "conflict point within this time")
+    defensive_decel: float = Field(5.0, gt=0, description="[m/s2] hardest braking used to let it pass")
     respect_speed_limit: bool = Field(True, description="never cruise above the posted limit times the "
                                                        "condition factor (wet, fog, snow, night)")
 
@@ -65,6 +70,15 @@ class ReferenceADS(Driver):
         self.commands: deque = deque(maxlen=max(1, int(round(c.reaction_time / ctx.dt)) + 1))
         self.lane_changed = np.zeros(ctx.n_variations, dtype=bool)
 
+    def _defensive(self, obs: Observation) -> np.ndarray:
+        """Brake for a crossing vehicle that will not stop: it arrives soon and is not slowing down."""
+        c = self.config
+        stop_dist = obs.cross_dist - 3.0  # wait with the front bumper 3 m short of the conflict point
+        need = _stop_before(obs.speed, stop_dist)
+        threat = (obs.cross_tta < c.defensive_window) & (np.nan_to_num(obs.cross_accel, nan=0.0) > -1.0) & (
+            stop_dist > 0) & (-need < c.defensive_decel)
+        return np.where(threat, need, np.inf)
+
     def step(self, obs: Observation) -> Action:
         ctx = self.ctx
         cruise = ctx.cruise_speed
@@ -72,6 +86,8 @@ class ReferenceADS(Driver):
             safe = obs.speed_limit * ctx.condition_factor
             cruise = np.where(np.isnan(safe), cruise, np.minimum(cruise, safe))
         accel = longitudinal_accel(obs, ctx, self.state, self.rules, desired_speed(obs, cruise, self.rules))
+        if self.config.defensive:
+            accel = np.minimum(accel, self._defensive(obs))
         self.commands.append(accel)
         delayed = self.commands[0]
         # an emergency seen now is not delayed beyond the reaction time: take the more cautious command
@@ -87,6 +103,10 @@ class ReferenceADS(Driver):
         elif np.any(ctx.initial_offset != 0):
             offset = np.where(obs.t < 1.0, ctx.initial_offset, 0.0)
         return Action(accel=accel, lateral_offset=offset)
+
+
+def _stop_before(speed: np.ndarray, dist: np.ndarray) -> np.ndarray:
+    return -(speed ** 2) / (2.0 * np.maximum(dist, 0.1))
 
 
 def load_driver(spec: str | None, params: dict | None = None):

@@ -92,6 +92,10 @@ class Observation:
     yield_tta: np.ndarray  # [s] smallest time-to-arrival at the shared conflict point of a vehicle with priority
     yield_occupied: np.ndarray  # bool: a vehicle with priority is inside the conflict area now
     conflict_dist: np.ndarray  # [m] front bumper to that conflict point, NaN if none
+    cross_tta: np.ndarray  # [s] smallest time-to-arrival of ANY vehicle at a conflict point still ahead of us
+    #                        (priority or not: what a defensive driver watches), inf if none
+    cross_accel: np.ndarray  # [m/s2] that vehicle's acceleration (a vehicle about to yield is braking), NaN if none
+    cross_dist: np.ndarray  # [m] our front bumper to that conflict point, NaN if none
     target_gap_front: np.ndarray  # [m] gap to the nearest vehicle ahead in the lane at d = lateral target, inf if none
     target_gap_rear: np.ndarray  # [m] gap to the nearest vehicle behind in that lane, inf if none
     target_rear_speed: np.ndarray  # [m/s] that vehicle's speed, NaN if none

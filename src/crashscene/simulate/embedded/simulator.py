@@ -228,6 +228,9 @@ def _observe(batch: batch_setup.BatchSetup, state: State, geo: Geometry, a: int,
     yield_tta = np.full(n_v, np.inf)
     yield_occ = np.zeros(n_v, dtype=bool)
     conflict_dist = np.full(n_v, np.nan)
+    cross_tta = np.full(n_v, np.inf)
+    cross_accel = np.full(n_v, np.nan)
+    cross_dist = np.full(n_v, np.nan)
     target = batch.lateral_target[:, a]
     others_x = state.x.copy()
     others_y = state.y.copy()
@@ -261,10 +264,22 @@ def _observe(batch: batch_setup.BatchSetup, state: State, geo: Geometry, a: int,
         closer_rear = behind & (rear_gap < tgt_rear)
         tgt_rear = np.where(closer_rear, np.maximum(rear_gap, 0.0), tgt_rear)
         tgt_rear_speed = np.where(closer_rear, speed_along, tgt_rear_speed)
-        # gap acceptance against vehicles with priority
+        # every vehicle whose path crosses ours ahead (for defensive drivers), and gap acceptance
+        # against those with priority
+        cs_a = routes.conflict_s[r, batch.route[:, b]]
+        crossing = visible & ~np.isnan(cs_a)
+        if crossing.any():
+            cs_b = routes.conflict_s[batch.route[:, b], r]
+            mine = cs_a - geo.front[:, a]
+            theirs = cs_b - 1.0 - (state.s[:, b] + lb / 2)
+            ahead_both = crossing & (mine > 0) & (theirs > 0)
+            tta_b = theirs / np.maximum(state.v[:, b], 0.1)
+            sooner = ahead_both & (tta_b < cross_tta)
+            cross_tta = np.where(sooner, tta_b, cross_tta)
+            cross_accel = np.where(sooner, state.a[:, b], cross_accel)
+            cross_dist = np.where(sooner, mine, cross_dist)
         prio = batch.priority[:, a, b] & visible
         if prio.any():
-            cs_a = routes.conflict_s[r, batch.route[:, b]]
             cs_b = routes.conflict_s[batch.route[:, b], r]
             sb_front = state.s[:, b] + lb / 2
             sb_rear = state.s[:, b] - lb / 2
@@ -286,7 +301,8 @@ def _observe(batch: batch_setup.BatchSetup, state: State, geo: Geometry, a: int,
         lead_gap=lead_gap, lead_speed=lead_speed, lead_rel_yaw=lead_rel_yaw, control=geo.control[:, a], signal=geo.signal[:, a],
         stop_line_dist=geo.stop_line_dist[:, a], junction_dist=geo.junction_dist[:, a],
         in_junction=geo.in_junction_route[:, a], maneuver=geo.maneuver[:, a], yield_tta=yield_tta,
-        yield_occupied=yield_occ, conflict_dist=conflict_dist, target_gap_front=tgt_front,
+        yield_occupied=yield_occ, conflict_dist=conflict_dist, cross_tta=cross_tta, cross_accel=cross_accel,
+        cross_dist=cross_dist, target_gap_front=tgt_front,
         target_gap_rear=tgt_rear, target_rear_speed=tgt_rear_speed, others_x=others_x, others_y=others_y,
         others_yaw=state.yaw, others_speed=state.v, collided=state.collided[:, a],
     )
