@@ -296,13 +296,41 @@ def _relative_routes(actor, combo, ref_route):
         other = _oncoming_lane(lane, s_local, combo.meta.get("index"))
     if other is None:
         return []
-    chain = _follow_on(_lead_in(other, _LEAD_IN + 200.0, combo.meta.get("connecting", frozenset())), 200.0)
+    chain = _mirror(ref_route, combo.meta) if kind == "oncoming" else None
+    if chain is None:
+        # oncoming lanes run backwards along the reference: their lead-in may cross junctions (CARLA towns link
+        # lanes through connectors); _plausible rejects chains that leave the reference's side
+        connecting = combo.meta.get("connecting", frozenset()) if kind != "oncoming" else frozenset()
+        chain = _follow_on(_lead_in(other, _LEAD_IN + 200.0, connecting), 200.0)
     route = _route(chain, 0.0)
     route.anchor = _r_project(route, _r_xy(ref_route, ref_route.anchor))
     other_lane, other_local = _local(route, route.anchor)
     if not _needs_ok(actor, route, other_local, other_lane, combo.meta.get("index")):
         return []
     return [route]
+
+
+def _mirror(ref_route, meta):
+    """The reference's route driven the other way: the oncoming lane of each of its road lanes, in reverse order,
+    joined through the junction connector that links them. None when a piece is missing (then the caller falls
+    back to the oncoming lane's own predecessors)."""
+    connecting = meta.get("connecting", frozenset())
+    road_lanes = [lane for lane in ref_route.lanes if lane.road not in connecting]
+    if len(road_lanes) < 2 or len(road_lanes) == len(ref_route.lanes):
+        return None  # no junction on the route: the plain oncoming chain already mirrors it
+    opposite = [_oncoming_lane(lane) for lane in reversed(road_lanes)]
+    if any(lane is None for lane in opposite):
+        return None
+    chain = [opposite[0]]
+    for lane in opposite[1:]:
+        if chain[-1]._successor is lane:
+            chain.append(lane)
+            continue
+        links = [m for m in chain[-1].maneuvers if m.endLane is lane and m.connectingLane is not None]
+        if not links:
+            return None
+        chain += [links[0].connectingLane, lane]
+    return _follow_on(_lead_in(chain[0], _LEAD_IN, connecting)[:-1] + chain, 200.0)
 
 
 def _expand(actors, base, approach_candidates, cap):
@@ -418,6 +446,7 @@ def _junction_combos(network, actors, legs, ego_roads, cap=400):
 
 
 _STRAIGHT_TOLERANCE = 0.35  # [rad] heading spread allowed along a "straight" ego route window
+_BESIDE = 12.0  # [m] furthest a beside/oncoming actor may stand from the point it was projected from
 _HEADING_TOLERANCE = 0.4  # [rad] error allowed on the expected heading of a placed actor (nominal placement)
 
 
@@ -453,13 +482,21 @@ def _plausible(combo, actors, topology, room):
             if abs(_angle_diff(_r_heading(ego_route, s), h0)) > _STRAIGHT_TOLERANCE:
                 return False
             s += 5.0
-    if topology == "curve":
-        return True  # headings change along a bend by design
     for end in (0, 1):
         s_of = _nominal_s(combo, actors, end)
         ego_heading = _r_heading(ego_route, s_of["ego"])
         for actor in actors[1:]:
-            rel = _angle_diff(_r_heading(combo.routes[actor["role"]], s_of[actor["role"]]), ego_heading)
+            route = combo.routes[actor["role"]]
+            if actor["placement"] in ("oncoming", "side_left", "side_right"):
+                # the projection must land beside the reference point, not at a clamped end of the route
+                along = (actor["dist"][end] if actor["along"] != "behind" else -actor["dist"][end]) \
+                    if actor["placement"] == "oncoming" else 0.0
+                target = _r_xy(combo.routes[actor["ref"]], s_of[actor["ref"]] + along)
+                if _math.dist(_r_xy(route, s_of[actor["role"]]), target) > _BESIDE:
+                    return False
+            if topology == "curve":
+                continue  # headings change along a bend by design
+            rel = _angle_diff(_r_heading(route, s_of[actor["role"]]), ego_heading)
             if abs(_angle_diff(rel, actor["heading"])) > _HEADING_TOLERANCE:
                 return False
     return True
