@@ -35,7 +35,11 @@ def main() -> int:
     from crashscene.dsl import load_file
     from crashscene.render import render
     from crashscene.sample import sample_scenes
-    from crashscene.simulate.backend import SimulationRequest, SimulationSettings, create_simulator
+    from crashscene.simulate.backend import (
+        SimulationRequest,
+        SimulationSettings,
+        create_simulator,
+    )
 
     scenario = load_file(args.case)
     settings = SimulationSettings(mode=args.mode)

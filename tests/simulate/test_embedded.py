@@ -12,7 +12,12 @@ import pytest
 
 from crashscene.dsl import load_file
 from crashscene.scene import SampledScene
-from crashscene.simulate.backend import SimulationError, SimulationRequest, SimulationSettings, create_simulator
+from crashscene.simulate.backend import (
+    SimulationError,
+    SimulationRequest,
+    SimulationSettings,
+    create_simulator,
+)
 from crashscene.simulate.embedded.collisions import classify, rectangles_overlap
 from crashscene.traces import TABLES
 

@@ -12,7 +12,12 @@ from typer.testing import CliRunner
 from crashscene.cli import app
 from crashscene.dsl import load_file
 from crashscene.scene import SampledScene
-from crashscene.simulate.backend import SimulationError, SimulationRequest, SimulationSettings, create_simulator
+from crashscene.simulate.backend import (
+    SimulationError,
+    SimulationRequest,
+    SimulationSettings,
+    create_simulator,
+)
 from crashscene.simulate.pipeline import simulate_scenario
 from crashscene.traces import TABLES, read_table
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 import json
 import sys
 from pathlib import Path
-from typing import Annotated, Optional
+from typing import Annotated
 
 import typer
 
@@ -42,14 +42,14 @@ def simulate(
     backend: Annotated[str, typer.Option("--backend", help="embedded (default), newtonian or carla.")] = "embedded",
     ego: Annotated[str, typer.Option("--ego", help="DSL role handed to the ADS under test.")] = "ego",
     out: Annotated[Path, typer.Option("--out", "-o", help="Run directory to write.")] = Path("out/simulate"),
-    ads: Annotated[Optional[str], typer.Option("--ads", help="User ADS driver 'package.module:Class' "
+    ads: Annotated[str | None, typer.Option("--ads", help="User ADS driver 'package.module:Class' "
                                                            "(see crashscene.simulate.drivers.base).")] = None,
     ads_param: Annotated[list[str], typer.Option("--ads-param", help="ADS parameter KEY=VALUE (repeatable), "
                                                                    "e.g. reaction_time=0.8.")] = [],  # noqa: B006
     dt: Annotated[float, typer.Option("--dt", help="Time step [s].")] = 0.1,
     horizon: Annotated[float, typer.Option("--horizon", help="Simulated time per variation [s].")] = 20.0,
     map_mode: Annotated[str, typer.Option("--map", help="generated or carla.")] = "generated",
-    carla_maps: Annotated[Optional[Path], typer.Option("--carla-maps", help="Folder of CARLA .xodr towns.")] = None,
+    carla_maps: Annotated[Path | None, typer.Option("--carla-maps", help="Folder of CARLA .xodr towns.")] = None,
     carla_host: Annotated[str, typer.Option("--carla-host", help="CARLA server host.")] = "127.0.0.1",
     carla_port: Annotated[int, typer.Option("--carla-port", help="CARLA server port.")] = 2000,
     as_json: Annotated[bool, typer.Option("--json", help="Summary as JSON on stdout.")] = False,
@@ -71,7 +71,12 @@ def simulate(
     show_bar = not as_json and sys.stderr.isatty()
     try:
         if show_bar:
-            from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeElapsedColumn
+            from rich.progress import (
+                BarColumn,
+                MofNCompleteColumn,
+                Progress,
+                TimeElapsedColumn,
+            )
 
             with Progress("[progress.description]{task.description}", BarColumn(), MofNCompleteColumn(),
                           TimeElapsedColumn(), transient=True) as bar:

@@ -69,8 +69,7 @@ def simulate_scenario(scenario: Scenario, out_dir: Path, n: int, seed: int, firs
     except RenderError as exc:
         raise SimulationError(f"render/sample failed: {exc}") from exc
     with open(out_dir / "scenes.jsonl", "w", encoding="utf-8") as fh:
-        for scene in scenes:
-            fh.write(scene.model_dump_json() + "\n")
+        fh.writelines(scene.model_dump_json() + "\n" for scene in scenes)
 
     t0 = time.perf_counter()
     request = SimulationRequest(scenario=scenario, scenes=scenes, map_file=Path(rendered.map), settings=settings,

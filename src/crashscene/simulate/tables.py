@@ -13,7 +13,12 @@ import pyarrow as pa
 
 from crashscene.scene import SampledActor, SampledScene
 from crashscene.simulate.backend import SceneResult, SimulationSettings
-from crashscene.traces import ACTOR_SCHEMA, COLLISION_SCHEMA, TRACE_SCHEMA, VARIATION_SCHEMA
+from crashscene.traces import (
+    ACTOR_SCHEMA,
+    COLLISION_SCHEMA,
+    TRACE_SCHEMA,
+    VARIATION_SCHEMA,
+)
 
 
 def is_ads(role: str, settings: SimulationSettings) -> bool:

@@ -14,7 +14,13 @@ from collections import deque
 
 import numpy as np
 
-from crashscene.simulate.drivers.base import Action, Driver, DriverContext, Observation, stop_accel
+from crashscene.simulate.drivers.base import (
+    Action,
+    Driver,
+    DriverContext,
+    Observation,
+    stop_accel,
+)
 from crashscene.simulate.drivers.longitudinal import (
     LongitudinalRules,
     LongitudinalState,

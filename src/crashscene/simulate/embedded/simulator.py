@@ -89,8 +89,6 @@ def run_batch(batch: batch_setup.BatchSetup, recorder: Recorder) -> None:
     settings = batch.settings
     dt, n_steps = settings.dt, settings.steps
     n_v, n_a = batch.n_variations, batch.n_actors
-    routes = batch.routes
-    r = batch.route
     limits = batch.columns
     accel_max = np.array([c.limits.accel_max for c in limits])[None, :]
     brake_max = np.array([c.limits.brake_max for c in limits])[None, :]
@@ -159,8 +157,21 @@ class State:
 class Geometry:
     """Per-step quantities derived from the state and the routes, shared by observations and the recorder."""
 
-    __slots__ = ("route_yaw", "front", "entry", "in_junction_route", "junction_dist", "stop_line_dist", "control",
-                 "maneuver", "junction", "signal", "speed_limit", "lane_width", "route_lane")
+    __slots__ = (
+        "control",
+        "entry",
+        "front",
+        "in_junction_route",
+        "junction",
+        "junction_dist",
+        "lane_width",
+        "maneuver",
+        "route_lane",
+        "route_yaw",
+        "signal",
+        "speed_limit",
+        "stop_line_dist",
+    )
 
 
 def _geometry(batch: batch_setup.BatchSetup, state: State, t: float) -> Geometry:

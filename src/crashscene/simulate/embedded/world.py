@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 import shapely
 
-from crashscene.simulate.roads import ROUTE_DS, MANEUVER_CODES, Route
+from crashscene.simulate.roads import MANEUVER_CODES, ROUTE_DS, Route
 
 CONTROL_CODES = {"none": 0, "signal": 1, "stop": 2, "yield": 3}
 
