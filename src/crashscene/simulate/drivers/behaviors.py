@@ -95,7 +95,7 @@ class BehaviorDriver(Driver):
         self.state = LongitudinalState(ctx.n_variations)
         inattentive = bool(disp & {"CVC_21703", "CVC_22350"})
         self.perception = DelayedPerception(LATE_REACTION if inattentive else REACTION, ctx.dt)
-        self.cruise = ctx.cruise_speed * speed_factor(disp)
+        self.cruise = ctx.cruise_speed  # already includes the speeding factor (embedded.setup plans with it)
         self.check_gap = "CVC_22107" not in disp
         self.tailgater = "CVC_21703" in disp
         self.lane_changed = np.zeros(ctx.n_variations, dtype=bool)

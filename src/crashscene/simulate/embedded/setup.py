@@ -186,6 +186,7 @@ def build(scenario: Scenario, scenes: list[SampledScene], roadmap: RoadMap,
     conflict_time = np.full(n_v, np.inf)
     planned = np.zeros((n_v, n_a))
     moved = np.zeros((n_v, n_a), dtype=bool)
+    start_cap = np.full((n_v, n_a), np.inf)  # [m/s] highest initial speed (curve right ahead)
     drifted = np.zeros((n_v, n_a))  # [m] lateral head start of a swerve that began before t = 0
     runs_red = "CVC_21453" in columns[anchor].dispositions
     for v, scene in enumerate(scenes):
@@ -207,10 +208,11 @@ def build(scenario: Scenario, scenes: list[SampledScene], roadmap: RoadMap,
         # ...at a speed from which it can still take the curve ahead
         reach = np.full(len(vv), 60.0)
         entry_speed = arrays.curve_speed(route[vv, aa], s0[vv, aa], reach, 2.5, 2.0)
-        planned[vv, aa] = np.minimum(planned[vv, aa], np.maximum(entry_speed, 3.0))
-    fast = np.array([speed_factor(c.dispositions) for c in columns])[None, :]
-    cruise = speed * scale
-    speed0 = np.where(hold > 0, 0.0, np.minimum(speed * fast, planned) * np.where(scale < 1, scale, 1.0))
+        start_cap[vv, aa] = np.maximum(entry_speed, 3.0)
+    # the cruise speed the driver holds is the planned one (capped at the limit unless speeding) times the
+    # timing scale; it starts at that speed (slower when the plan slows it) unless held at its start
+    cruise = planned * scale
+    speed0 = np.where(hold > 0, 0.0, np.minimum(planned * np.minimum(scale, 1.0), start_cap))
     # a driver who will stop at a stop sign close ahead is already slowing down for it
     for a, col in enumerate(columns):
         for v in range(n_v):
