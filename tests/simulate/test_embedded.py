@@ -86,6 +86,25 @@ def test_same_seed_same_bytes_and_chunks_equal_one_run(four_way_map):
         assert table_bytes(whole[name]) == table_bytes(joined), name
 
 
+def test_chunks_equal_one_run_when_layouts_differ_between_variations(four_way_map):
+    """Control tables come from each variation's own layout, never from the first scene of the chunk."""
+    scenes = crossing_scenes(four_way_map, 6, npc_dispositions=())
+    for scene in scenes:
+        scene.actors[1].reference = "stop_sign"  # the stop sign controls npc1's approach, wherever it is
+    for scene in scenes[1::2]:  # npc1 from the ego's left (southbound) in odd variations
+        npc = scene.actors[1]
+        npc.x, npc.y, npc.yaw = 160.25, 60.0, -math.pi / 2
+    stop_case = EXAMPLES / "117021" / "golden.yaml"
+    whole = run(stop_case, scenes, four_way_map, mode="test")
+    controls = {(r["variation"], r["control"]) for r in whole["traces"].to_pylist()
+                if r["actor"] == "npc1" and r["step"] == 0}
+    assert controls == {(v, "stop") for v in range(6)}
+    parts = [run(stop_case, scenes[:1], four_way_map, mode="test"), run(stop_case, scenes[1:], four_way_map,
+                                                                          mode="test")]
+    for name in TABLES:
+        assert table_bytes(whole[name]) == table_bytes(pa.concat_tables([parts[0][name], parts[1][name]])), name
+
+
 def test_reproduce_collides_and_the_reference_ads_yields(four_way_map):
     scenes = crossing_scenes(four_way_map, 40)
     reproduce = run(YIELD_CASE, scenes, four_way_map, mode="reproduce")

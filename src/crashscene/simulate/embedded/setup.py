@@ -73,8 +73,8 @@ class BatchSetup:
     s0: np.ndarray
     d0: np.ndarray
     lane_width: np.ndarray
-    entry_control: np.ndarray  # (R, J) CONTROL code of each junction entry of each route
-    entry_group: np.ndarray  # (R, J) signal group (0 anchor axis, 1 cross axis)
+    entry_control: np.ndarray  # (V, A, J) CONTROL code of each junction entry on each actor's route
+    entry_group: np.ndarray  # (V, A, J) signal group (0 anchor axis, 1 cross axis)
     priority: np.ndarray  # (V, A, A) bool: a must yield to b
     phase: np.ndarray  # (V,) [s] signal phase
     hold_until: np.ndarray
@@ -175,8 +175,12 @@ def build(scenario: Scenario, scenes: list[SampledScene], roadmap: RoadMap,
                                                d0[:, a])
 
     # ---- traffic control per junction entry, from the DSL
-    entry_control, entry_group = _entry_controls(scenario, scenes[0], arrays, route[0], s0[0], anchor)
-    priority = _priorities(arrays, route, s0, entry_control)
+    # each variation's control tables come from its own layout (never from another scene of the chunk)
+    tables = _control_tables(scenario, scenes, arrays, route, s0, anchor)
+    vidx = np.arange(n_v)[:, None]
+    entry_control = np.stack([t[0] for t in tables])[vidx, route]  # (V, A, J)
+    entry_group = np.stack([t[1] for t in tables])[vidx, route]
+    priority = _priorities(arrays, route, tables)
 
     # ---- timing plans and signal phases, per variation from its own generator
     hold = np.zeros((n_v, n_a))
@@ -191,7 +195,7 @@ def build(scenario: Scenario, scenes: list[SampledScene], roadmap: RoadMap,
     runs_red = "CVC_21453" in columns[anchor].dispositions
     for v, scene in enumerate(scenes):
         rng = variation_rng(scene.seed, scene.index)
-        _plan_variation(v, scene, rng, columns, anchor, arrays, route, s0, d0, speed, length, entry_control,
+        _plan_variation(v, scene, rng, columns, anchor, arrays, route, s0, d0, speed, length, tables[v][0],
                         lateral_target, hold, trigger, scale, phase, conflict_time, runs_red,
                         condition_factor(scenario), _mph(scenario.road_network.speed_limit_mph), planned, moved,
                         settings.mode == "reproduce", drifted)
@@ -216,7 +220,7 @@ def build(scenario: Scenario, scenes: list[SampledScene], roadmap: RoadMap,
     # a driver who will stop at a stop sign close ahead is already slowing down for it
     for a, col in enumerate(columns):
         for v in range(n_v):
-            stop = _stop_dist(arrays, route[v, a], s0[v, a], entry_control, col)
+            stop = _stop_dist(arrays, route[v, a], s0[v, a], tables[v][0], col)
             if stop is not None:
                 speed0[v, a] = min(speed0[v, a], math.sqrt(2.0 * STOP_APPROACH_DECEL * max(stop - 1.0, 0.0)))
     limit = scenario.road_network.speed_limit_mph
@@ -385,19 +389,37 @@ def _heading_at(arrays: RouteArrays, r: int, s: float) -> float:
     return float(arrays.yaw[r, k])
 
 
-def _priorities(arrays: RouteArrays, route: np.ndarray, s0: np.ndarray, entry_control: np.ndarray) -> np.ndarray:
+def _control_tables(scenario: Scenario, scenes: list[SampledScene], arrays: RouteArrays, route: np.ndarray,
+                    s0: np.ndarray, anchor: int) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Per variation, the (R, J) control and signal-group tables its own layout implies (memoised by layout)."""
+    cache: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
+    out = []
+    for v, scene in enumerate(scenes):
+        firsts = []
+        for a in range(route.shape[1]):
+            ahead = np.nonzero(arrays.entry_s[route[v, a]] > s0[v, a] - 1.0)[0]
+            firsts.append(int(ahead[0]) if len(ahead) else -1)
+        key = (tuple(int(r) for r in route[v]), tuple(firsts), tuple(a.reference for a in scene.actors))
+        if key not in cache:
+            cache[key] = _entry_controls(scenario, scene, arrays, route[v], s0[v], anchor)
+        out.append(cache[key])
+    return out
+
+
+def _priorities(arrays: RouteArrays, route: np.ndarray, tables: list[tuple[np.ndarray, np.ndarray]]) -> np.ndarray:
     """(V, A, A): actor a must yield to actor b at their conflict point."""
     n_v, n_a = route.shape
-    cache: dict[tuple[int, int], bool] = {}
+    cache: dict[tuple[int, int, int], bool] = {}
     out = np.zeros((n_v, n_a, n_a), dtype=bool)
     for v in range(n_v):
+        control = tables[v][0]
         for a in range(n_a):
             for b in range(n_a):
                 if a == b:
                     continue
-                key = (int(route[v, a]), int(route[v, b]))
+                key = (int(route[v, a]), int(route[v, b]), id(control))
                 if key not in cache:
-                    cache[key] = _must_yield(arrays, *key, entry_control)
+                    cache[key] = _must_yield(arrays, key[0], key[1], control)
                 out[v, a, b] = cache[key]
     return out
 

@@ -194,12 +194,12 @@ def _geometry(batch: batch_setup.BatchSetup, state: State, t: float) -> Geometry
     entry_s = np.take_along_axis(entries, cur[..., None], axis=-1)[..., 0]
     g.entry = np.where(has, cur, -1)
     g.junction_dist = np.where(has, entry_s - g.front, np.nan)
-    ctrl = batch.entry_control[r, cur]
+    ctrl = np.take_along_axis(batch.entry_control, cur[..., None], axis=-1)[..., 0]
     g.control = np.where(has, ctrl, 0).astype(np.int8)
     g.stop_line_dist = np.where(has & (g.control > 0), entry_s - STOP_LINE_SETBACK - g.front, np.nan)
     g.maneuver = np.where(has, routes.entry_maneuver[r, cur], 0).astype(np.int8)
     g.junction = np.where(has, routes.entry_junction[r, cur], -1)
-    group = batch.entry_group[r, cur]
+    group = np.take_along_axis(batch.entry_group, cur[..., None], axis=-1)[..., 0]
     sig = signals.signal_state(group, t, batch.phase[:, None])
     g.signal = np.where(g.control == CONTROL_SIGNAL, sig, SIGNAL_NONE).astype(np.int8)
     limit = routes.speed_limit[r, k]
