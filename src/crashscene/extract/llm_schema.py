@@ -43,6 +43,7 @@ from crashscene.dsl.tokens import (
 )
 
 MAX_NPCS = 9  # the closed role vocabulary: ego, npc1..npc9 (CIREN cases involve at most 5 vehicles)
+MAX_ORACLE = 6  # violations per scenario; list bounds (maxItems) also stop a small model's repetition loops
 
 NpcRole = StrEnum("NpcRole", {f"NPC{i}": f"npc{i}" for i in range(1, MAX_NPCS + 1)})
 Role = StrEnum("Role", {"EGO": "ego", **{r.name: r.value for r in NpcRole}})
@@ -63,7 +64,7 @@ class Quote(BaseModel):
 class LlmEnvironment(BaseModel):
     model_config = _CLOSED
 
-    evidence: list[Quote]
+    evidence: list[Quote] = Field(max_length=3)
     weather: Weather
     time_of_day: TimeOfDay
     road_surface: RoadSurface
@@ -72,12 +73,12 @@ class LlmEnvironment(BaseModel):
 class LlmRoadNetwork(BaseModel):
     model_config = _CLOSED
 
-    evidence: list[Quote]
+    evidence: list[Quote] = Field(max_length=7)
     road_type: RoadType
     number_of_ways: Literal[1, 2]
     number_of_lanes: int = Field(ge=1, le=16, description="through lanes of V1's roadway, all directions")
     road_marker: RoadMarker
-    traffic_signs: list[Sign]
+    traffic_signs: list[Sign] = Field(max_length=len(Sign))
     speed_limit_mph: int | None = Field(ge=5, le=100, description="posted limit [mph], null when not stated")
     curve_direction: CurveDirection | None = Field(description="left or right as V1 sees it; null unless a curve")
 
@@ -101,7 +102,7 @@ class LlmEgo(BaseModel):
     model_config = _CLOSED
 
     label: str | None = Field(description="the report's label of the case vehicle, usually V1")
-    evidence: list[Quote]
+    evidence: list[Quote] = Field(max_length=3)
     type: ActorType
     behavior: Behavior
     position: LlmEgoPosition
@@ -113,7 +114,7 @@ class LlmNpc(BaseModel):
 
     role: NpcRole = Field(description="npc1 for V2, npc2 for V3, ...")
     label: str | None = Field(description="the report's label: V2, V3, ...; unknown for an unlabelled vehicle")
-    evidence: list[Quote]
+    evidence: list[Quote] = Field(max_length=3)
     type: ActorType
     behavior: Behavior
     position: LlmPosition
@@ -139,8 +140,8 @@ class LlmScenario(BaseModel):
     environment: LlmEnvironment
     road_network: LlmRoadNetwork
     ego: LlmEgo
-    npcs: list[LlmNpc]
-    oracle: list[LlmViolation]
+    npcs: list[LlmNpc] = Field(max_length=MAX_NPCS)
+    oracle: list[LlmViolation] = Field(max_length=MAX_ORACLE)
 
 
 def strict_json_schema() -> dict[str, Any]:

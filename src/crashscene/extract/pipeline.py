@@ -41,7 +41,8 @@ class ExtractOptions(BaseModel):
     base_url: str | None = None
     model_path: Path | None = None
     timeout: float = Field(default=DEFAULT_TIMEOUT, gt=0, description="[s] per request")
-    max_reasks: int = Field(default=2, ge=0, le=5, description="re-asks after an invalid reply")
+    max_reasks: int | None = Field(default=None, ge=0, le=5,
+                                   description="re-asks after an invalid reply; None: 2 openai, 1 local")
     retry: RetryPolicy = Field(default_factory=RetryPolicy, description="timeouts, 429 and 5xx")
     revise: bool = True
     exemplars: int | None = Field(default=None, ge=0, le=4, description="few-shot pairs; None: 3 openai, 1 local")
@@ -201,11 +202,12 @@ def _extract_llm(report: Any, facts: list[Any], chat: ChatBackend, options: Extr
     exemplars = options.exemplars if options.exemplars is not None else (DEFAULT_EXEMPLARS if chat.send_image else 1)
     messages = build_messages(report.narrative, fact_lines, report.case_id, image, exemplars)
     source = str(report.source)
-    draft = ask_until_valid(chat, messages, usage, scenario_id, options.max_reasks, source)
+    reasks = options.max_reasks if options.max_reasks is not None else (1 if chat.name == "local" else 2)
+    draft = ask_until_valid(chat, messages, usage, scenario_id, reasks, source)
     findings = review(draft, report.narrative, fact_lines)
     if options.revise:
         scenario, findings = revise(chat, messages, draft, findings, report.narrative, fact_lines, usage,
-                                    options.max_reasks, source)
+                                    reasks, source)
     else:
         scenario = draft
     scenario, dropped = prune_oracle(scenario)
