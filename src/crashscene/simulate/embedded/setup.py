@@ -30,6 +30,7 @@ JUNCTION_INTENTS = {"straight": "straight", "left": "left", "right": "right", "u
 BEHAVIOR_INTENTS = {"turn_left": "left", "turn_right": "right", "u_turn": "u_turn"}
 OPPOSITE_HEADINGS = ("opposite_direction",)
 ROUTE_SPEED = 40.0  # [m/s] routes are built long enough for this speed over the horizon (or to the map's end)
+OFF_ROAD_MARGIN = 2.5  # [m] a vehicle leaving the road drifts this far past the edge of the lanes
 STOP_APPROACH_DECEL = 2.5  # [m/s2] a driver approaching a stop sign is slowing down at most this hard
 ADVANCE_MARGIN = 3.0  # [m] an actor advanced by its timing plan stays this far before its junction entry
 
@@ -138,6 +139,7 @@ def build(scenario: Scenario, scenes: list[SampledScene], roadmap: RoadMap,
     route = np.zeros((n_v, n_a), dtype=np.int64)
     lateral_target = np.zeros((n_v, n_a))
     lane_cache: dict[tuple, Lane | None] = {}
+    road_edge = np.full((n_v, n_a), np.nan)  # [m] signed offset of the road edge a leave_road actor drifts over
     for v, scene in enumerate(scenes):
         for a, actor in enumerate(scene.actors):
             lane = _start_lane(roadmap, actor, lane_cache)
@@ -151,6 +153,8 @@ def build(scenario: Scenario, scenes: list[SampledScene], roadmap: RoadMap,
                 continue
             route_lane, target = _route_lane(roadmap, lane, actor)
             lateral_target[v, a] = target
+            if actor.behavior == "leave_road":
+                road_edge[v, a] = _road_edge_offset(roadmap, lane, scenario)
             intent = _junction_intent(actor)
             key = (route_lane.uid, intent, min_length)
             if key not in route_index:
@@ -171,6 +175,10 @@ def build(scenario: Scenario, scenes: list[SampledScene], roadmap: RoadMap,
     lane_width = np.where(start_lane_idx >= 0, lane_width_table[np.maximum(start_lane_idx, 0)], 3.5)
     co = arrays.sample(arrays.centerline_offset, route, s0)
     for a, col in enumerate(columns):
+        if col.behavior == "leave_road":
+            edge = np.where(np.isnan(road_edge[:, a]), -lane_width[:, a] / 2.0, road_edge[:, a])
+            lateral_target[:, a] = edge + np.sign(edge) * OFF_ROAD_MARGIN
+            continue
         lateral_target[:, a] = _lateral_target(col.behavior, lateral_target[:, a], co[:, a], lane_width[:, a],
                                                d0[:, a])
 
@@ -288,6 +296,32 @@ def _route_lane(roadmap: RoadMap, lane: Lane, actor: SampledActor) -> tuple[Lane
             return roadmap.by_uid[lane.right], 0.0
         return lane, -lane.width
     return lane, 0.0
+
+
+def _road_edge_offset(roadmap: RoadMap, lane: Lane, scenario: Scenario) -> float:
+    """Signed lateral offset [m] from the lane's centre to the road edge a vehicle leaving the road crosses.
+
+    The right edge, past every same-direction lane to the right; on a one-way roadway the left edge
+    instead when it is nearer, or when a right-hand curve throws the vehicle outward to the left
+    (a left-hand curve throws it right).
+    """
+    def count(uid: str | None, side: str) -> int:
+        n, seen = 0, set()
+        while uid and uid not in seen and uid in roadmap.by_uid:
+            seen.add(uid)
+            n += 1
+            uid = getattr(roadmap.by_uid[uid], side)
+        return n
+
+    w = lane.width
+    right = -(w / 2.0 + count(lane.right, "right") * w)
+    if lane.opposite is not None:
+        return right  # two-way: leaving to the left means crossing the oncoming lanes first
+    left = w / 2.0 + count(lane.left, "left") * w
+    curve = scenario.road_network.curve_direction
+    if scenario.road_network.road_type == "curve" and curve is not None:
+        return left if str(curve) == "right" else right
+    return left if left < -right else right
 
 
 def _lateral_target(behavior: str, current: np.ndarray, centre_offset: np.ndarray, lane_width: np.ndarray,
