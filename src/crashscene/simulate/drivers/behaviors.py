@@ -32,6 +32,10 @@ NO_YIELD_CODES = frozenset({"CVC_21800", "CVC_21801", "CVC_21802", "CVC_21803", 
 CLOSE_HEADWAY = 0.5  # [s] CVC_21703
 REACTION = 1.0  # [s] perception-reaction time of an ordinary human driver
 TAILGATE_RANGE = 80.0  # [m] a tailgater matches the speed of a car ahead closer than this
+PULL_OUT_BEHAVIORS = ("change_lane_left", "change_lane_right", "cross_centerline", "overtake")
+PULL_OUT_GAP = 2.0  # [m] a tailgater about to pass pulls out when this close to the car ahead...
+PULL_OUT_TIME = 0.25  # [s] ...or this close in time
+CLOSING_SPEED = 3.0  # [m/s] how much faster than the car ahead a tailgater about to pass drives
 CROSSING_YAW = 0.7  # [rad] a lead more than this off the route's heading is crossing, not followed
 LATE_REACTION = 1.8  # [s] perception delay of an inattentive driver (CVC_21703, CVC_22350)
 OVERSPEED = 1.25  # [-] CVC_22350 / CVC_22349: cruise speed factor
@@ -98,6 +102,7 @@ class BehaviorDriver(Driver):
         self.cruise = ctx.cruise_speed  # already includes the speeding factor (embedded.setup plans with it)
         self.check_gap = "CVC_22107" not in disp
         self.tailgater = "CVC_21703" in disp
+        self.pulled_out = np.zeros(ctx.n_variations, dtype=bool)
         self.lane_changed = np.zeros(ctx.n_variations, dtype=bool)
         self.stopping = np.zeros(ctx.n_variations, dtype=bool)
 
@@ -115,6 +120,13 @@ class BehaviorDriver(Driver):
         behavior = ctx.behavior
         n = ctx.n_variations
         triggered = obs.t >= ctx.trigger_time
+        if self.tailgater and behavior in PULL_OUT_BEHAVIORS:
+            # a tailgater pulls out late: when it has closed in on the car ahead in its lane, or on the
+            # plan's trigger when no car is close ahead
+            lead_near = obs.lead_gap < TAILGATE_RANGE / 2
+            close = obs.lead_gap < np.maximum(PULL_OUT_GAP, PULL_OUT_TIME * obs.speed)
+            self.pulled_out |= close | (triggered & ~lead_near)
+            triggered = self.pulled_out
         if behavior == "static":
             return Action(accel=np.full(n, -ctx.limits.brake_max))
 
@@ -128,8 +140,8 @@ class BehaviorDriver(Driver):
         if self.tailgater:
             # a tailgater keeps up with the car ahead: it closes in to its short headway
             near = np.nan_to_num(obs.lead_gap, posinf=np.inf) < TAILGATE_RANGE
-            cruise = np.where(near & ~np.isnan(obs.lead_speed), np.maximum(cruise, np.nan_to_num(obs.lead_speed)),
-                              cruise)
+            closing = np.nan_to_num(obs.lead_speed) + (CLOSING_SPEED if behavior in PULL_OUT_BEHAVIORS else 0.0)
+            cruise = np.where(near & ~np.isnan(obs.lead_speed), np.maximum(cruise, closing), cruise)
         if behavior == "decelerate":
             cruise = np.where(triggered, cruise * DECELERATE_TO, cruise)
         accel = longitudinal_accel(obs, ctx, self.state, self.rules, desired_speed(obs, cruise, self.rules),
