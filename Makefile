@@ -3,7 +3,7 @@
 PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
-DEMO_CASE ?= examples/ciren/120013
+DEMO_CASE ?= examples/ciren/100237
 DEMO_N ?= 200
 
 $(BIN)/python:
@@ -19,7 +19,8 @@ $(VENV)/.installed-test: pyproject.toml | $(BIN)/python
 	touch $@ $(VENV)/.installed-base
 
 .PHONY: demo test bench clean
-# One bundled CIREN case through the whole pipeline, offline (rules extractor, embedded simulator), no API key.
+# One bundled CIREN case through the whole pipeline, offline (rules extractor, embedded simulator), no API key:
+# 100237, V2 fails to yield at a 4-leg intersection and strikes the right side of V1 (re-enacted, then the ADS drives V1).
 demo: $(VENV)/.installed-base
 	rm -rf out/demo
 	$(BIN)/crashscene run $(DEMO_CASE) -n $(DEMO_N) --out out/demo
