@@ -1,0 +1,275 @@
+"""Timing plans of an embedded batch, per variation: when each actor starts, how fast it cruises and when its
+manoeuvre triggers, so that the paths conflict as the report says (see `timing` for the kinematics), and the
+signal phase that gives the anchor its green.
+
+Every draw comes from the variation's own generator in a fixed order, so a plan depends only on
+(scenario, seed, variation index).
+"""
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from crashscene.scene import SampledScene
+from crashscene.simulate.drivers.behaviors import SPEEDING_CODES, speed_factor
+from crashscene.simulate.embedded import signals, timing
+from crashscene.simulate.embedded.control import entry_before
+from crashscene.simulate.embedded.world import RouteArrays
+from crashscene.simulate.roads import ROUTE_DS
+
+if TYPE_CHECKING:
+    from crashscene.simulate.embedded.setup import ActorColumn
+
+MPH = 0.44704  # [m/s] per mph
+LATERAL_BEHAVIORS = ("change_lane_left", "change_lane_right", "cross_centerline", "overtake", "lose_control",
+                     "leave_road")
+ADVANCE_MARGIN = 3.0  # [m] an actor advanced by its timing plan stays this far before its junction entry
+
+
+def plan_variation(v: int, scene: SampledScene, rng: np.random.Generator, columns: list[ActorColumn], anchor: int,
+                    arrays: RouteArrays, route: np.ndarray, s0: np.ndarray, d0: np.ndarray, speed: np.ndarray,
+                    length: np.ndarray, entry_control: np.ndarray, lateral_target: np.ndarray, hold: np.ndarray,
+                    trigger: np.ndarray, scale: np.ndarray, phase: np.ndarray, conflict_time: np.ndarray,
+                    runs_red: bool, cond: float, default_limit: float, planned_out: np.ndarray,
+                    moved: np.ndarray, reproduce: bool, drifted: np.ndarray) -> None:
+    """Fill row v of the timing arrays (draws from rng in a fixed order)."""
+    n_a = len(columns)
+    planned = [_planned_speed(arrays, route[v, a], s0[v, a], speed[v, a], columns[a], cond, default_limit)
+               for a in range(n_a)]
+    planned_out[v] = planned
+    draws = {"offset": rng.normal(timing.ARRIVAL_OFFSET_MEAN, timing.ARRIVAL_OFFSET_SD, n_a),
+             "lead": rng.uniform(0.8, 2.0, n_a), "trigger": rng.uniform(1.0, 4.0, n_a),
+             "green": rng.uniform(3.0, 15.0), "spin": rng.choice([-1.0, 1.0], n_a)}
+    ra = route[v, anchor]
+    va = planned[anchor]
+    anchor_col = columns[anchor]
+    anchor_stop = stop_dist(arrays, ra, s0[v, anchor], entry_control, anchor_col)
+    arrival_anchor = None
+    for a, col in enumerate(columns):
+        r = route[v, a]
+        params = scene.params
+        offset = float(np.clip(draws["offset"][a], -timing.ARRIVAL_OFFSET_MAX, timing.ARRIVAL_OFFSET_MAX))
+        offset = _param(params, col.role, ("ARRIVAL_OFFSET",), offset)
+        if reproduce:
+            offset *= timing.REPRODUCE_OFFSET_SCALE
+        if col.is_ads:
+            continue
+        if col.behavior in LATERAL_BEHAVIORS:
+            partner = _partner(v, a, anchor, columns, scene, route, s0)
+            if partner is None:
+                trigger[v, a] = _param(params, col.role, ("TRIGGER_TIME", "MANEUVER_TIME"), draws["trigger"][a])
+                if col.behavior == "lose_control":
+                    lateral_target[v, a] = draws["spin"][a]
+                continue
+            gap, lateral = _relative(arrays, r, s0[v, a], scene.actors[partner].x, scene.actors[partner].y)
+            opposite = math.cos(scene.actors[partner].yaw - scene.actors[a].yaw) < -0.3
+            if col.behavior == "lose_control":
+                lateral_target[v, a] = 1.0 if lateral >= 0 else -1.0
+                dist = 2.5
+            elif col.behavior == "cross_centerline" and opposite and lateral > lateral_target[v, a] > 0:
+                # several opposing lanes: drift as far as the oncoming partner's lane
+                lateral_target[v, a] = lateral
+                dist = lateral - d0[v, a]
+            else:
+                dist = lateral_target[v, a] - d0[v, a]
+            lead = _param(params, col.role, ("LEAD_TIME",), draws["lead"][a])
+            if col.behavior == "lose_control":
+                lead = (draws["lead"][a] - 1.4) / 1.2 * 0.6  # [-0.3, 0.3] s around reaching the partner's lane
+            rate = timing.lateral_rate(col.behavior)
+            p_col = columns[partner]
+            if opposite and not p_col.is_ads and p_col.behavior not in LATERAL_BEHAVIORS and gap > 0:
+                # too close to swerve in time: the oncoming partner comes a little slower (within its range)
+                needed = abs(dist) / rate + lead
+                closing = gap / needed
+                if closing < planned[a] + planned[partner]:
+                    scale[v, partner] = max(timing.SPEED_SCALE[0], (closing - planned[a]) / planned[partner])
+                    planned[partner] *= scale[v, partner]
+            if col.behavior == "lose_control":
+                t_trig = timing.skid_trigger(gap, planned[a], planned[partner], lateral, timing.SPIN_RATE,
+                                             opposite=opposite) - lead
+            else:
+                t_trig = timing.lateral_trigger(gap, planned[a], planned[partner], opposite, dist, lead, rate)
+            if t_trig < 0 and col.behavior in ("cross_centerline", "overtake") and opposite:
+                # too close for the whole manoeuvre: the actor is already drifting across at t = 0
+                shift = float(np.clip(-t_trig * rate, 0.0, abs(dist) * 0.6)) * math.copysign(1.0, dist)
+                d0[v, a] += shift
+                drifted[v, a] = shift
+            trigger[v, a] = max(0.0, t_trig)
+            continue
+        if col.behavior in ("decelerate", "stop"):
+            trigger[v, a] = _param(params, col.role, ("TRIGGER_TIME", "MANEUVER_TIME"), draws["trigger"][a])
+            continue
+        if a == anchor or col.behavior == "static":
+            continue
+        cs_a = arrays.conflict_s[r, ra]
+        cs_e = arrays.conflict_s[ra, r]
+        if np.isnan(cs_a) or cs_a <= s0[v, a] or cs_e <= s0[v, anchor]:
+            continue
+        lat_a = 2.0 if col.is_ads else 2.5
+        lat_e = 2.0 if anchor_col.is_ads else 2.5
+        if arrival_anchor is None:
+            if anchor_stop is None:
+                arrival_anchor = arrays.travel_time(ra, s0[v, anchor], cs_e, va, lat_e, v0=va)
+            else:
+                v_eff = _effective_speed(arrays, ra, s0[v, anchor], cs_e, va, anchor_col)
+                arrival_anchor = timing.arrival_time(cs_e - s0[v, anchor], v_eff, anchor_col.limits.accel_max,
+                                                     stop_dist=anchor_stop)
+        stop = stop_dist(arrays, r, s0[v, a], entry_control, col)
+        # a turning vehicle is struck on its side in its turn: it reaches the conflict point first
+        turn_a = _turns_at(arrays, r, cs_a)
+        turn_e = _turns_at(arrays, ra, cs_e)
+        if turn_a and not turn_e:
+            offset -= timing.TURNER_LEAD
+        elif turn_e and not turn_a:
+            offset += timing.TURNER_LEAD
+        target = arrival_anchor + offset
+        va_ = planned[a]
+        if stop is not None:
+            v_eff = _effective_speed(arrays, r, s0[v, a], cs_a, va_, col)
+            sc, hd = timing.junction_plan(target, cs_a - s0[v, a], v_eff, col.limits.accel_max, stop_dist=stop)
+            late = 0.0
+        else:
+            def t_at(k: float, s_start: float = s0[v, a], v_start: float | None = None) -> float:
+                v_init = va_ * min(k, 1.0) if v_start is None else v_start
+                return arrays.travel_time(r, s_start, cs_a, va_ * k, lat_a, v0=v_init)
+
+            lo, hi = timing.SPEED_SCALE
+            hd = 0.0
+            if t_at(hi) > target:
+                sc = hi
+                late = t_at(hi) - target
+            elif t_at(lo) < target:
+                sc = lo
+                late = 0.0
+                hd = max(0.0, target - arrays.travel_time(r, s0[v, a], cs_a, va_ * lo, lat_a, v0=0.0))
+            else:
+                # travel time is nearly proportional to 1/speed: two secant corrections suffice
+                sc = float(np.clip(t_at(1.0) / target, lo, hi))
+                for _ in range(2):
+                    sc = float(np.clip(sc * t_at(sc) / target, lo, hi))
+                late = 0.0
+        if late > 0.1 and stop is None:
+            # even at its fastest the actor would come late: it has already been driving for a while,
+            # so it starts further along its own approach (never closer than ADVANCE_MARGIN to the junction)
+            entries = arrays.entry_s[r]
+            first_entry = entries[np.isfinite(entries) & (entries > s0[v, a])]
+            room = (first_entry[0] - s0[v, a] - ADVANCE_MARGIN) if len(first_entry) else 0.0
+            if room > 0:
+                best = s0[v, a]
+                for cand in np.linspace(s0[v, a], s0[v, a] + room, 12)[1:]:
+                    v_start = min(va_ * sc, max(float(arrays.curve_speed(np.array(r), np.array(cand),
+                                                                         np.array(60.0), 2.5, 2.0)), 3.0))
+                    best = cand
+                    late = t_at(sc, cand, v_start) - target
+                    if late <= 0.05:
+                        break
+                s0[v, a] = best
+                moved[v, a] = True
+            if late > 0.1 and not anchor_col.is_ads and anchor_col.behavior not in ("static", "stop") \
+                    and anchor_stop is None and hold[v, anchor] == 0.0:
+                # reproduce mode: the scripted anchor comes that much later instead (slower, else it waits)
+                t_new = arrival_anchor + late
+                lo, hi = timing.SPEED_SCALE[0], 1.0
+                if arrays.travel_time(ra, s0[v, anchor], cs_e, va * lo, lat_e, v0=va * lo) < t_new:
+                    scale[v, anchor] = lo
+                    t_rest = arrays.travel_time(ra, s0[v, anchor], cs_e, va * lo, lat_e, v0=0.0)
+                    hold[v, anchor] = max(0.0, t_new - t_rest)
+                else:
+                    for _ in range(8):
+                        mid = (lo + hi) / 2
+                        t_mid = arrays.travel_time(ra, s0[v, anchor], cs_e, va * mid, lat_e, v0=va * mid)
+                        lo, hi = (lo, mid) if t_mid < t_new else (mid, hi)
+                    scale[v, anchor] = (lo + hi) / 2
+                arrival_anchor = t_new
+        scale[v, a], hold[v, a] = sc, hd
+        conflict_time[v] = min(conflict_time[v], arrival_anchor)
+    # signal phase: green for the anchor's axis at its nominal arrival at its first junction
+    entries = arrays.entry_s[ra]
+    ahead = entries[np.isfinite(entries) & (entries > s0[v, anchor])]
+    t_junction = (ahead[0] - s0[v, anchor]) / va if len(ahead) else 5.0
+    green = float(scene.params.get("SIGNAL_GREEN_REMAINING", draws["green"]))
+    phase[v] = float(signals.phase_for(np.array(t_junction), np.array(green), runs_red))
+
+
+def _param(params: dict, role: str, names: tuple[str, ...], default: float) -> float:
+    """A sampled scene parameter `<role>_<NAME>` (ego's spelled EGO_<NAME>), else `default`."""
+    for name in names:
+        for key in (f"{role}_{name}", f"{role.upper()}_{name}"):
+            if key in params:
+                try:
+                    return float(params[key])
+                except (TypeError, ValueError):
+                    break
+    return float(default)
+
+
+def mph(value: float | None) -> float:
+    return value * MPH if value else math.nan
+
+
+def _planned_speed(arrays: RouteArrays, r: int, s0: float, speed: float, col: ActorColumn, cond: float,
+                   default_limit: float) -> float:
+    """The cruise speed [m/s] the actor's driver will hold (capped at the condition-adjusted limit unless speeding)."""
+    if col.dispositions & SPEEDING_CODES:
+        return max(speed * speed_factor(col.dispositions), 0.5)
+    limit = arrays.speed_limit[r, min(int(s0 / ROUTE_DS), arrays.speed_limit.shape[1] - 1)]
+    if np.isnan(limit):
+        limit = default_limit
+    return max(min(speed, limit * cond) if np.isfinite(limit) else speed, 0.5)
+
+
+def _effective_speed(arrays: RouteArrays, r: int, s0: float, s1: float, speed: float, col: ActorColumn) -> float:
+    """Average speed [m/s] from s0 to s1, slowing in curves as the driver will (not when careless)."""
+    if s1 <= s0 or "CVC_22350" in col.dispositions:
+        return speed
+    lat = 2.0 if col.is_ads else 2.5
+    return (s1 - s0) / max(arrays.travel_time(r, s0, s1, speed, lat), 1e-3)
+
+
+def _turns_at(arrays: RouteArrays, r: int, s: float) -> bool:
+    """Whether route r turns (left, right, U) at the junction containing station s."""
+    j = entry_before(arrays, r, s)
+    return j is not None and int(arrays.entry_maneuver[r, j]) in (2, 3, 4)
+
+
+def stop_dist(arrays: RouteArrays, r: int, s0: float, entry_control: np.ndarray, col: ActorColumn) -> float | None:
+    """Distance [m] to the stop line of a stop-controlled first junction the actor will stop at, else None."""
+    entries = arrays.entry_s[r]
+    idx = np.nonzero(entries > s0)[0]
+    if len(idx) == 0 or entry_control[r, idx[0]] != 2 or "CVC_22450" in col.dispositions:
+        return None
+    return float(entries[idx[0]] - s0 - 1.0)
+
+
+def _partner(v: int, a: int, anchor: int, columns: list[ActorColumn], scene: SampledScene, route: np.ndarray,
+             s0: np.ndarray) -> int | None:
+    """The actor whose path a lateral manoeuvre of actor a is aimed at."""
+    if a != anchor:
+        return anchor
+    me = scene.actors[a]
+    behavior = columns[a].behavior
+    best, best_dist = None, math.inf
+    for b, other in enumerate(scene.actors):
+        if b == a:
+            continue
+        opposite = math.cos(other.yaw - me.yaw) < -0.3
+        if behavior in ("cross_centerline", "overtake", "lose_control") and not opposite:
+            continue
+        dist = math.hypot(other.x - me.x, other.y - me.y)
+        if dist < best_dist:
+            best, best_dist = b, dist
+    if best is None and len(scene.actors) > 1:
+        best = next(b for b in range(len(scene.actors)) if b != a)
+    return best
+
+
+def _relative(arrays: RouteArrays, r: int, s: float, x: float, y: float) -> tuple[float, float]:
+    """(gap along route r from station s to the point, lateral offset of the point) [m]."""
+    xy = arrays.xy[r]
+    k = int(np.argmin(np.hypot(xy[:, 0] - x, xy[:, 1] - y)))
+    yaw = arrays.yaw[r, k]
+    dx, dy = x - xy[k, 0], y - xy[k, 1]
+    lateral = -math.sin(yaw) * dx + math.cos(yaw) * dy
+    return k * ROUTE_DS - s, lateral
