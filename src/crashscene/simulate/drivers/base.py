@@ -57,7 +57,8 @@ class DriverContext:
     lane_width: np.ndarray  # [m] at spawn
     condition_factor: float = 1.0  # [-] safe speed = posted limit x this (wet 0.85, fog 0.70, snow/ice 0.60, night 0.90)
     friction: float = 0.8  # [-] tyre-road friction coefficient of the surface
-    params: dict[str, float | int | str | bool] = field(default_factory=dict)  # scene params for this actor
+    params: dict[str, np.ndarray] = field(default_factory=dict)  # the scenes' parameters of this role, e.g.
+    #                      "SPEED" from npc1_SPEED: one value per variation, NaN where a scene lacks it
     rng: np.random.Generator | None = None  # seeded per (seed, first variation, role): draw per-variation values only
 
 

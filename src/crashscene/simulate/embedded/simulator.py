@@ -77,11 +77,27 @@ def make_drivers(batch: batch_setup.BatchSetup, settings: SimulationSettings) ->
             hold_until=batch.hold_until[:, a], lateral_target=batch.lateral_target[:, a],
             initial_offset=batch.d0[:, a], lane_width=batch.lane_width[:, a],
             condition_factor=batch.condition_factor, friction=batch.friction,
-            params={k: v for k, v in batch.scenes[0].params.items() if str(k).startswith(col.role)},
+            params=_role_params(batch.scenes, col.role),
         )
         driver.reset(ctx)
         drivers.append(driver)
     return drivers
+
+
+def _role_params(scenes, role: str) -> dict[str, np.ndarray]:
+    """The scenes' numeric parameters of one role (`npc1_SPEED`, `EGO_SPEED` -> "SPEED"), one entry per
+    variation (NaN where a scene lacks it): per-variation values, never the first scene's."""
+    prefixes = (f"{role}_", f"{role.upper()}_")
+    names = sorted({key.split("_", 1)[1] for scene in scenes for key in scene.params
+                    if key.startswith(prefixes)})
+    out: dict[str, np.ndarray] = {}
+    for name in names:
+        values = []
+        for scene in scenes:
+            raw = scene.params.get(f"{role}_{name}", scene.params.get(f"{role.upper()}_{name}"))
+            values.append(float(raw) if isinstance(raw, (int, float)) else np.nan)
+        out[name] = np.array(values)
+    return out
 
 
 def run_batch(batch: batch_setup.BatchSetup, recorder: Recorder) -> None:
