@@ -164,3 +164,16 @@ def test_sample_cli_json_lines(tmp_path):
 def test_sample_cli_missing_program(tmp_path):
     result = CliRunner().invoke(app, ["sample", str(tmp_path / "nope.scenic")])
     assert result.exit_code == 1 and "not found" in result.output and "Traceback" not in result.output
+
+
+def test_memoised_model_parse_gives_the_same_scenes(tmp_path, monkeypatch):
+    import scenic
+    from scenic.syntax import translator
+
+    r = rendered("3-C2-2018-008", "generated", tmp_path)
+    memoised = sample_scenes(r.program, 4, seed=11)  # compile_program installs the memo
+    assert translator.parse_string.crashscene_memo
+    monkeypatch.setattr(translator, "parse_string", translator.parse_string.original)
+    plain = scenic.scenarioFromFile(str(r.program), params={"render": False}, mode2D=True)
+    assert [s.model_dump_json() for s in sample_scenes(r.program, 4, seed=11, scenario=plain)] == \
+        [s.model_dump_json() for s in memoised]

@@ -1,10 +1,21 @@
 """Render a DSL scenario into a Scenic 3.1 program (`scenario.scenic`) and its map (`map.xodr`).
 
-One universal Jinja2 template (templates/scenario.scenic.j2) with a fixed
-prelude of placement helpers; the converter's plan supplies only tokens and
-numbers. Every value printed into code goes through `py` (closed-vocabulary
-tokens and finite numbers only, else RenderError); free text goes through
-`comment` (one escaped ASCII line) and only into comments.
+One universal Jinja2 template (templates/scenario.scenic.j2); placement helpers
+live in `crashscene.render.scenic_support`, which every program imports. The
+converter's plan supplies only tokens and numbers. Every value printed into
+code goes through `py` (closed-vocabulary tokens and finite numbers only, else
+RenderError); free text goes through `comment` (one escaped ASCII line) and
+only into comments.
+
+What a program offers its readers (backends, `crashscene.sample`):
+- global parameters: `EGO_SPEED` [m/s], `EGO_INIT_DIST` [m], `EGO_MANEUVER_TIME` [s], the same per NPC as
+  `npc1_SPEED`, `npc1_INIT_DIST`, ..., `npcN_ARRIVAL_OFFSET` [s] for junction approaches, `*_SIDE_OFFSET` [m],
+  `*_STOP_DURATION` [s], `*_PROCEED_SPEED` [m/s], `*_LOSS_STEER` [-]; `weather` (CARLA preset),
+  `time_of_day_hour` [h], `cs_topology`, `cs_speed_limit` [m/s], `cs_horizon` [s], `cs_weather`, ...
+- on every object: `cs_role`, `cs_label`, `cs_type`, `cs_behavior`, `cs_route_intent`, `cs_reference`,
+  `cs_relation`, `cs_heading_relation`, `cs_dispositions` (comma-joined codes), `cs_placement`,
+  `cs_maneuver`, `cs_controlled_by`, `cs_lane_id`, `cs_route_lanes`, `cs_target_speed` [m/s], and a Scenic
+  behaviour per DSL behaviour token (CsCruise, CsChangeLane, CsCrossCenterline, CsStop, ...).
 """
 from __future__ import annotations
 

@@ -456,8 +456,8 @@ def _nominal_s(combo, actors, end):
     s_of = {}
     for actor in actors:
         role, kind = actor["role"], actor["placement"]
-        dist = actor["dist"][end]
-        sign = -1.0 if actor["along"] == "behind" else 1.0
+        dist = actor.get("dist", (15.0, 20.0))[end]  # programs rendered before "dist" existed: the defaults
+        sign = -1.0 if actor.get("along") == "behind" else 1.0
         route = combo.routes[role]
         if kind == "anchor":
             s_of[role] = route.anchor + combo.passed + dist if sign > 0 else route.anchor - dist
@@ -489,7 +489,8 @@ def _plausible(combo, actors, topology, room):
             route = combo.routes[actor["role"]]
             if actor["placement"] in ("oncoming", "side_left", "side_right"):
                 # the projection must land beside the reference point, not at a clamped end of the route
-                along = (actor["dist"][end] if actor["along"] != "behind" else -actor["dist"][end]) \
+                dist = actor.get("dist", (15.0, 20.0))[end]
+                along = (dist if actor.get("along") != "behind" else -dist) \
                     if actor["placement"] == "oncoming" else 0.0
                 target = _r_xy(combo.routes[actor["ref"]], s_of[actor["ref"]] + along)
                 if _math.dist(_r_xy(route, s_of[actor["role"]]), target) > _BESIDE:
