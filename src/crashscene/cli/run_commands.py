@@ -7,7 +7,10 @@ from typing import Annotated, Optional
 import typer
 
 from crashscene.cli import app
-from crashscene.cli.campaign_commands import ModeOpt, build_config, print_summary
+
+# kept here (not imported from campaign_commands) so that `run` is registered, and listed, before `campaign`
+ModeOpt = Annotated[str, typer.Option("--mode", help="reproduce (re-enact the crash), test (ego = ADS under test), "
+                                                     "or both.")]
 
 
 @app.command()
@@ -35,6 +38,7 @@ def run(
 ) -> None:
     """report -> extract -> validate -> render -> sample -> simulate -> monitor -> report, offline by default."""
     from crashscene.campaign import CampaignError
+    from crashscene.cli.campaign_commands import build_config, print_summary
     from crashscene.report import ReportError
     from crashscene.run import run_case
 
