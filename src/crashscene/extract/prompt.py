@@ -20,6 +20,7 @@ numbers (the schema sees to that).
 from __future__ import annotations
 
 import json
+import re
 from dataclasses import dataclass
 from functools import lru_cache
 from importlib import resources
@@ -168,13 +169,40 @@ def build_messages(narrative: str, facts: list[str], case_id: str | None = None,
 
 
 def choose_exemplars(narrative: str, case_id: str | None, count: int) -> list[Exemplar]:
-    """The first `count` bundled exemplars that are not this case (by id or by narrative text)."""
+    """The `count` bundled exemplars most like this case (never the case itself), most similar last.
+
+    Similarity is the overlap of crash-configuration words (intersection, curve,
+    centerline, rear, turn, parked...): a model, a small one above all, follows
+    its nearest example, so the nearest example should be of the same kind of
+    crash. Ties keep EXEMPLAR_ORDER; the same narrative always gets the same list.
+    """
     own_text = _squash(narrative)
     own_ids = {case_id, f"CIREN-{case_id}"} - {None}
-    chosen = [ex for ex in bundled_exemplars()
-              if ex.case_id not in own_ids and f"CIREN-{ex.case_id}" not in own_ids
-              and _squash(ex.narrative) != own_text]
-    return chosen[:max(count, 0)]
+    candidates = [ex for ex in bundled_exemplars()
+                  if ex.case_id not in own_ids and f"CIREN-{ex.case_id}" not in own_ids
+                  and _squash(ex.narrative) != own_text]
+    words = _configuration_words(narrative)
+    ranked = sorted(candidates, key=lambda ex: -len(words & _configuration_words(ex.narrative)))
+    return list(reversed(ranked[:max(count, 0)]))
+
+
+_CONFIGURATION = {
+    "intersection": r"intersection|junction|-leg", "driveway": r"driveway|parking lot|business access",
+    "signal": r"signal|traffic light", "stop_sign": r"stop sign|stop-controlled", "yield": r"yield",
+    "curve": r"curve|bend", "centerline": r"cent(er|re) ?line|left of cent|opposing|oncoming",
+    "head_on": r"front of v\w* struck the front|head-on|frontal plane of .{0,40}frontal plane",
+    "rear": r"struck the rear|rear of|rear-end", "stopped": r"stopped|stop behind|queue|slowed",
+    "turn_left": r"left turn|turn(ed|ing)? left", "turn_right": r"right turn|turn(ed|ing)? right",
+    "lane_change": r"lane change|changed lanes|merg", "parked": r"parked|disabled",
+    "off_road": r"departed|ran off|off the road|exited the roadway|embankment|ditch",
+    "single": r"single-vehicle|struck a (tree|pole|guardrail)|fixed object",
+    "divided": r"divided|median|barrier|interstate|freeway",
+}
+
+
+def _configuration_words(narrative: str) -> set[str]:
+    text = narrative.lower()
+    return {name for name, pattern in _CONFIGURATION.items() if re.search(pattern, text)}
 
 
 def exemplar_reply(exemplar: Exemplar) -> str:
