@@ -86,6 +86,7 @@ def assemble_model(parts: list[Path] | None = None, dest: Path | None = None, sh
             raise LocalModelError(f"assembled model has SHA-256 {digest.hexdigest()}, expected the pinned {sha256}; "
                                   f"refusing it (a changed or corrupt upload). Reinstall the parts or give "
                                   f"--model-path", dest)
+        os.chmod(temp, 0o644)  # mkstemp makes it private; a model cache is readable like any installed file
         os.replace(temp, dest)
     finally:
         temp.unlink(missing_ok=True)
