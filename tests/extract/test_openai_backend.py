@@ -98,6 +98,13 @@ def test_reply_that_is_not_json_is_reasked(case_dir: Path) -> None:
     assert result.status == "ok"
 
 
+def test_cut_off_reply_is_reasked_with_a_hint(case_dir: Path) -> None:
+    with FakeOpenAI([reply('{"summary": "V1 V1 V1', finish_reason="length"), reply(golden_reply("100237"))]) as server:
+        result = extract_case(case_dir, options=options(server))
+        feedback = server.requests[1]["messages"][-1]["content"]
+    assert "cut off at the limit of 2048 tokens" in feedback and result.status == "ok"
+
+
 def test_no_valid_reply_within_budget_is_a_clear_error(case_dir: Path) -> None:
     from crashscene.extract.revise import LlmOutputError
 

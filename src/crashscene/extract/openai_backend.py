@@ -155,22 +155,26 @@ class ChatBackend:
                                        f"{self.model!r}: HTTP {exc.status_code}: {_brief(exc)}") from None
                 last = exc
             else:
-                return _completion(raw)
+                return _completion(raw, self.max_tokens)
             if attempt < self.retry.max_retries:
                 self.sleep(self.retry.delay(attempt, _retry_after(last)))
         raise BackendError(f"{self.name} backend: {self.endpoint} (model {self.model!r}) still failing after "
                            f"{self.retry.max_retries + 1} attempts: {_brief(last)}")
 
 
-def _completion(raw: Any) -> Completion:
+def _completion(raw: Any, max_tokens: int) -> Completion:
     """Parse a raw HTTP reply; a reply that does not fit the schema keeps its text for the re-ask."""
     import openai
 
     try:
         response = raw.parse()
-    except (openai.LengthFinishReasonError, openai.ContentFilterFinishReasonError) as exc:
-        content, usage = _raw_reply(raw)
-        return Completion(None, content, usage, invalid=f"the reply was cut off or filtered ({exc})")
+    except openai.LengthFinishReasonError:
+        _, usage = _raw_reply(raw)  # the cut-off text is not worth sending back
+        return Completion(None, "", usage, invalid=f"the reply was cut off at the limit of {max_tokens} tokens: "
+                          "keep quotes short and list each actor, quote and violation once")
+    except openai.ContentFilterFinishReasonError:
+        _, usage = _raw_reply(raw)
+        return Completion(None, "", usage, invalid="the reply was stopped by the endpoint's content filter")
     except ValueError as exc:  # pydantic ValidationError, JSON decode errors
         content, usage = _raw_reply(raw)
         return Completion(None, content, usage, invalid=f"the reply does not fit the schema: {_first_lines(exc)}")
