@@ -124,7 +124,7 @@ actor that committed it, with a one-sentence description and a supporting quote.
 (code, violation token, when):
 {codes}
   Other codes are allowed when the report clearly supports them (e.g. CVC_21804 driveway_yield: left a \
-driveway into traffic). When no cause is stated (a drift with no reason, an animal strike), oracle is [].
+driveway into traffic). List only what the report supports (usually one or two entries, never a code whose device, junction or manoeuvre is absent from the scenario). When no cause is stated (a drift with no reason, an animal strike), oracle is [].
 
 summary: one sentence, who did what, where."""
 
