@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from crashscene.scene import SampledScene
-from crashscene.simulate.drivers.behaviors import SPEEDING_CODES, speed_factor
+from crashscene.simulate.drivers.behaviors import OVER_LIMIT, SPEEDING_CODES, speed_factor
 from crashscene.simulate.embedded import signals, timing
 from crashscene.simulate.embedded.control import entry_before
 from crashscene.simulate.embedded.world import RouteArrays
@@ -212,11 +212,16 @@ def mph(value: float | None) -> float:
 def _planned_speed(arrays: RouteArrays, r: int, s0: float, speed: float, col: ActorColumn, cond: float,
                    default_limit: float) -> float:
     """The cruise speed [m/s] the actor's driver will hold (capped at the condition-adjusted limit unless speeding)."""
-    if col.dispositions & SPEEDING_CODES:
-        return max(speed * speed_factor(col.dispositions), 0.5)
     limit = arrays.speed_limit[r, min(int(s0 / ROUTE_DS), arrays.speed_limit.shape[1] - 1)]
     if np.isnan(limit):
         limit = default_limit
+    if col.dispositions & SPEEDING_CODES:
+        # already speeding at the start, as the driver means to (drivers.behaviors: limit + OVER_LIMIT)
+        fast = speed * speed_factor(col.dispositions)
+        if np.isfinite(limit) and speed > 0:
+            factor = cond if "CVC_22350" in col.dispositions else 1.0
+            fast = max(fast, limit * factor + OVER_LIMIT)
+        return max(fast, 0.5)
     return max(min(speed, limit * cond) if np.isfinite(limit) else speed, 0.5)
 
 

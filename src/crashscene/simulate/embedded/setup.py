@@ -221,7 +221,7 @@ def build(scenario: Scenario, scenes: list[SampledScene], roadmap: RoadMap,
     # the cruise speed the driver holds is the planned one (capped at the limit unless speeding) times the
     # timing scale; it starts at that speed (slower when the plan slows it) unless held at its start
     cruise = planned * scale
-    speed0 = np.where(hold > 0, 0.0, np.minimum(planned * np.minimum(scale, 1.0), start_cap))
+    speed0 = np.where((hold > 0) | (speed <= 0.0), 0.0, np.minimum(planned * np.minimum(scale, 1.0), start_cap))
     # a driver who will stop at a stop sign close ahead is already slowing down for it
     for a, col in enumerate(columns):
         for v in range(n_v):
