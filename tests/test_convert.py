@@ -191,3 +191,11 @@ def test_ego_relation_to_its_road_element(relation, along):
     s = loads((BASE % dict(road_type="intersection", ways=2, lanes=2, signs="", ego_behavior="go_forward",
                            ego_ref="intersection", npcs="")).replace("relation: behind", f"relation: {relation}"))
     assert convert(s).actors[0].along == along
+
+
+def test_law_abiding_actors_stay_at_or_below_the_posted_limit():
+    plan = convert(load_file(EXAMPLES / "117330" / "golden.yaml"))  # 50 mph; npc1 charged with CVC_22350
+    limit = 50 * MPH
+    ego, npc = plan.actors
+    assert ego.speed.high == pytest.approx(limit, abs=1e-3) and ego.speed.low < limit
+    assert npc.speed.low < limit < npc.speed.high  # unsafe speed: may exceed the limit

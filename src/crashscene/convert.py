@@ -257,12 +257,19 @@ def carla_weather(weather: Weather, time_of_day: TimeOfDay, surface: str = "not_
     return base + LIGHT_SUFFIX[time_of_day]
 
 
-def speed_range(actor: Actor, speed_limit: float | None) -> Range:
-    """[m/s] stated speed, else the posted limit, else DEFAULT_SPEED; +-SPEED_SPREAD (or 10 %)."""
+SPEEDING_CODES = {"CVC_22349", "CVC_22350"}  # speed limit, unsafe speed: the actor may exceed the posted limit
+
+
+def speed_range(actor: Actor, speed_limit: float | None, codes: list[str] | tuple[str, ...] = ()) -> Range:
+    """[m/s] stated speed +-SPEED_SPREAD (or 10 %); else DEFAULT_SPEED +-SPEED_SPREAD; else, with a posted limit,
+    up to the limit for a law-abiding actor ([limit - 2 spread, limit]) and around it for one the oracle charges
+    with speeding or unsafe speed (CVC_22349, CVC_22350)."""
     if actor.behavior in STANDING_BEHAVIORS:
         return Range(low=0.0, high=0.0)
     nominal = actor.speed_mph * MPH if actor.speed_mph else (speed_limit or DEFAULT_SPEED)
     spread = max(SPEED_SPREAD, SPEED_SPREAD_FRACTION * nominal)
+    if speed_limit and not actor.speed_mph and not SPEEDING_CODES.intersection(codes):
+        return Range(low=round(max(MIN_MOVING_SPEED, speed_limit - 2 * spread), 3), high=round(speed_limit, 3))
     return Range(low=round(max(MIN_MOVING_SPEED, nominal - spread), 3), high=round(nominal + spread, 3))
 
 
@@ -290,7 +297,7 @@ def _actor_plan(name: str, actor: Actor, scenario: Scenario, junction: bool, spe
         heading_relation=pos.heading.value if pos.heading else None, placement=placement, placement_ref=ref,
         along=_along(name, pos.relation),
         relative_heading=HEADING_ANGLE[heading] if heading else 0.0, maneuver=maneuver,
-        route_intent=ROUTE_INTENT[actor.behavior], speed=speed_range(actor, speed_limit),
+        route_intent=ROUTE_INTENT[actor.behavior], speed=speed_range(actor, speed_limit, codes),
         init_dist=Range(low=dist[0], high=dist[1]), side_offset=Range(low=SIDE_OFFSET[0], high=SIDE_OFFSET[1]),
         arrival_offset=arrival, maneuver_time=Range(low=MANEUVER_TIME[0], high=MANEUVER_TIME[1]),
         stop_duration=Range(low=STOP_DURATION[0], high=STOP_DURATION[1]), dispositions=codes)
