@@ -8,8 +8,8 @@ a larger gap means one side is wrong, not that the bound is tight.
 Found so far: the kinematics agree (0.00 m for every car whose sampled speed
 respects the posted limit); cars sampled above the limit differ because the
 embedded driver caps a law-abiding driver's speed at the limit while the Scenic
-program keeps the sampled speed. That test is a strict xfail until the
-sampling stops giving law-abiding actors speeds above the limit.
+program keeps the sampled speed. Fixed at the source: convert.speed_range no
+longer gives law-abiding actors speeds above the limit.
 """
 from __future__ import annotations
 
@@ -134,11 +134,6 @@ def test_positions_agree_within_1m_after_10s_below_the_limit(runs):
     assert errors[worst] < TOLERANCE, f"{errors[worst]:.2f} m apart; {explain(tables, settings, worst)}"
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "known disagreement, not kinematics: render samples a law-abiding actor's speed up to the posted limit "
-    "+ 2 m/s (convert.speed_range); the embedded driver caps its desired speed at the limit, the Scenic "
-    "program keeps the sampled speed. Fix at the source (no desired speed above the limit without "
-    "CVC_22349/22350), then remove this marker."))
 def test_positions_agree_within_1m_after_10s(runs):
     _, tables, settings = runs
     errors = position_errors(tables, settings)
