@@ -120,8 +120,9 @@ def test_sampling_leaves_global_random_state_alone(tmp_path):
     assert (random.random(), np.random.random()) == expected
 
 
-def test_program_compiles_under_the_newtonian_model(tmp_path):
-    r = rendered("121520", "generated", tmp_path)
+@pytest.mark.parametrize("case", ["121520", "108812", "119489", "3-C5-2018-004"])
+def test_program_compiles_under_the_newtonian_model(case, tmp_path):
+    r = rendered(case, "generated", tmp_path)
     scenes = sample_scenes(r.program, 5, seed=3, model=NEWTONIAN_MODEL)
     carla = sample_scenes(r.program, 5, seed=3)
     assert [(a.x, a.y, a.yaw) for s in scenes for a in s.actors] == \
@@ -177,3 +178,27 @@ def test_memoised_model_parse_gives_the_same_scenes(tmp_path, monkeypatch):
     plain = scenic.scenarioFromFile(str(r.program), params={"render": False}, mode2D=True)
     assert [s.model_dump_json() for s in sample_scenes(r.program, 4, seed=11, scenario=plain)] == \
         [s.model_dump_json() for s in memoised]
+
+
+def _simulate(case, tmp_path, steps=60):
+    """Run the program's own Scenic behaviours in Scenic's Newtonian simulator: (first, last) actor poses."""
+    r = rendered(case, "generated", tmp_path)
+    scenario = compile_program(r.program, model=NEWTONIAN_MODEL)
+    random.seed(0)
+    np.random.seed(0)
+    scene, _ = scenario.generate(maxIterations=200, verbosity=0)
+    result = scenario.getSimulator().simulate(scene, maxSteps=steps, verbosity=0).result
+    roles = [obj.cs_role for obj in scene.objects]
+    first, last = result.trajectory[0], result.trajectory[-1]
+    return {role: ((first[i].x, first[i].y), (last[i].x, last[i].y)) for i, role in enumerate(roles)}
+
+
+def test_behaviours_run_in_the_newtonian_simulator(tmp_path):
+    turn = _simulate("121520", tmp_path / "turn")  # npc1 turns left across the ego's path
+    (x0, y0), (x1, y1) = turn["npc1"]
+    assert x1 < x0 - 10 and y1 < y0 - 10  # westbound npc1 has turned south (its left)
+    parked = _simulate("3-C1-2018-012", tmp_path / "static")  # npc1 static ahead of the ego
+    assert parked["npc1"][0] == pytest.approx(parked["npc1"][1], abs=0.05)
+    change = _simulate("100343", tmp_path / "lane")  # the ego changes into the lane on its left
+    (_, ey0), (_, ey1) = change["ego"]
+    assert ey1 - ey0 > 2.0  # +y is left of the eastbound ego
