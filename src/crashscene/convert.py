@@ -46,6 +46,10 @@ SIDE_OFFSET = (-3.0, 6.0)  # [m] longitudinal offset of an actor in the adjacent
 ARRIVAL_OFFSET = (-1.0, 1.0)  # [s] NPC arrival at the conflict point minus the ego's
 MANEUVER_TIME = (1.0, 3.0)  # [s] when a lane change, braking, loss of control or run-off starts
 STOP_DURATION = (2.0, 4.0)  # [s] how long a stopping actor stays stopped before it may proceed
+# [s] a vehicle standing in the ego's lane ahead is placed this many seconds away at the ego's top sampled
+# speed: room for a prudent driver to stop (0.5 s reaction + 6 m/s2 braking needs ~2.6 s at 25 m/s), so a
+# test-mode ADS is not handed an unavoidable crash, while a driver charged with CVC_22350 still strikes it.
+STANDING_LEAD_TIME = (3.5, 5.0)
 LANE_WIDTH = 3.5  # [m] generated maps
 STRAIGHT_BACK = 60.0  # [m] road behind the anchor on generated straight roads (room for followers)
 CURVE_ANGLE = 1.3  # [rad] heading change of a generated curve (~75 deg)
@@ -233,6 +237,7 @@ def convert(scenario: Scenario, horizon: float = HORIZON) -> RenderPlan:
     actors = [_actor_plan(name, actor, scenario, junction, speed_limit, dispositions.get(name, []), notes)
               for name, actor in scenario.actors.items()]
     _queue(actors)
+    _standing_leads(actors, notes)
     _check_references(actors)
     plan_map = _map_spec(scenario, actors, speed_limit, horizon, notes)
     for actor in actors:
@@ -359,6 +364,20 @@ def _queue(actors: list[ActorPlan]) -> None:
                 actor.placement, actor.along = Placement.FOLLOW, "front"
 
 
+def _standing_leads(actors: list[ActorPlan], notes: list[str]) -> None:
+    """A stopped or parked vehicle directly ahead of the ego is placed STANDING_LEAD_TIME away rather than
+    INIT_DIST: 15-20 m at highway speed is a crash no driver could avoid, which tests nothing."""
+    ego = next(a for a in actors if a.role == "ego")
+    for actor in actors:
+        standing = actor.behavior in (Behavior.STOP.value, Behavior.STATIC.value)
+        if standing and actor.placement is Placement.FOLLOW and actor.placement_ref == "ego" and actor.along == "front":
+            low = max(INIT_DIST[0], round(STANDING_LEAD_TIME[0] * ego.speed.high, 1))
+            high = max(INIT_DIST[1], round(STANDING_LEAD_TIME[1] * ego.speed.high, 1))
+            actor.init_dist = Range(low=low, high=high)
+            notes.append(f"{actor.role}: standing ahead of the ego; placed {low:g}-{high:g} m ahead "
+                         f"({STANDING_LEAD_TIME[0]:g}-{STANDING_LEAD_TIME[1]:g} s at the ego's top speed)")
+
+
 def _check_references(actors: list[ActorPlan]) -> None:
     """Actors must be placeable in order: each reference placed before the actor (no cycles)."""
     placed = {"ego"}
@@ -413,7 +432,8 @@ def _map_spec(scenario: Scenario, actors: list[ActorPlan], speed_limit: float | 
         backward = forward
     v_max = max([a.speed.high for a in actors] + [speed_limit or DEFAULT_SPEED])
     run = v_max * horizon  # [m] distance one actor can cover in the horizon
-    reach = ONCOMING_DIST[1] + SIDE_OFFSET[1] + 2 * INIT_DIST[1] + 20.0  # [m] furthest initial placement
+    farthest = max([ONCOMING_DIST[1]] + [a.init_dist.high for a in actors])
+    reach = farthest + SIDE_OFFSET[1] + 2 * INIT_DIST[1] + 20.0  # [m] furthest initial placement
     back = STRAIGHT_BACK + INIT_DIST[1] * 2
     ahead = run + reach
     if oncoming:
