@@ -199,3 +199,16 @@ def test_law_abiding_actors_stay_at_or_below_the_posted_limit():
     ego, npc = plan.actors
     assert ego.speed.high == pytest.approx(limit, abs=1e-3) and ego.speed.low < limit
     assert npc.speed.low < limit < npc.speed.high  # unsafe speed: may exceed the limit
+
+
+def test_vehicle_standing_ahead_leaves_room_to_stop():
+    """120013: V2 stopped in V1's lane on a 55 mph road. At 15-20 m no driver could stop; the gap scales
+    with the ego's top speed so that a prudent driver can, while a moving leader keeps INIT_DIST."""
+    scenario = load_file(EXAMPLES / "120013" / "golden.yaml")
+    plan = convert(scenario)
+    ego, lead = plan.actors[0], plan.actors[1]
+    reaction, braking = 0.5, 6.0  # [s], [m/s2]
+    stopping = ego.speed.high * reaction + ego.speed.high ** 2 / (2 * braking)
+    assert lead.init_dist.low > stopping
+    moving = loads((EXAMPLES / "120013" / "golden.yaml").read_text().replace("behavior: stop", "behavior: go_forward"))
+    assert (convert(moving).actors[1].init_dist.low, convert(moving).actors[1].init_dist.high) == (15.0, 20.0)
