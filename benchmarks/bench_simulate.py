@@ -50,7 +50,11 @@ def main() -> int:
 
         t0 = time.perf_counter()
         scenes = sample_scenes(rendered.program, args.variations, args.seed)
+        t_sample_one = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        scenes_two = sample_scenes(rendered.program, args.variations, args.seed, workers=2)
         t_sample = time.perf_counter() - t0
+        assert [s.model_dump_json() for s in scenes_two] == [s.model_dump_json() for s in scenes]
 
         request = SimulationRequest(scenario, scenes, Path(rendered.map), settings,
                                     program=Path(rendered.program).read_text(encoding="utf-8"))
@@ -77,7 +81,8 @@ def main() -> int:
     print(f"case: {args.case.relative_to(REPO) if args.case.is_relative_to(REPO) else args.case}  "
           f"mode: {args.mode}  variations: {n}  horizon: {settings.horizon:g} s at {1 / settings.dt:g} Hz")
     print(f"render (map + program, once)       {t_render:8.2f} s")
-    print(f"sample {n} scenes (Scenic)       {t_sample:8.2f} s")
+    print(f"sample {n} scenes (Scenic), 1 proc {t_sample_one:8.2f} s")
+    print(f"sample {n} scenes (Scenic), 2 proc {t_sample:8.2f} s   (identical scenes; used below)")
     print(f"simulate {n} (embedded)          {t_embedded:8.2f} s   ({rows:,} trace rows, {valid} valid, "
           f"{collided} with a collision)")
     print(f"sample + simulate                  {t_sample + t_embedded:8.2f} s   (target < 20 s)")

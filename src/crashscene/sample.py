@@ -14,9 +14,12 @@ scenario, so scene i would depend on how many scenes were drawn before it.
 """
 from __future__ import annotations
 
+import itertools
 import json
 import math
+import multiprocessing
 import random
+from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
 
@@ -103,16 +106,47 @@ def scene_seed(seed: int, index: int) -> tuple[int, int]:
 
 
 def sample_scenes(program: Path, n: int, seed: int, first: int = 0, scenario: Any = None,
-                  map_path: Path | None = None, model: str | None = None) -> list[SampledScene]:
-    """Scenes for variation indices first .. first+n-1 (pass a compiled `scenario` to skip compiling)."""
+                  map_path: Path | None = None, model: str | None = None, workers: int = 1) -> list[SampledScene]:
+    """Scenes for variation indices first .. first+n-1 (pass a compiled `scenario` to skip compiling).
+
+    `workers` > 1 splits the index range into contiguous blocks sampled in forked processes that inherit
+    the compiled program; scenes are index-deterministic, so the result is identical to workers=1.
+    Leave it at 1 inside a process pool (a campaign already uses one worker per core).
+    """
     program = Path(program)
-    if n < 0 or first < 0:
-        raise SampleError(f"n and first must be >= 0 (got n={n}, first={first})")
+    if n < 0 or first < 0 or workers < 1:
+        raise SampleError(f"n and first must be >= 0 and workers >= 1 (got n={n}, first={first}, workers={workers})")
     if scenario is None:
         scenario = compile_program(program, map_path, model)
     meta = _render_meta(program)
     digest = meta.get("scenario_hash") or _program_hash(program)
     map_file = str(map_path) if map_path is not None else str(program.parent / meta.get("map", "map.xodr"))
+    workers = min(workers, max(1, n // MIN_BLOCK))
+    if workers == 1:
+        return _generate(scenario, program, first, n, seed, digest, map_file)
+    bounds = [first + n * k // workers for k in range(workers + 1)]
+    blocks = [(program, start, stop - start, seed, digest, map_file) for start, stop in itertools.pairwise(bounds)]
+    _INHERITED["scenario"] = scenario  # read by forked children only; cleared before returning
+    try:
+        context = multiprocessing.get_context("fork")
+        with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
+            parts = list(pool.map(_sample_block, blocks))
+    finally:
+        _INHERITED.clear()
+    return [scene for part in parts for scene in part]
+
+
+MIN_BLOCK = 200  # scenes per process below which forking costs more than it saves
+_INHERITED: dict[str, Any] = {}
+
+
+def _sample_block(block: tuple[Path, int, int, int, str, str]) -> list[SampledScene]:
+    program, start, count, seed, digest, map_file = block
+    return _generate(_INHERITED["scenario"], program, start, count, seed, digest, map_file)
+
+
+def _generate(scenario: Any, program: Path, first: int, n: int, seed: int, digest: str,
+              map_file: str) -> list[SampledScene]:
     py_state, np_state = random.getstate(), np.random.get_state()
     scenes = []
     try:

@@ -37,8 +37,12 @@ def simulate_scenario(scenario: Scenario, out_dir: Path, n: int, seed: int, firs
                       carla_maps: Path | None = None, ads: str | None = None,
                       ads_params: dict[str, Any] | None = None, dt: float = DEFAULT_DT,
                       horizon: float = DEFAULT_HORIZON, carla_host: str = "127.0.0.1", carla_port: int = 2000,
-                      monitor: bool = True, progress: Callable[[int], None] | None = None) -> dict[str, Any]:
+                      monitor: bool = True, progress: Callable[[int], None] | None = None,
+                      sample_workers: int = 1) -> dict[str, Any]:
     """Simulate variations [first, first + n) of `scenario` and write the run directory `out_dir`.
+
+    `sample_workers` > 1 samples scenes in that many forked processes (same scenes as 1); keep 1 when the
+    caller already runs in a process pool.
 
     Returns the JSON summary (also written to summary.json): variations, valid,
     invalid (reason -> count), collisions (by class, by actor pair), seconds, and
@@ -64,7 +68,7 @@ def simulate_scenario(scenario: Scenario, out_dir: Path, n: int, seed: int, firs
         rendered = render(scenario, out_dir, map_mode=map_mode, carla_maps=carla_maps)
         timings["render"] = time.perf_counter() - start
         t0 = time.perf_counter()
-        scenes = sample_scenes(rendered.program, n, seed, first=first)
+        scenes = sample_scenes(rendered.program, n, seed, first=first, workers=sample_workers)
         timings["sample"] = time.perf_counter() - t0
     except RenderError as exc:
         raise SimulationError(f"render/sample failed: {exc}") from exc
