@@ -15,10 +15,8 @@ from crashscene.dsl import load_file
 
 SCENARIOS = Path(__file__).resolve().parent / "scenarios"
 N = 10
-# Scenarios the embedded simulator does not re-enact yet (measured at 2a1586a): the NPC with the
-# CVC_21802 disposition waits at its stop sign until the ego is 5 s past, so there is no hazard to
-# flag. The rule itself is unit-tested in test_right_of_way.py.
-SIMULATOR_GAPS = {"stop_sign_yield": "embedded simulator: the NPC leaves its stop sign after the ego has passed"}
+# Scenarios the embedded simulator does not re-enact yet (none at present; name -> reason).
+SIMULATOR_GAPS: dict[str, str] = {}
 
 
 def cases():

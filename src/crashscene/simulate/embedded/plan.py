@@ -129,7 +129,9 @@ def plan_variation(v: int, scene: SampledScene, rng: np.random.Generator, column
         if stop is not None:
             v_eff = _effective_speed(arrays, r, s0[v, a], cs_a, va_, col)
             sc, hd = timing.junction_plan(target, cs_a - s0[v, a], v_eff, col.limits.accel_max, stop_dist=stop)
-            late = 0.0
+            # stopping at its line first, it can come late even when it does not wait at all (hd == 0)
+            t_stop_go = timing.arrival_time(cs_a - s0[v, a], v_eff, col.limits.accel_max, stop_dist=stop)
+            late = max(0.0, t_stop_go - target) if hd == 0.0 else 0.0
         else:
             def t_at(k: float, s_start: float = s0[v, a], v_start: float | None = None) -> float:
                 v_init = va_ * min(k, 1.0) if v_start is None else v_start
@@ -167,22 +169,23 @@ def plan_variation(v: int, scene: SampledScene, rng: np.random.Generator, column
                         break
                 s0[v, a] = best
                 moved[v, a] = True
-            if late > 0.1 and not anchor_col.is_ads and anchor_col.behavior not in ("static", "stop") \
-                    and anchor_stop is None and hold[v, anchor] == 0.0:
-                # reproduce mode: the scripted anchor comes that much later instead (slower, else it waits)
-                t_new = arrival_anchor + late
-                lo, hi = timing.SPEED_SCALE[0], 1.0
-                if arrays.travel_time(ra, s0[v, anchor], cs_e, va * lo, lat_e, v0=va * lo) < t_new:
-                    scale[v, anchor] = lo
-                    t_rest = arrays.travel_time(ra, s0[v, anchor], cs_e, va * lo, lat_e, v0=0.0)
-                    hold[v, anchor] = max(0.0, t_new - t_rest)
-                else:
-                    for _ in range(8):
-                        mid = (lo + hi) / 2
-                        t_mid = arrays.travel_time(ra, s0[v, anchor], cs_e, va * mid, lat_e, v0=va * mid)
-                        lo, hi = (lo, mid) if t_mid < t_new else (mid, hi)
-                    scale[v, anchor] = (lo + hi) / 2
-                arrival_anchor = t_new
+        if late > 0.1 and not anchor_col.is_ads and anchor_col.behavior not in ("static", "stop") \
+                and anchor_stop is None and hold[v, anchor] == 0.0:
+            # reproduce mode: the scripted anchor comes that much later instead (slower, else it waits);
+            # also for an actor that must first stop at its line, which no advance along its approach fixes
+            t_new = arrival_anchor + late
+            lo, hi = timing.SPEED_SCALE[0], 1.0
+            if arrays.travel_time(ra, s0[v, anchor], cs_e, va * lo, lat_e, v0=va * lo) < t_new:
+                scale[v, anchor] = lo
+                t_rest = arrays.travel_time(ra, s0[v, anchor], cs_e, va * lo, lat_e, v0=0.0)
+                hold[v, anchor] = max(0.0, t_new - t_rest)
+            else:
+                for _ in range(8):
+                    mid = (lo + hi) / 2
+                    t_mid = arrays.travel_time(ra, s0[v, anchor], cs_e, va * mid, lat_e, v0=va * mid)
+                    lo, hi = (lo, mid) if t_mid < t_new else (mid, hi)
+                scale[v, anchor] = (lo + hi) / 2
+            arrival_anchor = t_new
         scale[v, a], hold[v, a] = sc, hd
         conflict_time[v] = min(conflict_time[v], arrival_anchor)
     # signal phase: green for the anchor's axis at its nominal arrival at its first junction
