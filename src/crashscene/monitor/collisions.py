@@ -20,20 +20,13 @@ from crashscene.monitor.geometry import (
     relative_position,
 )
 from crashscene.monitor.timeseries import first_index, wrap_angle
+from crashscene.traces import COLLISION_SCHEMA
 
 COLLISION_CLASSES = ("rear_end", "head_on", "angle", "sideswipe")
 
-CLASSIFIED_SCHEMA = pa.schema([
-    ("variation", pa.int32()),
-    ("t", pa.float64()),                # [s] first contact
-    ("actor_a", pa.string()),           # role order: ego first
-    ("actor_b", pa.string()),
-    ("speed_a", pa.float64()),          # [m/s]
-    ("speed_b", pa.float64()),
-    ("yaw_a", pa.float64()),            # [rad]
-    ("yaw_b", pa.float64()),
-    ("x", pa.float64()),                # [m] contact point estimate
-    ("y", pa.float64()),
+# The contract's contact columns (traces.COLLISION_SCHEMA; actor_a/actor_b in role order, ego first), then
+# what classification adds.
+CLASSIFIED_SCHEMA = pa.schema(list(COLLISION_SCHEMA) + [
     ("relative_heading_deg", pa.float64()),  # [deg] in [0, 180]
     ("class", pa.string()),             # COLLISION_CLASSES
     ("striking_actor", pa.string()),    # the actor whose front made the contact (null for a sideswipe)

@@ -47,6 +47,22 @@ class BackendUnavailable(SimulationError):
     """A backend whose optional dependency or server is missing (e.g. `carla`)."""
 
 
+def import_ads(spec: str, what: str = "attribute") -> object:
+    """The attribute named by an `--ads 'package.module:Class'` spec; SimulationError naming what is wrong
+    (`what` is the noun the message uses for a missing name: a driver may be any factory, an agent a class)."""
+    module_name, sep, class_name = spec.partition(":")
+    if not sep or not module_name or not class_name:
+        raise SimulationError(f"--ads {spec!r}: expected 'package.module:Class'")
+    try:
+        module = importlib.import_module(module_name)
+    except ImportError as exc:
+        raise SimulationError(f"--ads {spec!r}: cannot import module {module_name!r} ({exc})") from exc
+    found = getattr(module, class_name, None)
+    if found is None:
+        raise SimulationError(f"--ads {spec!r}: module {module_name!r} has no {what} {class_name!r}")
+    return found
+
+
 class SimulationSettings(BaseModel):
     """Options shared by every backend (a backend may ignore those it cannot honour, and says so)."""
 

@@ -30,11 +30,9 @@ example is `CarlaBasicAgent` (CARLA's BasicAgent as the ADS).
 """
 from __future__ import annotations
 
-import importlib
 import math
 import re
 import socket
-import time
 from pathlib import Path
 from typing import Any, Protocol, runtime_checkable
 
@@ -48,6 +46,7 @@ from crashscene.simulate.backend import (
     SimulationSettings,
     Simulator,
     check_ego_role,
+    import_ads,
 )
 from crashscene.simulate.newtonian import (
     compile_program,
@@ -143,15 +142,9 @@ def check_server(host: str, port: int, timeout: float = CONNECT_TIMEOUT) -> None
 
 def load_agent(spec: str, params: dict[str, Any] | None = None) -> CarlaAgent:
     """Instantiate the external ADS `package.module:Class` with `params` as keyword arguments."""
-    module_name, sep, class_name = spec.partition(":")
-    if not sep or not module_name or not class_name:
-        raise SimulationError(f"--ads {spec!r}: expected 'package.module:Class'")
-    try:
-        module = importlib.import_module(module_name)
-    except ImportError as exc:
-        raise SimulationError(f"--ads {spec!r}: cannot import module {module_name!r} ({exc})") from exc
-    cls = getattr(module, class_name, None)
+    cls = import_ads(spec, what="class")
     if not isinstance(cls, type):
+        module_name, _, class_name = spec.partition(":")
         raise SimulationError(f"--ads {spec!r}: module {module_name!r} has no class {class_name!r}")
     try:
         agent = cls(**(params or {}))
@@ -272,15 +265,7 @@ class CarlaSimulator(Simulator):
                                       f"got --mode {self.settings.mode}")
             load_agent(self.settings.ads, self.settings.ads_params)  # fail before connecting, not mid-batch
         self.check_available()
-        start = time.perf_counter()
-        scenes = list(request.scenes)
-        runs = []
-        for scene in scenes:
-            runs.append(self.run_scene(request, scene))
-            if request.progress is not None:
-                request.progress(1)
-        tables = scenic_trace.record_tables(request.scenario, scenes, runs, self.settings, request.map_file)
-        result = BatchResult(backend=self.name, tables=tables, seconds=time.perf_counter() - start)
+        result = scenic_trace.run_scenes(self.name, request, self.settings, self.run_scene)
         if self.settings.mode == "test" and self.settings.ads is None:
             result.notes.append(f"carla: no --ads given, the ADS role {self.settings.ego_role!r} runs the "
                                 f"program's Scenic behaviour")

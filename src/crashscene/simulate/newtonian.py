@@ -272,16 +272,8 @@ class NewtonianSimulator(Simulator):
         if not request.program:
             raise SimulationError("the newtonian backend needs the rendered Scenic program "
                                   "(SimulationRequest.program is empty)")
-        start = time.perf_counter()
-        scenes = list(request.scenes)
-        runs = []
-        for scene in scenes:
-            runs.append(self.run_scene(request, scene))
-            if request.progress is not None:
-                request.progress(1)
-        tables = scenic_trace.record_tables(request.scenario, scenes, runs, self.settings, request.map_file)
-        result = BatchResult(backend=self.name, tables=tables, seconds=time.perf_counter() - start,
-                             notes=list(NOTES))
+        result = scenic_trace.run_scenes(self.name, request, self.settings, self.run_scene)
+        result.notes.extend(NOTES)
         if self.settings.mode == "test":
             result.notes.append(f"newtonian: the ADS role {self.settings.ego_role!r} runs the program's "
                                 f"Scenic behaviour, not the reference ADS")

@@ -15,14 +15,15 @@ Angles: Scenic heading is 0 = +y, counter-clockwise; crashscene yaw is
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+import time
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 import pyarrow as pa
 
 from crashscene.scene import SampledActor, SampledScene
-from crashscene.simulate.backend import SimulationError
+from crashscene.simulate.backend import BatchResult, SimulationError, SimulationRequest
 
 SCENIC_TO_YAW = math.pi / 2  # [rad] yaw = Scenic heading + pi/2
 
@@ -200,6 +201,20 @@ def pad_tracks(tracks: dict[str, Track], n: int) -> dict[str, Track]:
         padded[role] = Track(role, np.append(track.x, hold * track.x[-1]), np.append(track.y, hold * track.y[-1]),
                              np.append(track.yaw, hold * track.yaw[-1]), np.append(track.speed, np.zeros(missing)))
     return padded
+
+
+def run_scenes(backend: str, request: SimulationRequest, settings,
+               run_scene: Callable[[SimulationRequest, SampledScene], ScenicRun]) -> BatchResult:
+    """Run every scene of a request one by one through a Scenic backend and record the trace tables."""
+    start = time.perf_counter()
+    scenes = list(request.scenes)
+    runs = []
+    for scene in scenes:
+        runs.append(run_scene(request, scene))
+        if request.progress is not None:
+            request.progress(1)
+    tables = record_tables(request.scenario, scenes, runs, settings, request.map_file)
+    return BatchResult(backend=backend, tables=tables, seconds=time.perf_counter() - start)
 
 
 def record_tables(scenario, scenes: Sequence[SampledScene], runs: Sequence[ScenicRun], settings,

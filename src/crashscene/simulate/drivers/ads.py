@@ -9,13 +9,12 @@ overridden (`SimulationSettings.ads_params`, CLI `--ads-param key=value`).
 """
 from __future__ import annotations
 
-import importlib
 from collections import deque
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
-from crashscene.simulate.backend import SimulationError
+from crashscene.simulate.backend import SimulationError, import_ads
 from crashscene.simulate.drivers.base import Action, Driver, DriverContext, Observation
 from crashscene.simulate.drivers.longitudinal import (
     LongitudinalRules,
@@ -113,20 +112,11 @@ def load_driver(spec: str | None, params: dict | None = None):
     """The ADS driver named by 'package.module:Class' (None: the reference ADS), instantiated with params."""
     if spec is None:
         return ReferenceADS(params)
-    module_name, sep, class_name = spec.partition(":")
-    if not sep or not module_name or not class_name:
-        raise SimulationError(f"--ads {spec!r}: expected 'package.module:Class'")
-    try:
-        module = importlib.import_module(module_name)
-    except ImportError as exc:
-        raise SimulationError(f"--ads {spec!r}: cannot import module {module_name!r}: {exc}") from exc
-    cls = getattr(module, class_name, None)
-    if cls is None:
-        raise SimulationError(f"--ads {spec!r}: module {module_name!r} has no attribute {class_name!r}")
+    cls = import_ads(spec)
     driver = cls(dict(params or {}))
     for method in ("reset", "step"):
         if not callable(getattr(driver, method, None)):
-            raise SimulationError(f"--ads {spec!r}: {class_name} has no {method}() method; "
+            raise SimulationError(f"--ads {spec!r}: {type(driver).__name__} has no {method}() method; "
                                   f"see crashscene.simulate.drivers.base for the step interface")
     return driver
 
