@@ -59,8 +59,8 @@ oracle: []
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory):
     """(scenes, embedded tables, newtonian tables, settings) for the same rendered scenario and scenes."""
-    render = pytest.importorskip("crashscene.render")
-    sample = pytest.importorskip("crashscene.sample")
+    from crashscene import render
+    from crashscene import sample
     scenario = loads(SCENARIO)
     out = tmp_path_factory.mktemp("crosscheck")
     rendered = render.render(scenario, out, cache_dir=out / "maps")

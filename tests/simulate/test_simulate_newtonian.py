@@ -344,8 +344,8 @@ def case_runs(tmp_path_factory):
     def run(case: str):
         """(scenario, scenes, result, rendered) of the case, simulated once."""
         if case not in cache:
-            render = pytest.importorskip("crashscene.render")
-            sample = pytest.importorskip("crashscene.sample")
+            from crashscene import render
+            from crashscene import sample
             scenario = load_file(EXAMPLES / case / "golden.yaml")
             rendered = render.render(scenario, tmp_path_factory.mktemp(case), cache_dir=map_cache)
             scenes = sample.sample_scenes(rendered.program, 2, seed=3)
