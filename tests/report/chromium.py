@@ -11,12 +11,20 @@ CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
          "--disable-background-networking", "--disable-component-update", "--disable-sync",
          "--disable-dev-shm-usage"]
-# Appended to a copy of the page: after load, record each image's decoded size in the DOM.
+# Appended to a copy of the page: after load, record each image's decoded size, what each case section shows
+# (a decoded, visible sketch and bird's-eye view; a contact table with rows) and every resource the page fetched.
 PROBE = """<script>
 window.addEventListener('load', () => {
-  const out = Array.from(document.images).map(i => ({alt: i.alt, ok: i.complete && i.naturalWidth > 0,
-                                                    w: i.naturalWidth, h: i.naturalHeight}));
-  const pre = document.createElement('pre'); pre.id = 'image-probe'; pre.textContent = JSON.stringify(out);
+  const shown = el => !!el && el.getBoundingClientRect().width > 0 && el.getBoundingClientRect().height > 0;
+  const decoded = el => shown(el) && el.complete && el.naturalWidth > 0;
+  const images = Array.from(document.images).map(i => ({alt: i.alt, ok: i.complete && i.naturalWidth > 0,
+                                                       w: i.naturalWidth, h: i.naturalHeight}));
+  const cases = Array.from(document.querySelectorAll('section.case')).map(s => ({
+    id: s.id, sketch: decoded(s.querySelector('img.sketch')), view: decoded(s.querySelector('img.birdseye')),
+    contacts: shown(s.querySelector('table.contacts')) ? s.querySelectorAll('table.contacts tr').length - 1 : -1}));
+  const resources = performance.getEntriesByType('resource').map(e => e.name);
+  const pre = document.createElement('pre'); pre.id = 'image-probe';
+  pre.textContent = JSON.stringify({images: images, cases: cases, resources: resources});
   document.body.appendChild(pre);
 });
 </script>"""
@@ -27,8 +35,9 @@ def _run(args: list[str], profile: Path) -> subprocess.CompletedProcess:
                           timeout=120)
 
 
-def decoded_images(html: Path, work: Path) -> list[dict]:
-    """[{alt, ok, w, h}] for every <img> of `html` as Chromium loaded it (offline, file://)."""
+def probe(html: Path, work: Path) -> dict:
+    """{images: [{alt, ok, w, h}], cases: [{id, sketch, view, contacts}], resources: [url]} of `html` as
+    Chromium loaded it (offline, file://)."""
     probe = work / "probe.html"
     probe.write_text(html.read_text(encoding="utf-8").replace("</body>", PROBE + "</body>"), encoding="utf-8")
     done = _run(["--virtual-time-budget=10000", "--dump-dom", probe.as_uri()], work / "profile")

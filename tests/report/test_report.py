@@ -39,8 +39,31 @@ def test_html_is_self_contained(written):
     assert not re.search(r'(src|href)="(https?:)?//', html), "the report must not load anything from a network"
     assert "<script" not in html and "<link" not in html
     assert html.count('src="data:image/') >= 4  # sketch, verdicts, violations, scatter per case
+    assert html.count('class="contacts"') == 2 and html.count('class="birdseye"') == 2
     narrative = (chromium.Path(__file__).resolve().parents[2] / "examples/ciren/120013/narrative.txt").read_text()
     assert narrative.split()[0] in html
+
+
+def test_kept_traces_are_drawn_without_simulating(written):
+    results = json.loads(written.results.read_text())
+    for case in results["cases"]:
+        assert case["modes"]["reproduce"]["shown"]["first_reproducing"]["variation"] == \
+            case["modes"]["reproduce"]["first_reproducing"]
+        assert case["contacts"]["variation"] == case["modes"]["reproduce"]["first_reproducing"]
+        assert case["contacts"]["rows"], "the shown variation collided: its contact is listed"
+    assert not list(written.html.parent.glob("cases/*/report")), "a variation was simulated again"
+    assert "not drawn:" not in written.html.read_text()
+
+
+def test_same_campaign_same_report_bytes(fake_campaign, written):
+    """Apart from the generation time, the report is a function of the campaign."""
+    write_report(fake_campaign, gifs=True)
+    first = {p: (fake_campaign / p).read_bytes() for p in ("report.html", "results.json")}
+    assert b"data:image/gif" in first["report.html"]
+    again = write_report(fake_campaign, gifs=True)
+    strip = re.compile(rb"generated[^<\n]*")
+    for name, data in first.items():
+        assert strip.sub(b"", data) == strip.sub(b"", (again.html.parent / name).read_bytes()), name
 
 
 def test_missing_campaign_is_a_clear_error(tmp_path):
@@ -50,8 +73,13 @@ def test_missing_campaign_is_a_clear_error(tmp_path):
 
 @pytest.mark.slow
 @pytest.mark.skipif(chromium.CHROMIUM is None, reason="Debian's chromium is not installed (see .ci/run)")
-def test_chromium_shows_the_report_images(written, tmp_path):
-    images = chromium.decoded_images(written.html, tmp_path)
+def test_chromium_shows_every_case_with_sketch_view_and_contacts(written, tmp_path):
+    seen = chromium.probe(written.html, tmp_path)
+    assert [c["id"] for c in seen["cases"]] == ["case-100237", "case-120013"]
+    for case in seen["cases"]:
+        assert case["sketch"] and case["view"] and case["contacts"] >= 1, case
+    assert seen["resources"] == [], "the page fetched something (it must be self-contained)"
+    images = seen["images"]
     assert len(images) >= 8
     broken = [i for i in images if not i["ok"]]
     assert not broken, f"images that did not decode: {broken}"

@@ -6,11 +6,13 @@ mode. Variation i depends only on (scenario, seed, mode, i), so any chunking
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Literal
 
 import pyarrow as pa
 from pydantic import BaseModel, ConfigDict, Field
+
+from crashscene.campaign.keep import SHOWN_ACTOR_ROWS, SHOWN_ROWS, SHOWN_SCHEMAS, SHOWN_TRACE_ROWS
 
 Mode = Literal["reproduce", "test"]
 MODES: tuple[str, ...] = ("reproduce", "test")
@@ -25,6 +27,9 @@ VARIATION_ROWS = pa.schema([
     ("reproduced", pa.bool_()),      # every oracle entry (and the report's collision) observed
     ("collided", pa.bool_()),        # any collision in this variation
     ("params", pa.string()),         # JSON object: sampled parameters and per-actor start values [SI]
+    ("first_contact", pa.bool_()),   # the first contact matches the DSL's (null: no `collisions` in the DSL)
+    ("sequence", pa.bool_()),        # the DSL's contacts happen in order
+    ("area_match", pa.bool_()),      # every matched contact touched with the DSL's areas
 ])
 VIOLATION_ROWS = pa.schema([
     ("variation", pa.int32()),
@@ -48,8 +53,14 @@ COLLISION_ROWS = pa.schema([
     ("speed_b", pa.float64()),
     ("x", pa.float64()),             # [m]
     ("y", pa.float64()),
+    ("contact_index", pa.int32()),   # order of the contact within the variation (0 = first)
+    ("area_a", pa.string()),         # front | rear | left | right: the quarter of actor_a that touched first
+    ("area_b", pa.string()),
+    ("delta_v_a", pa.float64()),     # [m/s]
+    ("delta_v_b", pa.float64()),
 ])
-ROW_SCHEMAS = {"variations": VARIATION_ROWS, "violations": VIOLATION_ROWS, "collisions": COLLISION_ROWS}
+ROW_SCHEMAS = {"variations": VARIATION_ROWS, "violations": VIOLATION_ROWS, "collisions": COLLISION_ROWS,
+               **SHOWN_SCHEMAS}
 
 
 class SimOptions(BaseModel):
@@ -92,6 +103,9 @@ class ChunkResult:
     violations: pa.Table
     collisions: pa.Table
     seconds: float = 0.0
+    shown: pa.Table = field(default_factory=SHOWN_ROWS.empty_table)  # the report's candidates (campaign.keep)
+    shown_traces: pa.Table = field(default_factory=SHOWN_TRACE_ROWS.empty_table)
+    shown_actors: pa.Table = field(default_factory=SHOWN_ACTOR_ROWS.empty_table)
 
     def table(self, name: str) -> pa.Table:
         return getattr(self, name)

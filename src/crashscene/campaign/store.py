@@ -4,6 +4,7 @@ Tables (keys: scenario_hash, seed, mode, variation):
 - `cases`: one row per case folder (status, error, scenario hash, extraction backend);
 - `runs`: one row per (scenario_hash, seed, mode) with n, chunk size and the DSL text;
 - `variations`, `violations`, `collisions`: result rows (`model.ROW_SCHEMAS` + keys);
+- `shown`, `shown_traces`, `shown_actors`: the variations the report draws and their traces (`keep`);
 - `chunks`: one row per finished chunk, written in the SAME transaction as its result
   rows, so a chunk is either fully stored and marked done or absent (kill -9 included);
 - `chunk_errors`: chunks whose worker failed (retried on resume);
@@ -19,6 +20,7 @@ import duckdb
 import pyarrow as pa
 
 from crashscene.campaign.errors import CampaignError
+from crashscene.campaign.keep import prune as prune_shown
 from crashscene.campaign.model import ROW_SCHEMAS, ChunkResult, ChunkTask
 
 DB_NAME = "campaign.duckdb"
@@ -40,14 +42,27 @@ CREATE TABLE IF NOT EXISTS chunk_errors (
     {KEYS}, first INTEGER, count INTEGER, session INTEGER, error VARCHAR, failed_at TIMESTAMP);
 CREATE TABLE IF NOT EXISTS variations (
     {KEYS}, variation INTEGER NOT NULL, valid BOOLEAN, invalid_reason VARCHAR, verdict VARCHAR,
-    reproduced BOOLEAN, collided BOOLEAN, params VARCHAR, PRIMARY KEY (scenario_hash, seed, mode, variation));
+    reproduced BOOLEAN, collided BOOLEAN, params VARCHAR, first_contact BOOLEAN, sequence BOOLEAN,
+    area_match BOOLEAN, PRIMARY KEY (scenario_hash, seed, mode, variation));
 CREATE TABLE IF NOT EXISTS violations (
     {KEYS}, variation INTEGER NOT NULL, actor VARCHAR, is_ads BOOLEAN, code VARCHAR, violation VARCHAR,
     t_first DOUBLE, value DOUBLE, threshold DOUBLE, unit VARCHAR, robustness DOUBLE);
 CREATE TABLE IF NOT EXISTS collisions (
     {KEYS}, variation INTEGER NOT NULL, t DOUBLE, actor_a VARCHAR, actor_b VARCHAR, collision_class VARCHAR,
-    speed_a DOUBLE, speed_b DOUBLE, x DOUBLE, y DOUBLE);
+    speed_a DOUBLE, speed_b DOUBLE, x DOUBLE, y DOUBLE, contact_index INTEGER, area_a VARCHAR, area_b VARCHAR,
+    delta_v_a DOUBLE, delta_v_b DOUBLE);
+CREATE TABLE IF NOT EXISTS shown (
+    {KEYS}, variation INTEGER NOT NULL, reason VARCHAR, score DOUBLE);
+CREATE TABLE IF NOT EXISTS shown_traces (
+    {KEYS}, variation INTEGER NOT NULL, actor VARCHAR, t DOUBLE, x DOUBLE, y DOUBLE, yaw DOUBLE, speed DOUBLE);
+CREATE TABLE IF NOT EXISTS shown_actors (
+    {KEYS}, variation INTEGER NOT NULL, actor VARCHAR, label VARCHAR, type VARCHAR, is_ads BOOLEAN, length DOUBLE,
+    width DOUBLE);
 """
+# columns added after the first release: a database written before them gains them on open (null in old rows)
+ADDED_COLUMNS = {"variations": "first_contact BOOLEAN, sequence BOOLEAN, area_match BOOLEAN",
+                 "collisions": "contact_index INTEGER, area_a VARCHAR, area_b VARCHAR, delta_v_a DOUBLE, "
+                               "delta_v_b DOUBLE"}
 
 
 def _now() -> datetime:
@@ -71,6 +86,9 @@ class Store:
                                 "is another campaign writing to it?") from exc
         if not read_only:
             self.con.execute(DDL)
+            for table, columns in ADDED_COLUMNS.items():
+                for column in columns.split(", "):
+                    self.con.execute(f"ALTER TABLE {table} ADD COLUMN IF NOT EXISTS {column}")
 
     def close(self) -> None:
         self.con.close()
@@ -127,8 +145,11 @@ class Store:
                     continue
                 self.con.register("chunk_rows", table)
                 cols = ", ".join(table.column_names)
-                self.con.execute(f"INSERT INTO {name} SELECT ?, ?, ?, {cols} FROM chunk_rows", keys)
+                self.con.execute(f"INSERT INTO {name} (scenario_hash, seed, mode, {cols}) "
+                                 f"SELECT ?, ?, ?, {cols} FROM chunk_rows", keys)
                 self.con.unregister("chunk_rows")
+            if tables["shown"].num_rows:
+                prune_shown(self.con, *keys)
             self.con.execute("INSERT INTO chunks VALUES (?, ?, ?, ?, ?, ?, ?, ?)",
                              [*keys, task.first, task.count, session, result.seconds, _now()])
             self.con.execute("COMMIT")
@@ -150,12 +171,16 @@ class Store:
         return [dict(zip(names, row)) for row in cur.fetchall()]
 
     def arrow(self, sql: str, params: list | None = None) -> pa.Table:
-        return self.con.execute(sql, params or []).arrow()
+        return self.con.sql(sql, params=params or None).to_arrow_table()
 
 
 def _conform(name: str, table: pa.Table, task: ChunkTask) -> pa.Table:
     """Check a worker's table against its schema and the chunk's range; cast to the schema."""
     schema = ROW_SCHEMAS[name]
+    optional = [c.split()[0] for c in ADDED_COLUMNS.get(name, "").split(", ") if c]
+    for column in optional:  # a worker written before these columns existed leaves them null
+        if column not in table.column_names:
+            table = table.append_column(column, pa.nulls(table.num_rows, schema.field(column).type))
     missing = [c for c in schema.names if c not in table.column_names]
     if missing:
         raise CampaignError(f"chunk {task.key}: worker's {name} rows lack columns {missing}")

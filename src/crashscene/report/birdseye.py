@@ -1,181 +1,298 @@
-"""Bird's-eye views of a simulated variation on its map: a still at a given time and an animated GIF.
+"""Bird's-eye pictures of a simulated variation on its map, in the report's language: a still and an animated GIF.
 
-Lanes come from the scenario's OpenDRIVE map through Scenic's parser
-(`Network.fromFile`); actors are drawn as oriented rectangles from the trace
-columns of `crashscene.traces` (x, y, yaw [rad], length, width [m]).
+Vehicles carry their report labels (V1, V2, ...; the role in small type) in the
+colours crash sketches use (`palette`), with a legend, a scale bar and, when
+the map is georeferenced, a north arrow. The frame (`framing`) is centred on
+the first contact, else on the closest approach (its gap written on the
+picture), else on the lone vehicle with the road beside it.
+
+Drawn with Pillow (no plotting library): the map is drawn supersampled once
+per picture; a GIF draws its vehicles on a palette copy of that background per
+frame, so a 40-frame animation costs tens of milliseconds.
 """
 from __future__ import annotations
 
 import io
 import math
-from dataclasses import dataclass
 from functools import lru_cache
+from importlib.util import find_spec
 from pathlib import Path
 
-import matplotlib
+import numpy as np
+from PIL import Image, ImageDraw, ImageFont
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib.patches import Polygon as PolygonPatch  # noqa: E402
-from PIL import Image  # noqa: E402
+from crashscene.report.framing import Focus, Frame, footprint
+from crashscene.report.palette import color_of, rgb
+from crashscene.report.roadmap import MapGeometry
+from crashscene.report.tracks import ActorTrack
 
-ROLE_COLORS = ("#1f77b4", "#d62728", "#ff7f0e", "#2ca02c", "#9467bd", "#8c564b")  # ego, npc1, npc2, ...
-ASPHALT, LANE_LINE, CENTER_LINE = "#4d4d4d", "#f2f2f2", "#f2c200"
-VIEW_MARGIN = 12.0  # [m] around the actors' paths
-MIN_VIEW = 40.0  # [m] smallest side of the view
-MAX_ASPECT = 2.5  # longest side / shortest side of the view
+GROUND, ASPHALT, ROAD_EDGE, LANE_LINE, CENTER_LINE = "#e6ecdf", "#c9c9c9", "#4a4a4a", "#ffffff", "#e0a800"
+TEXT, MUTED, STAR, APPROACH_LINE = "#222222", "#555555", "#ffd400", "#000000"
+SUPERSAMPLE = 2  # map and vehicles are drawn at this multiple, then scaled down (anti-aliasing)
+TITLE_PX, LEGEND_PX = 22, 24  # [px] strips above and below the map
+TRAIL = 6.0  # [s] of path drawn behind each vehicle
+TRAIL_DOT = 0.5  # [s] between trail dots
 GIF_FRAME_DT = 0.2  # [s] of simulated time per GIF frame
-GIF_MAX_FRAMES = 60
-
-
-@dataclass
-class ActorTrack:
-    """One actor's trace in one variation."""
-
-    role: str
-    t: np.ndarray  # [s]
-    x: np.ndarray  # [m]
-    y: np.ndarray  # [m]
-    yaw: np.ndarray  # [rad]
-    length: float  # [m]
-    width: float  # [m]
-
-    def at(self, time: float) -> tuple[float, float, float]:
-        """Pose at `time` [s] (the last sample at or before it)."""
-        k = int(np.clip(np.searchsorted(self.t, time, side="right") - 1, 0, len(self.t) - 1))
-        return float(self.x[k]), float(self.y[k]), float(self.yaw[k])
-
-
-@dataclass
-class MapGeometry:
-    drivable: list[np.ndarray]  # exterior rings [m]
-    holes: list[np.ndarray]
-    lane_edges: list[np.ndarray]
-    center_lines: list[np.ndarray]
+GIF_MAX_FRAMES = 50
+DASH = (3.0, 6.0)  # [m] lane-line dash and gap (US broken line: 3 m painted, 9 m gap, shortened to read)
 
 
 @lru_cache(maxsize=8)
-def load_map(path: str) -> MapGeometry:
-    """Drivable area, lane edges and centre lines of an OpenDRIVE file (parsed by Scenic)."""
-    from scenic.domains.driving.roads import Network
-
-    network = Network.fromFile(path)
-    polys = network.drivableRegion.polygons
-    polys = list(getattr(polys, "geoms", [polys]))
-    drivable = [np.asarray(p.exterior.coords)[:, :2] for p in polys]
-    holes = [np.asarray(r.coords)[:, :2] for p in polys for r in p.interiors]
-    edges = []
-    for lane in network.lanes:
-        for edge in (lane.leftEdge, lane.rightEdge):
-            edges.append(np.asarray(edge.points, dtype=float)[:, :2])
-    centers = []
-    for road in network.roads:
-        if road.forwardLanes is not None and road.backwardLanes is not None:
-            centers.append(np.asarray(road.forwardLanes.leftEdge.points, dtype=float)[:, :2])
-    return MapGeometry(drivable, holes, edges, centers)
+def _font(size: int, bold: bool = False) -> ImageFont.FreeTypeFont:
+    """DejaVu Sans from matplotlib's data (always installed here): the same glyphs on every machine."""
+    spec = find_spec("matplotlib")
+    if spec is not None and spec.submodule_search_locations:
+        name = "DejaVuSans-Bold.ttf" if bold else "DejaVuSans.ttf"
+        path = Path(spec.submodule_search_locations[0]) / "mpl-data" / "fonts" / "ttf" / name
+        if path.exists():
+            return ImageFont.truetype(str(path), size)
+    return ImageFont.load_default(size)
 
 
-def _corners(x: float, y: float, yaw: float, length: float, width: float) -> np.ndarray:
-    c, s = math.cos(yaw), math.sin(yaw)
-    half = np.array([[length / 2, width / 2], [length / 2, -width / 2], [-length / 2, -width / 2],
-                     [-length / 2, width / 2]])
-    return half @ np.array([[c, s], [-s, c]]) + (x, y)
+class Canvas:
+    """World [m] to pixel transform of a frame drawn `width` px wide (the map area only)."""
+
+    def __init__(self, frame: Frame, width: int, scale: int = 1):
+        self.frame = frame
+        self.scale = scale
+        self.px_per_m = width / (2 * frame.hx) * scale
+        self.size = (width * scale, int(round(width * frame.hy / frame.hx)) * scale)
+
+    def px(self, pts: np.ndarray) -> np.ndarray:
+        pts = np.asarray(pts, dtype=float).reshape(-1, 2)
+        f = self.frame
+        return np.column_stack(((pts[:, 0] - (f.cx - f.hx)) * self.px_per_m, ((f.cy + f.hy) - pts[:, 1]) * self.px_per_m))
+
+    def visible(self, pts: np.ndarray, pad: float = 10.0) -> bool:
+        f = self.frame
+        lo, hi = pts.min(axis=0), pts.max(axis=0)
+        return not (hi[0] < f.cx - f.hx - pad or lo[0] > f.cx + f.hx + pad or hi[1] < f.cy - f.hy - pad
+                    or lo[1] > f.cy + f.hy + pad)
 
 
-def _view(tracks: list[ActorTrack], t0: float, t1: float) -> tuple[float, float, float, float]:
-    """Centre and half-extents [m] of a view holding every actor between t0 and t1 (aspect at most MAX_ASPECT)."""
-    xs, ys = [], []
-    for tr in tracks:
-        mask = (tr.t >= t0) & (tr.t <= t1)
-        xs.append(tr.x[mask] if mask.any() else tr.x[:1])
-        ys.append(tr.y[mask] if mask.any() else tr.y[:1])
-    x, y = np.concatenate(xs), np.concatenate(ys)
-    hx = max(MIN_VIEW / 2, np.ptp(x) / 2 + VIEW_MARGIN)
-    hy = max(MIN_VIEW / 2, np.ptp(y) / 2 + VIEW_MARGIN)
-    hx, hy = max(hx, hy / MAX_ASPECT), max(hy, hx / MAX_ASPECT)
-    return float((x.min() + x.max()) / 2), float((y.min() + y.max()) / 2), float(hx), float(hy)
+def _flat(pts: np.ndarray) -> list[float]:
+    return [float(v) for v in pts.ravel()]
 
 
-def _draw_map(ax, geometry: MapGeometry) -> None:
-    ax.set_facecolor("#b7c9a8")
+def _dashes(line: np.ndarray, dash: float, gap: float) -> np.ndarray:
+    """Dashes of a polyline [m] as straight segments (n, 2, 2): `dash` metres drawn, `gap` metres left out."""
+    seg = np.hypot(*np.diff(line, axis=0).T)
+    s = np.concatenate(([0.0], np.cumsum(seg)))
+    if s[-1] <= 0:
+        return np.zeros((0, 2, 2))
+    starts = np.arange(0.0, s[-1], dash + gap)
+    ends = np.minimum(starts + dash, s[-1])
+    return np.stack([np.column_stack((np.interp(v, s, line[:, 0]), np.interp(v, s, line[:, 1])))
+                     for v in (starts, ends)], axis=1)
+
+
+def _draw_map(draw: ImageDraw.ImageDraw, canvas: Canvas, geometry: MapGeometry) -> None:
+    k = canvas.scale
     for ring in geometry.drivable:
-        ax.add_patch(PolygonPatch(ring, closed=True, facecolor=ASPHALT, edgecolor=LANE_LINE, lw=0.8, zorder=1))
+        if canvas.visible(ring):
+            draw.polygon(_flat(canvas.px(ring)), fill=ASPHALT)
     for ring in geometry.holes:
-        ax.add_patch(PolygonPatch(ring, closed=True, facecolor="#b7c9a8", edgecolor="none", zorder=1))
+        if canvas.visible(ring):
+            draw.polygon(_flat(canvas.px(ring)), fill=GROUND)
+    lane_w = max(1, int(round(0.15 * canvas.px_per_m)))
+    w, h = canvas.size
     for edge in geometry.lane_edges:
-        ax.plot(edge[:, 0], edge[:, 1], color=LANE_LINE, lw=0.5, ls=(0, (5, 5)), alpha=0.5, zorder=2)
+        if canvas.visible(edge):
+            pieces = canvas.px(_dashes(edge, *DASH).reshape(-1, 2)).reshape(-1, 4)
+            inside = ((pieces[:, [0, 2]].max(axis=1) >= 0) & (pieces[:, [0, 2]].min(axis=1) <= w)
+                      & (pieces[:, [1, 3]].max(axis=1) >= 0) & (pieces[:, [1, 3]].min(axis=1) <= h))
+            for piece in pieces[inside]:
+                draw.line(_flat(piece), fill=LANE_LINE, width=lane_w)
     for line in geometry.center_lines:
-        ax.plot(line[:, 0], line[:, 1], color=CENTER_LINE, lw=1.2, zorder=3)
+        if canvas.visible(line):
+            draw.line(_flat(canvas.px(line)), fill=CENTER_LINE, width=max(k, int(round(0.3 * canvas.px_per_m))))
+    for ring in [*geometry.drivable, *geometry.holes]:
+        if canvas.visible(ring):
+            draw.line(_flat(canvas.px(np.vstack((ring, ring[:1])))), fill=ROAD_EDGE, width=k + 1)
 
 
-def _figure(geometry: MapGeometry, view: tuple[float, float, float, float], size: float, dpi: int):
-    cx, cy, hx, hy = view
-    width, height = (size, max(size / MAX_ASPECT, size * hy / hx) + 0.6) if hx >= hy else (size * hx / hy + 0.8, size)
-    fig, ax = plt.subplots(figsize=(width, height), dpi=dpi)
-    _draw_map(ax, geometry)
-    ax.set_xlim(cx - hx, cx + hx)
-    ax.set_ylim(cy - hy, cy + hy)
-    ax.set_aspect("equal")
-    ax.set_xlabel("x [m]")
-    ax.set_ylabel("y [m]")
-    ax.tick_params(labelsize=7)
-    fig.tight_layout()
-    return fig, ax
+def _vehicle(draw: ImageDraw.ImageDraw, canvas: Canvas, tr: ActorTrack, time: float, fill, outline) -> None:
+    x, y, yaw = tr.at(time)
+    draw.polygon(_flat(canvas.px(footprint(x, y, yaw, tr.length, tr.width))), fill=fill, outline=outline,
+                 width=max(1, canvas.scale))
+    # the sketches' white arrow-head: a triangle in the front half pointing the way the vehicle faces
+    c, s = math.cos(yaw), math.sin(yaw)
+    size = min(tr.width * 0.32, tr.length * 0.22)
+    tip = (x + c * tr.length * 0.36, y + s * tr.length * 0.36)
+    base = (x + c * (tr.length * 0.36 - 1.6 * size), y + s * (tr.length * 0.36 - 1.6 * size))
+    tri = np.array([tip, (base[0] - s * size, base[1] + c * size), (base[0] + s * size, base[1] - c * size)])
+    draw.polygon(_flat(canvas.px(tri)), fill=outline)
 
 
-def _draw_actors(ax, tracks: list[ActorTrack], time: float, trail_from: float) -> list:
-    artists = []
-    for k, tr in enumerate(tracks):
-        color = ROLE_COLORS[k % len(ROLE_COLORS)]
-        mask = (tr.t >= trail_from) & (tr.t <= time)
-        if mask.any():
-            artists += ax.plot(tr.x[mask], tr.y[mask], color=color, lw=1.6, ls=":", zorder=4)
-        x, y, yaw = tr.at(time)
-        box = _corners(x, y, yaw, tr.length, tr.width)
-        artists.append(ax.add_patch(PolygonPatch(box, closed=True, facecolor=color, edgecolor="white", lw=0.8,
-                                                 zorder=5)))
-        nose = _corners(x, y, yaw, tr.length, tr.width)[:2].mean(axis=0)
-        artists += ax.plot([x, nose[0]], [y, nose[1]], color="white", lw=1.0, zorder=6)
-        side = 1 if k % 2 == 0 else -1  # alternate label sides so close actors stay readable
-        artists.append(ax.text(x, y + side * (tr.length / 2 + 2.0), tr.role, color="white", fontsize=7, ha="center",
-                               va="center", zorder=7, bbox=dict(facecolor=color, edgecolor="none", pad=1.0, alpha=0.85)))
-    return artists
+def _trail(draw: ImageDraw.ImageDraw, canvas: Canvas, tr: ActorTrack, t0: float, t1: float, fill) -> None:
+    r = max(1.0, 0.35 * canvas.px_per_m)
+    for t in np.arange(t1 - TRAIL_DOT, t0 - 1e-9, -TRAIL_DOT):
+        px, py = canvas.px(np.array(tr.at(float(t))[:2]))[0]
+        draw.ellipse((px - r, py - r, px + r, py + r), fill=fill)
 
 
-def still_png(map_file: str | Path, tracks: list[ActorTrack], time: float, title: str, size: float = 6.0,
-              dpi: int = 100, impact: tuple[float, float] | None = None) -> bytes:
-    """PNG of every actor at `time` [s] with its path over the preceding seconds; `impact` [m] is starred."""
-    geometry = load_map(str(map_file))
-    fig, ax = _figure(geometry, _view(tracks, max(0.0, time - 2.0), time + 0.3), size, dpi)
-    _draw_actors(ax, tracks, time, trail_from=max(0.0, time - 6.0))
-    if impact is not None and all(v is not None and math.isfinite(v) for v in impact):
-        ax.plot(*impact, marker="*", markersize=14, color="#ffe000", markeredgecolor="black", zorder=8)
-    ax.set_title(title, fontsize=9)
+def _star(cx: float, cy: float, r: float) -> list[float]:
+    pts = []
+    for k in range(10):
+        a = math.pi / 2 + k * math.pi / 5
+        rr = r if k % 2 == 0 else r * 0.45
+        pts += [cx + rr * math.cos(a), cy - rr * math.sin(a)]
+    return pts
+
+
+def _tag(draw: ImageDraw.ImageDraw, canvas: Canvas, tr: ActorTrack, time: float, k: int, fill, text_fill,
+         role_fill, halo) -> None:
+    """The vehicle's report label in its colour, the role in small type, beside the vehicle."""
+    box = canvas.px(footprint(*tr.at(time), tr.length, tr.width))
+    px = float(box[:, 0].mean())
+    py = float(box[:, 1].min()) - 11 if k % 2 == 0 else float(box[:, 1].max()) + 11
+    bold, small = _font(12, True), _font(9)
+    w = draw.textlength(tr.label, font=bold)
+    wr = draw.textlength(tr.role, font=small)
+    left = px - (w + wr + 10) / 2
+    draw.rectangle((left, py - 8, left + w + 6, py + 8), fill=fill)
+    draw.text((left + 3, py), tr.label, font=bold, fill=text_fill, anchor="lm")
+    draw.rectangle((left + w + 6, py - 6, left + w + wr + 10, py + 6), fill=halo)
+    draw.text((left + w + 8, py), tr.role, font=small, fill=role_fill, anchor="lm")
+
+
+def _legend(draw: ImageDraw.ImageDraw, tracks: list[ActorTrack], top: int, width: int, px_per_m: float) -> None:
+    x = 6
+    font, small = _font(11, True), _font(9)
+    for tr in tracks:
+        draw.rectangle((x, top + 7, x + 14, top + 17), fill=color_of(tr.label))
+        x += 18
+        draw.text((x, top + 12), tr.label, font=font, fill=TEXT, anchor="lm")
+        x += draw.textlength(tr.label, font=font) + 3
+        detail = f"{tr.role}, {tr.type}" + (", ADS" if tr.is_ads else "")
+        draw.text((x, top + 12), detail, font=small, fill=MUTED, anchor="lm")
+        x += draw.textlength(detail, font=small) + 12
+    _scale_bar(draw, width, top, px_per_m)
+
+
+def _scale_bar(draw: ImageDraw.ImageDraw, width: int, top: int, px_per_m: float) -> None:
+    metres = next(m for m in (5, 10, 20, 25, 50, 100) if m * px_per_m >= 50)
+    length = metres * px_per_m
+    right = width - 8
+    y = top + 14
+    draw.line((right - length, y, right, y), fill=TEXT, width=2)
+    for xx in (right - length, right):
+        draw.line((xx, y - 4, xx, y + 1), fill=TEXT, width=1)
+    draw.text((right - length / 2, y - 4), f"{metres} m", font=_font(9), fill=TEXT, anchor="mb")
+
+
+def _north(draw: ImageDraw.ImageDraw, width: int) -> None:
+    x, y = width - 22, TITLE_PX + 12
+    draw.polygon((x, y, x - 7, y + 18, x, y + 13, x + 7, y + 18), fill=TEXT)
+    draw.text((x, y + 20), "N", font=_font(11, True), fill=TEXT, anchor="mt")
+
+
+def _compose(geometry: MapGeometry, frame: Frame, tracks: list[ActorTrack], width: int) -> tuple[Image.Image, Canvas]:
+    """The background: map (supersampled), title strip, legend strip, north arrow; and the 1x canvas."""
+    big = Canvas(frame, width, SUPERSAMPLE)
+    layer = Image.new("RGB", big.size, GROUND)
+    _draw_map(ImageDraw.Draw(layer), big, geometry)
+    one = Canvas(frame, width)
+    layer = layer.reduce(SUPERSAMPLE)
+    image = Image.new("RGB", (one.size[0], one.size[1] + TITLE_PX + LEGEND_PX), "white")
+    image.paste(layer, (0, TITLE_PX))
+    draw = ImageDraw.Draw(image)
+    _legend(draw, tracks, TITLE_PX + one.size[1], one.size[0], one.px_per_m)
+    if geometry.north:
+        _north(draw, one.size[0])
+    return image, one
+
+
+class _Shifted(Canvas):
+    """A canvas whose map area starts `dy` px below the image top (under the title strip)."""
+
+    def __init__(self, base: Canvas, dy: float, scale: int = 1):
+        super().__init__(base.frame, base.size[0], scale)
+        self.dy = dy * scale
+
+    def px(self, pts: np.ndarray) -> np.ndarray:
+        out = super().px(pts)
+        out[:, 1] += self.dy
+        return out
+
+
+def still_png(geometry: MapGeometry, tracks: list[ActorTrack], frame: Frame, focus: Focus, title: str,
+              width: int = 640) -> bytes:
+    """PNG of every vehicle at the focus time with its path over the preceding TRAIL seconds.
+
+    A contact is starred; a closest approach gets a line between the two nearest points and its gap."""
+    image, one = _compose(geometry, frame, tracks, width)
+    k = SUPERSAMPLE
+    over = Image.new("RGBA", (image.size[0] * k, image.size[1] * k), (0, 0, 0, 0))
+    big = _Shifted(one, TITLE_PX, k)
+    draw = ImageDraw.Draw(over)
+    for tr in tracks:
+        _trail(draw, big, tr, max(0.0, focus.t - TRAIL), focus.t, color_of(tr.label) + "b0")
+    for tr in tracks:
+        _vehicle(draw, big, tr, focus.t, color_of(tr.label), "#ffffff")
+    if focus.kind == "contact":
+        px, py = big.px(np.array((focus.x, focus.y)))[0]
+        draw.polygon(_star(px, py, 9 * k), fill=STAR, outline="#000000", width=k)
+    elif focus.kind == "closest" and focus.points is not None:
+        (ax, ay), (bx, by) = big.px(np.array(focus.points))
+        draw.line((ax, ay, bx, by), fill=APPROACH_LINE, width=2 * k)
+        for px, py in ((ax, ay), (bx, by)):
+            draw.ellipse((px - 3 * k, py - 3 * k, px + 3 * k, py + 3 * k), fill=APPROACH_LINE)
+    over = over.reduce(k)
+    image.paste(over, (0, 0), over)
+    draw = ImageDraw.Draw(image)
+    shifted = _Shifted(one, TITLE_PX)
+    for n, tr in enumerate(tracks):
+        color = color_of(tr.label)
+        _tag(draw, shifted, tr, focus.t, n, color, "#ffffff", MUTED, "#ffffff")
+    if focus.kind == "closest" and focus.gap is not None and focus.pair is not None:
+        labels = {tr.role: tr.label for tr in tracks}
+        note = f"closest approach {labels.get(focus.pair[0])}-{labels.get(focus.pair[1])}: {focus.gap:.1f} m"
+        draw.rectangle((4, TITLE_PX + 4, 10 + draw.textlength(note, font=_font(11, True)), TITLE_PX + 20), fill="white")
+        draw.text((7, TITLE_PX + 12), note, font=_font(11, True), fill=TEXT, anchor="lm")
+    draw.text((6, TITLE_PX // 2), title, font=_font(11), fill=TEXT, anchor="lm")
     buf = io.BytesIO()
-    fig.savefig(buf, format="png")
-    plt.close(fig)
+    image.save(buf, format="PNG", optimize=False, compress_level=6)
     return buf.getvalue()
 
 
-def animation_gif(map_file: str | Path, tracks: list[ActorTrack], t0: float, t1: float, title: str,
-                  size: float = 5.5, dpi: int = 80) -> bytes:
-    """Animated GIF of the actors between t0 and t1 [s] (one frame per GIF_FRAME_DT, at most GIF_MAX_FRAMES)."""
-    geometry = load_map(str(map_file))
+def animation_gif(geometry: MapGeometry, tracks: list[ActorTrack], frame: Frame, t0: float, t1: float, title: str,
+                  width: int = 480, impact: Focus | None = None) -> bytes:
+    """Animated GIF of the vehicles between t0 and t1 [s] (one frame per GIF_FRAME_DT, at most GIF_MAX_FRAMES).
+
+    Vehicles are drawn on a palette copy of the background: the label colours, white and black sit at fixed
+    palette indices after the background's own colours."""
+    image, one = _compose(geometry, frame, tracks, width)
+    fixed = ["#ffffff", "#000000", STAR, TEXT, MUTED] + [color_of(tr.label) for tr in tracks]
+    base = image.quantize(colors=256 - len(fixed), method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE)
+    palette = base.getpalette()[: 3 * (256 - len(fixed))]
+    palette += [0] * (3 * (256 - len(fixed)) - len(palette))
+    index = {}
+    for n, color in enumerate(fixed):
+        index[color] = 256 - len(fixed) + n
+        palette += list(rgb(color))
+    base.putpalette(palette)
     step = max(GIF_FRAME_DT, (t1 - t0) / GIF_MAX_FRAMES)
     times = np.arange(t0, t1 + 1e-9, step)
-    fig, ax = _figure(geometry, _view(tracks, t0, t1), size, dpi)
+    canvas = _Shifted(one, TITLE_PX)
     frames = []
     for time in times:
-        artists = _draw_actors(ax, tracks, float(time), trail_from=t0)
-        ax.set_title(f"{title}  t = {time:4.1f} s", fontsize=8)
-        fig.canvas.draw()
-        rgb = Image.frombuffer("RGBA", fig.canvas.get_width_height(), fig.canvas.buffer_rgba()).convert("RGB")
-        frames.append(rgb.quantize(colors=64, method=Image.Quantize.MEDIANCUT))
-        for artist in artists:
-            artist.remove()
-    plt.close(fig)
+        frame_img = base.copy()
+        draw = ImageDraw.Draw(frame_img)
+        for tr in tracks:
+            _trail(draw, canvas, tr, t0, float(time), index[color_of(tr.label)])
+        for tr in tracks:
+            _vehicle(draw, canvas, tr, float(time), index[color_of(tr.label)], index["#ffffff"])
+        if impact is not None and impact.kind == "contact" and time >= impact.t:
+            px, py = canvas.px(np.array((impact.x, impact.y)))[0]
+            draw.polygon(_star(px, py, 8), fill=index[STAR], outline=index["#000000"])
+        for n, tr in enumerate(tracks):
+            color = index[color_of(tr.label)]
+            _tag(draw, canvas, tr, float(time), n, color, index["#ffffff"], index[MUTED], index["#ffffff"])
+        draw.rectangle((0, 0, frame_img.size[0], TITLE_PX - 1), fill=index["#ffffff"])
+        draw.text((6, TITLE_PX // 2), f"{title}   t = {time:4.1f} s", font=_font(11), fill=index[TEXT], anchor="lm")
+        frames.append(frame_img)
     buf = io.BytesIO()
-    frames[0].save(buf, format="GIF", save_all=True, append_images=frames[1:], duration=int(step * 1000), loop=0,
-                   optimize=False)
+    frames[0].save(buf, format="GIF", save_all=True, append_images=frames[1:], duration=int(round(step * 1000)),
+                   loop=0, optimize=False)
     return buf.getvalue()

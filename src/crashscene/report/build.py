@@ -24,9 +24,9 @@ from PIL import Image
 from crashscene.campaign.errors import CampaignError
 from crashscene.campaign.runner import summarize_runs
 from crashscene.campaign.store import DB_NAME, Store
-from crashscene.report import charts
+from crashscene.report import charts, contacts
 from crashscene.report.errors import ReportError
-from crashscene.report.shots import Shot, draw_shots, plan_shots
+from crashscene.report.shots import Shot, draw_shots, pick_still, plan_shots, shown_variations
 from crashscene.report.junit import junit_xml
 
 SKETCH_MAX_PX = 900  # longest side of the embedded sketch
@@ -113,6 +113,7 @@ def _gather(store: Store, out: Path, gifs: bool, progress: Callable[[str], None]
         for mode, run in runs.items():
             entry = run.model_dump(exclude={"case_id", "mode", "scenario_hash"})
             entry.update(_firsts(store, run))
+            entry.update(_contact_rates(store, run))
             case["modes"][mode] = entry
         missing = {m: r["n"] - r["variations"] for m, r in case["modes"].items() if r["variations"] < r["n"]}
         if case["status"] == "ok" and missing:
@@ -122,6 +123,7 @@ def _gather(store: Store, out: Path, gifs: bool, progress: Callable[[str], None]
         cases.append(case)
         figures[case_id] = _case_figures(store, out, case, scenario_text, gifs)
         shots[case_id] = plan_shots(store, out, case, gifs)
+        case["contacts"] = _contacts(store, case, scenario_text)
     for case_id, drawn in _draw_all(shots, progress):
         notes = figures[case_id]["notes"] + drawn.pop("notes")
         figures[case_id].update(drawn, notes=notes)
@@ -161,18 +163,64 @@ def _scenario_fields(text: str | None) -> dict:
             "oracle": [{k: e.get(k) for k in ("code", "violation", "actor")} for e in raw.get("oracle") or []]}
 
 
+def _columns(store: Store, table: str) -> set[str]:
+    return {r["column_name"] for r in store.query(
+        "SELECT column_name FROM information_schema.columns WHERE table_name=?", [table])}
+
+
+def _contact_rates(store: Store, run) -> dict:
+    """First-contact, sequence and area-match rates over valid variations (None where the monitor gave none)."""
+    names = ("first_contact", "sequence", "area_match")
+    if not set(names) <= _columns(store, "variations"):
+        return {f"{n}_rate": None for n in names}
+    sums = ", ".join(f"avg(CASE WHEN {n} THEN 1.0 ELSE 0.0 END) FILTER (WHERE {n} IS NOT NULL) AS {n}_rate"
+                     for n in names)
+    row = store.query(f"SELECT {sums} FROM variations WHERE scenario_hash=? AND mode=? AND valid",
+                      [run.scenario_hash, run.mode])[0]
+    return {k: None if v is None else round(float(v), 4) for k, v in row.items()}
+
+
+def _contacts(store: Store, case: dict, scenario_text: str | None) -> dict:
+    """The contact table of the case's main variation (the one its still shows)."""
+    import yaml
+
+    raw = (yaml.safe_load(scenario_text) or {}) if scenario_text else {}
+    reported = contacts.reported_contacts(raw)
+    still = pick_still(case["modes"])
+    if still is None:
+        return {"reported": reported, "rows": contacts.contact_table(reported, [], {}), "mode": None,
+                "variation": None}
+    mode, variation, why = still
+    cols = _columns(store, "collisions")
+    extra = [c for c in ("area_a", "area_b", "delta_v_a", "delta_v_b", "contact_index") if c in cols]
+    order = "contact_index, t" if "contact_index" in cols else "t"
+    sim = store.query(f"SELECT t, actor_a, actor_b, collision_class AS class{''.join(', ' + c for c in extra)} "
+                      f"FROM collisions WHERE scenario_hash=? AND mode=? AND variation=? "
+                      f"ORDER BY {order}, actor_a, actor_b", [case["scenario_hash"], mode, variation])
+    return {"reported": reported, "rows": contacts.contact_table(reported, sim, contacts.labels_of(raw)),
+            "mode": mode, "variation": variation, "why": why}
+
+
 def _firsts(store: Store, run) -> dict:
-    """The first reproducing variation, first ADS violation and first collision of a run (None when absent)."""
+    """The first reproducing variation, first ADS violation and first collision among a run's valid variations
+    (None when absent; the same choices as `campaign.keep`, whose traces are kept), and the kept `shown` ones."""
     where = "scenario_hash=? AND mode=?"
     key = [run.scenario_hash, run.mode]
-    first_rep = store.query(f"SELECT min(variation) AS v FROM variations WHERE {where} AND reproduced", key)[0]["v"]
-    ads = store.query(f"SELECT variation AS v, min(t_first) AS t, string_agg(DISTINCT code, ', ') AS codes "
-                      f"FROM violations WHERE {where} AND is_ads GROUP BY variation ORDER BY variation LIMIT 1", key)
-    coll = store.query(f"SELECT variation AS v, min(t) AS t FROM collisions WHERE {where} GROUP BY variation "
-                       "ORDER BY variation LIMIT 1", key)
+    valid = f"AND variation IN (SELECT variation FROM variations WHERE {where} AND valid)"
+    first_rep = store.query(f"SELECT min(variation) AS v FROM variations WHERE {where} AND valid AND reproduced",
+                            key)[0]["v"]
+    ads = store.query(f"SELECT variation AS v, min(t_first) AS t, string_agg(DISTINCT code, ', ' ORDER BY code) "
+                      f"AS codes FROM violations WHERE {where} AND is_ads {valid} GROUP BY variation "
+                      "ORDER BY variation LIMIT 1", key + key)
+    coll = store.query(f"SELECT variation AS v, min(t) AS t FROM collisions WHERE {where} {valid} GROUP BY variation "
+                       "ORDER BY variation LIMIT 1", key + key)
+    seed = store.query(f"SELECT min(seed) AS s FROM runs WHERE {where}", key)[0]["s"]
+    first = store.query(f"SELECT min(variation) AS v FROM variations WHERE {where} AND valid", key)[0]["v"]
     return {"first_reproducing": first_rep,
             "first_ads_violation": ads[0] if ads else None,
-            "first_collision": coll[0] if coll else None}
+            "first_collision": coll[0] if coll else None,
+            "first_variation": first,
+            "shown": shown_variations(store, run.scenario_hash, seed, run.mode)}
 
 
 def _read(path: Path) -> str | None:
@@ -224,8 +272,11 @@ def _case_figures(store: Store, out: Path, case: dict, scenario_text: str | None
     modes = case["modes"]
     if not modes:
         return fig
+    import yaml
+
+    raw = (yaml.safe_load(scenario_text) or {}) if scenario_text else {}
     png = charts.violations_bar({m: r["violations"] for m, r in modes.items()},
-                                {m: r["variations"] for m, r in modes.items()})
+                                {m: r["variations"] for m, r in modes.items()}, contacts.labels_of(raw))
     fig["violations"] = data_uri(png, "image/png") if png else None
     png = charts.verdict_bar({m: r["verdicts"] for m, r in modes.items()})
     fig["verdicts"] = data_uri(png, "image/png") if png else None

@@ -10,6 +10,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from crashscene.report.palette import color_of, label_of, label_sort_key  # noqa: E402
+
 VERDICT_COLORS = {"pass": "#2ca02c", "violation": "#ff7f0e", "collision": "#d62728", "invalid": "#7f7f7f"}
 VERDICTS = ("pass", "violation", "collision", "invalid")
 
@@ -22,20 +24,27 @@ def _png(fig) -> bytes:
     return buf.getvalue()
 
 
-def violations_bar(per_mode: dict[str, dict[str, dict[str, int]]], variations: dict[str, int]) -> bytes | None:
-    """Grouped bars: for each mode, the share of variations in which each actor violated each code."""
+def violations_bar(per_mode: dict[str, dict[str, dict[str, int]]], variations: dict[str, int],
+                   labels: dict[str, str] | None = None) -> bytes | None:
+    """Grouped bars: for each mode, the share of variations in which each actor violated each code.
+
+    Actors are named and coloured by their report labels (V1 red, V2 blue, ... as in every picture)."""
+    labels = labels or {}
     modes = [m for m in per_mode if per_mode[m]]
     if not modes:
         return None
     fig, axes = plt.subplots(1, len(modes), figsize=(4.6 * len(modes), 3.2), squeeze=False)
     for ax, mode in zip(axes[0], modes):
         codes = sorted(per_mode[mode])
-        actors = sorted({a for c in codes for a in per_mode[mode][c]})
+        actors = sorted({a for c in codes for a in per_mode[mode][c]},
+                        key=lambda a: (label_sort_key(labels.get(a, label_of(a, None))), a))
         width = 0.8 / max(1, len(actors))
         xs = np.arange(len(codes))
         for k, actor in enumerate(actors):
             vals = [100.0 * per_mode[mode][c].get(actor, 0) / max(1, variations.get(mode, 1)) for c in codes]
-            ax.bar(xs + (k - (len(actors) - 1) / 2) * width, vals, width, label=actor)
+            label = labels.get(actor, label_of(actor, None))
+            ax.bar(xs + (k - (len(actors) - 1) / 2) * width, vals, width, label=f"{label} ({actor})",
+                   color=color_of(label))
         ax.set_xticks(xs, [c.replace("CVC_", "") for c in codes], rotation=30, fontsize=8)
         ax.set_ylabel("variations violating [%]")
         ax.set_xlabel("CVC section")
