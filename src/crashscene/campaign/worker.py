@@ -48,7 +48,22 @@ def _simulate_and_monitor(task: ChunkTask, run_dir: Path) -> ChunkResult:
                       backend=opts.backend, ego_role=opts.ego_role, map_mode=opts.map_mode,
                       carla_maps=Path(opts.carla_maps) if opts.carla_maps else None)
     tables = {name: read_table(run_dir, name) for name in TABLES if (run_dir / f"{name}.parquet").exists()}
-    return rows_from(tables, _monitor(run_dir, opts.rules_file))
+    return rows_from(tables, _monitor(run_dir, opts.rules_file), _ads_ttc(run_dir))
+
+
+def _ads_ttc(run_dir: Path) -> dict[int, float] | None:
+    """Per variation, the lowest time to collision [s] of a pair with the ADS (criticality.parquet, when written)."""
+    path = run_dir / "criticality.parquet"
+    if not path.exists():
+        return None
+    names = pq.read_schema(path).names
+    if not {"variation", "involves_ads", "min_ttc"} <= set(names):
+        return None
+    out: dict[int, float] = {}
+    for r in pq.read_table(path, columns=["variation", "involves_ads", "min_ttc"]).to_pylist():
+        if r["involves_ads"] and r["min_ttc"] is not None and math.isfinite(r["min_ttc"]):
+            out[r["variation"]] = min(out.get(r["variation"], math.inf), r["min_ttc"])
+    return out
 
 
 def _monitor(run_dir: Path, rules_file: str | None) -> dict[str, pa.Table]:
@@ -63,8 +78,10 @@ def _monitor(run_dir: Path, rules_file: str | None) -> dict[str, pa.Table]:
     return {"rule_results": result.rule_results, "collisions": result.collisions, "verdicts": result.verdicts}
 
 
-def rows_from(tables: dict[str, pa.Table], monitored: dict[str, pa.Table]) -> ChunkResult:
-    """Turn the simulate tables and the monitor's tables into the campaign's row tables."""
+def rows_from(tables: dict[str, pa.Table], monitored: dict[str, pa.Table],
+              ttc: dict[int, float] | None = None) -> ChunkResult:
+    """Turn the simulate tables and the monitor's tables into the campaign's row tables, with the traces of the
+    chunk's candidates for the report (`keep`; `ttc` [s] per variation ranks the ADS's closest calls)."""
     verdicts = {r["variation"]: r for r in monitored["verdicts"].to_pylist()}
     collisions = monitored["collisions"].to_pylist()
     collided = {r["variation"] for r in collisions}
@@ -96,7 +113,7 @@ def rows_from(tables: dict[str, pa.Table], monitored: dict[str, pa.Table]) -> Ch
                          violations=pa.Table.from_pylist(viol_rows, VIOLATION_ROWS),
                          collisions=pa.Table.from_pylist(coll_rows, COLLISION_ROWS))
     if "traces" in tables and "actors" in tables:
-        result.shown = keep.pick(var_rows, rules, monitored["collisions"])
+        result.shown = keep.pick(var_rows, rules, monitored["collisions"], ttc)
         result.shown_traces, result.shown_actors = keep.traces_of(result.shown, tables["traces"], tables["actors"])
     return result
 

@@ -20,6 +20,7 @@ from pathlib import Path
 
 import jinja2
 from PIL import Image
+from pydantic import BaseModel
 
 from crashscene.campaign.errors import CampaignError
 from crashscene.campaign.runner import summarize_runs
@@ -98,7 +99,7 @@ def _gather(store: Store, out: Path, gifs: bool, progress: Callable[[str], None]
     for run in summarize_runs(store):
         runs_by_case.setdefault(run.case_id, []).append(run)
     case_rows = store.query("SELECT * FROM cases ORDER BY case_id")
-    cases, figures, shots = [], {}, {}
+    cases, figures, shots, jobs = [], {}, {}, {}
     for row in case_rows:
         case_id = row["case_id"]
         work = out / "cases" / case_id
@@ -121,28 +122,29 @@ def _gather(store: Store, out: Path, gifs: bool, progress: Callable[[str], None]
             case["error"] = ("variations not stored (failed or unfinished chunks; see table chunk_errors, rerun with "
                              "--resume): " + ", ".join(f"{m} {k}" for m, k in missing.items()))
         cases.append(case)
-        figures[case_id] = _case_figures(store, out, case, scenario_text, gifs)
+        figures[case_id], jobs[case_id] = _case_figures(store, case, scenario_text)
         shots[case_id] = plan_shots(store, out, case, gifs)
         case["contacts"] = _contacts(store, case, scenario_text)
-    for case_id, drawn in _draw_all(shots, progress):
+    for case_id, drawn in _draw_all(shots, jobs, progress):
         notes = figures[case_id]["notes"] + drawn.pop("notes")
         figures[case_id].update(drawn, notes=notes)
     return cases, figures
 
 
-def _draw_all(shots: dict[str, list[Shot]], progress: Callable[[str], None] | None):
-    """(case_id, figures) per case, drawn in a 2-process pool when several cases need pictures."""
-    todo = [(case_id, s) for case_id, s in shots.items() if s]
+def _draw_all(shots: dict[str, list[Shot]], jobs: dict[str, CaseCharts], progress: Callable[[str], None] | None):
+    """(case_id, figures) per case, drawn in a process pool when there are several cases."""
+    todo = list(jobs)
     total = len(todo)
     if total < PARALLEL_DRAW_MIN:
-        for k, (case_id, case_shots) in enumerate(todo, 1):
+        for k, case_id in enumerate(todo, 1):
             if progress is not None:
                 progress(f"report: drawing case {case_id} ({k}/{total})")
-            yield case_id, draw_shots(case_shots)
+            yield case_id, draw_case(shots[case_id], jobs[case_id])
         return
     workers = min(DRAW_WORKERS, os.cpu_count() or 1)
-    with ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn")) as pool:
-        futures = {pool.submit(draw_shots, case_shots): case_id for case_id, case_shots in todo}
+    with ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn"),
+                             initializer=_quiet_worker) as pool:
+        futures = {pool.submit(draw_case, shots[case_id], jobs[case_id]): case_id for case_id in todo}
         for k, fut in enumerate(as_completed(futures), 1):
             case_id = futures[fut]
             if progress is not None:
@@ -151,6 +153,12 @@ def _draw_all(shots: dict[str, list[Shot]], progress: Callable[[str], None] | No
                 yield case_id, fut.result()
             except Exception as exc:  # noqa: BLE001  (a dead drawing process costs pictures, not the report)
                 yield case_id, {"notes": [f"pictures not drawn: {type(exc).__name__}: {exc}"]}
+
+
+def _quiet_worker() -> None:
+    from crashscene.campaign.engines import quiet_scenic_warnings
+
+    quiet_scenic_warnings()
 
 
 def _scenario_fields(text: str | None) -> dict:
@@ -265,26 +273,50 @@ def _sketch(case_dir: Path) -> str | None:
     return None
 
 
-def _case_figures(store: Store, out: Path, case: dict, scenario_text: str | None, gifs: bool) -> dict:
-    """Every image of one case as data URIs, plus notes on what could not be drawn."""
-    fig: dict = {"narrative": _narrative(Path(case["case_dir"] or "")), "sketch": _sketch(Path(case["case_dir"] or "")),
-                 "dsl": scenario_text, "notes": []}
+class CaseCharts(BaseModel):
+    """What one case's charts and sketch are drawn from (gathered from the database by the driver)."""
+
+    case_dir: str
+    violations: dict[str, dict[str, dict[str, int]]] = {}
+    variations: dict[str, int] = {}
+    verdicts: dict[str, dict[str, int]] = {}
+    labels: dict[str, str] = {}
+    scatter_rows: dict[str, list[dict]] = {}
+
+
+def _case_figures(store: Store, case: dict, scenario_text: str | None) -> tuple[dict, CaseCharts]:
+    """The case's text figures (narrative, DSL) and the inputs of its charts."""
+    fig: dict = {"narrative": _narrative(Path(case["case_dir"] or "")), "dsl": scenario_text, "notes": []}
     modes = case["modes"]
+    job = CaseCharts(case_dir=case["case_dir"] or "")
     if not modes:
-        return fig
+        return fig, job
     import yaml
 
     raw = (yaml.safe_load(scenario_text) or {}) if scenario_text else {}
-    png = charts.violations_bar({m: r["violations"] for m, r in modes.items()},
-                                {m: r["variations"] for m, r in modes.items()}, contacts.labels_of(raw))
-    fig["violations"] = data_uri(png, "image/png") if png else None
-    png = charts.verdict_bar({m: r["verdicts"] for m, r in modes.items()})
-    fig["verdicts"] = data_uri(png, "image/png") if png else None
-    fig["scatter"] = {}
+    job.violations = {m: r["violations"] for m, r in modes.items()}
+    job.variations = {m: r["variations"] for m, r in modes.items()}
+    job.verdicts = {m: r["verdicts"] for m, r in modes.items()}
+    job.labels = contacts.labels_of(raw)
     for mode in modes:
         rows = store.query("SELECT verdict, params FROM variations WHERE scenario_hash=? AND mode=? ORDER BY variation",
                            [case["scenario_hash"], mode])
-        rows = [{"verdict": r["verdict"], "params": json.loads(r["params"] or "{}")} for r in rows]
+        job.scatter_rows[mode] = [{"verdict": r["verdict"], "params": json.loads(r["params"] or "{}")} for r in rows]
+    return fig, job
+
+
+def draw_case(shots: list[Shot], job: CaseCharts) -> dict:
+    """Every image of one case as data URIs (sketch, charts, bird's-eye pictures), plus notes on what failed."""
+    fig = draw_shots(shots)
+    fig["sketch"] = _sketch(Path(job.case_dir))
+    if not job.verdicts:
+        return fig
+    png = charts.violations_bar(job.violations, job.variations, job.labels)
+    fig["violations"] = data_uri(png, "image/png") if png else None
+    png = charts.verdict_bar(job.verdicts)
+    fig["verdicts"] = data_uri(png, "image/png") if png else None
+    fig["scatter"] = {}
+    for mode, rows in job.scatter_rows.items():
         png = charts.failing_scatter(rows, f"failing variations ({mode})")
         if png:
             fig["scatter"][mode] = data_uri(png, "image/png")
