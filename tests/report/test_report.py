@@ -52,7 +52,9 @@ def test_kept_traces_are_drawn_without_simulating(written):
         assert case["contacts"]["variation"] == case["modes"]["reproduce"]["first_reproducing"]
         assert case["contacts"]["rows"], "the shown variation collided: its contact is listed"
     assert not list(written.html.parent.glob("cases/*/report")), "a variation was simulated again"
-    assert "not drawn:" not in written.html.read_text()
+    html = written.html.read_text()
+    assert "not drawn:" not in html
+    assert html.count('class="closest"') == 2  # each case's closest call of the ADS (lowest robustness), drawn
 
 
 def test_same_campaign_same_report_bytes(fake_campaign, written):
@@ -105,3 +107,25 @@ def test_incomplete_run_is_an_error_in_junit_and_the_report(tmp_path, monkeypatc
     error = ET.parse(written.junit).getroot().find("testcase/error")
     assert error is not None and error.get("type") == "IncompleteRun"
     assert "Incomplete:" in written.html.read_text()
+
+
+def test_criticality_distributions_when_the_campaign_has_them(fake_campaign, tmp_path):
+    import shutil
+
+    import duckdb
+
+    from crashscene.report import charts
+
+    out = tmp_path / "with-criticality"
+    shutil.copytree(fake_campaign, out, ignore=shutil.ignore_patterns("report.html", "results.json", "junit.xml"))
+    con = duckdb.connect(str(out / "campaign.duckdb"))
+    con.execute("CREATE TABLE criticality AS SELECT scenario_hash, seed, mode, variation, 'ego' AS actor_a, "
+                "'npc1' AS actor_b, true AS involves_ads, 0.5 + variation / 10.0 AS min_ttc, "
+                "CASE WHEN variation % 2 = 0 THEN 'NaN'::DOUBLE ELSE 1.0 END AS pet FROM variations")
+    con.close()
+    html = write_report(out, gifs=False).html.read_text()
+    assert html.count('class="criticality"') == 2
+    png = charts.criticality_histograms({"test": {"min_ttc": [0.4, 1.0, float("nan")], "pet": [float("nan")]},
+                                         "reproduce": {"min_ttc": [], "pet": []}})
+    assert png is not None and png.startswith(b"\x89PNG")
+    assert charts.criticality_histograms({"test": {"pet": [float("nan")]}}) is None

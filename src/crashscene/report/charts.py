@@ -1,27 +1,21 @@
-"""Small matplotlib charts of one case's results, returned as PNG bytes."""
+"""The report's charts of one case's results, as SVG (`svg`): verdicts, violations per actor, failing
+parameters, criticality distributions. Vehicles are named and coloured by their report labels (`palette`)."""
 from __future__ import annotations
 
-import io
 import math
 
-import matplotlib
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+from crashscene.report import svg
+from crashscene.report.palette import color_of, label_of, label_sort_key
 
-from crashscene.report.palette import color_of, label_of, label_sort_key  # noqa: E402
-
+MIME = "image/svg+xml"
 VERDICT_COLORS = {"pass": "#2ca02c", "violation": "#ff7f0e", "collision": "#d62728", "invalid": "#7f7f7f"}
 VERDICTS = ("pass", "violation", "collision", "invalid")
-
-
-def _png(fig) -> bytes:
-    buf = io.BytesIO()
-    fig.tight_layout()
-    fig.savefig(buf, format="png", dpi=100)
-    plt.close(fig)
-    return buf.getvalue()
+CRITICALITY_METRICS = {"min_ttc": "minimum time to collision [s]", "pet": "post-encroachment time [s]",
+                       "min_thw": "minimum time headway [s]", "max_drac": "max. deceleration to avoid a crash [m/s2]"}
+MODE_COLORS = {"reproduce": "#7f7f7f", "test": "#1f4e9c"}
+PANEL_W, PANEL_H = 300, 210  # [px] one chart panel
 
 
 def violations_bar(per_mode: dict[str, dict[str, dict[str, int]]], variations: dict[str, int],
@@ -33,24 +27,26 @@ def violations_bar(per_mode: dict[str, dict[str, dict[str, int]]], variations: d
     modes = [m for m in per_mode if per_mode[m]]
     if not modes:
         return None
-    fig, axes = plt.subplots(1, len(modes), figsize=(4.6 * len(modes), 3.2), squeeze=False)
-    for ax, mode in zip(axes[0], modes):
+    parts: list[str] = []
+    for k, mode in enumerate(modes):
         codes = sorted(per_mode[mode])
         actors = sorted({a for c in codes for a in per_mode[mode][c]},
                         key=lambda a: (label_sort_key(labels.get(a, label_of(a, None))), a))
+        plot = svg.Plot(50 + k * PANEL_W, 40, PANEL_W - 70, PANEL_H - 95, (-0.5, len(codes) - 0.5), (0.0, 100.0))
         width = 0.8 / max(1, len(actors))
-        xs = np.arange(len(codes))
-        for k, actor in enumerate(actors):
-            vals = [100.0 * per_mode[mode][c].get(actor, 0) / max(1, variations.get(mode, 1)) for c in codes]
+        for j, actor in enumerate(actors):
             label = labels.get(actor, label_of(actor, None))
-            ax.bar(xs + (k - (len(actors) - 1) / 2) * width, vals, width, label=f"{label} ({actor})",
-                   color=color_of(label))
-        ax.set_xticks(xs, [c.replace("CVC_", "") for c in codes], rotation=30, fontsize=8)
-        ax.set_ylabel("variations violating [%]")
-        ax.set_xlabel("CVC section")
-        ax.set_title(f"rule violations per actor ({mode})", fontsize=9)
-        ax.legend(fontsize=7)
-    return _png(fig)
+            for i, code in enumerate(codes):
+                share = 100.0 * per_mode[mode][code].get(actor, 0) / max(1, variations.get(mode, 1))
+                x = i + (j - (len(actors) - 1) / 2) * width
+                plot.rect(x - width / 2, 0.0, x + width / 2, share, color_of(label))
+        plot.axes("CVC section", "variations violating [%]", list(range(len(codes))), [0, 25, 50, 75, 100],
+                  [c.replace("CVC_", "") for c in codes])
+        parts += plot.parts
+        parts.append(svg.text(plot.left + plot.width / 2, 32, f"rule violations per actor ({mode})", 10))
+        parts += svg.legend(plot.left, PANEL_H - 12, [(f"{labels.get(a, label_of(a, None))} ({a})",
+                                                       color_of(labels.get(a, label_of(a, None)))) for a in actors])
+    return svg.document(PANEL_W * len(modes), PANEL_H, parts)
 
 
 def verdict_bar(verdicts: dict[str, dict[str, int]]) -> bytes | None:
@@ -58,22 +54,20 @@ def verdict_bar(verdicts: dict[str, dict[str, int]]) -> bytes | None:
     modes = [m for m in verdicts if sum(verdicts[m].values())]
     if not modes:
         return None
-    fig, ax = plt.subplots(figsize=(5.2, 0.7 + 0.55 * len(modes)))
+    most = max(sum(verdicts[m].values()) for m in modes)
+    height = 70 + 26 * len(modes)
+    plot = svg.Plot(80, 30, 400, 26 * len(modes), (0.0, float(most)), (-0.5, len(modes) - 0.5))
     for row, mode in enumerate(modes):
         left = 0
         for verdict in VERDICTS:
             count = verdicts[mode].get(verdict, 0)
             if count:
-                ax.barh(row, count, left=left, color=VERDICT_COLORS[verdict], label=verdict if row == 0 else None)
+                plot.rect(left, row - 0.35, left + count, row + 0.35, VERDICT_COLORS[verdict])
                 left += count
-    ax.set_yticks(range(len(modes)), modes)
-    ax.set_xlabel("variations")
-    handles, labels = [], []
-    for verdict in VERDICTS:
-        handles.append(plt.Rectangle((0, 0), 1, 1, color=VERDICT_COLORS[verdict]))
-        labels.append(verdict)
-    ax.legend(handles, labels, fontsize=7, ncol=4, loc="lower center", bbox_to_anchor=(0.5, 1.0), frameon=False)
-    return _png(fig)
+        plot.parts.append(svg.text(plot.left - 6, plot.py(row) + 3, mode, 10, anchor="end"))
+    plot.axes("variations", "", svg.nice_ticks(0, most), None)
+    parts = plot.parts + svg.legend(80, 20, [(v, VERDICT_COLORS[v]) for v in VERDICTS])
+    return svg.document(500, height, parts)
 
 
 def pick_axes(params: list[dict]) -> tuple[str, str] | None:
@@ -103,21 +97,21 @@ def failing_scatter(rows: list[dict], title: str) -> bytes | None:
     if axes is None or not any(r["verdict"] in ("violation", "collision") for r in rows):
         return None
     kx, ky = axes
-    fig, ax = plt.subplots(figsize=(4.6, 3.6))
+    pts = {v: [(r["params"].get(kx), r["params"].get(ky)) for r in rows if r["verdict"] == v] for v in VERDICTS}
+    pts = {v: [(x, y) for x, y in p if isinstance(x, (int, float)) and isinstance(y, (int, float))]
+           for v, p in pts.items()}
+    xs = [x for p in pts.values() for x, _ in p]
+    ys = [y for p in pts.values() for _, y in p]
+    xt, yt = svg.nice_ticks(min(xs), max(xs)), svg.nice_ticks(min(ys), max(ys))
+    plot = svg.Plot(60, 30, 330, 230, (xt[0], xt[-1]), (yt[0], yt[-1]))
     for verdict in VERDICTS:
-        pts = [(r["params"].get(kx), r["params"].get(ky)) for r in rows if r["verdict"] == verdict]
-        pts = [(x, y) for x, y in pts if isinstance(x, (int, float)) and isinstance(y, (int, float))]
-        if not pts:
-            continue
-        xs, ys = zip(*pts)
         faint = verdict in ("pass", "invalid")
-        ax.scatter(xs, ys, s=6 if faint else 12, alpha=0.25 if faint else 0.85, color=VERDICT_COLORS[verdict],
-                   label=f"{verdict} ({len(pts)})", edgecolors="none")
-    ax.set_xlabel(_label(kx))
-    ax.set_ylabel(_label(ky))
-    ax.set_title(title, fontsize=9)
-    ax.legend(fontsize=7, markerscale=1.5)
-    return _png(fig)
+        for x, y in pts[verdict]:
+            plot.dot(x, y, VERDICT_COLORS[verdict], r=2.0 if faint else 3.0, opacity=0.3 if faint else 0.85)
+    plot.axes(_label(kx), _label(ky), xt, yt)
+    parts = plot.parts + svg.legend(60, 322, [(f"{v} ({len(pts[v])})", VERDICT_COLORS[v]) for v in VERDICTS
+                                              if pts[v]])
+    return svg.document(420, 332, parts, title)
 
 
 def _label(key: str) -> str:
@@ -126,3 +120,35 @@ def _label(key: str) -> str:
     if key.endswith(".distance"):
         return f"{key.removesuffix('.distance')} start distance to ego [m]"
     return key
+
+
+def criticality_histograms(per_mode: dict[str, dict[str, list[float]]]) -> bytes | None:
+    """One histogram per criticality metric, the per-variation values of each mode overlaid.
+
+    `per_mode[mode][metric]` holds one value per variation (the lowest over its pairs; in test mode the pairs
+    with the ADS); NaN (never on a collision course, no crossing) is left out and counted in the legend."""
+    metrics = [m for m in CRITICALITY_METRICS
+               if any(v is not None and math.isfinite(v) for mode in per_mode for v in per_mode[mode].get(m, []))]
+    if not metrics:
+        return None
+    parts: list[str] = []
+    for k, metric in enumerate(metrics):
+        finite = {mode: [v for v in per_mode[mode].get(metric, []) if v is not None and math.isfinite(v)]
+                  for mode in per_mode}
+        pooled = [v for vs in finite.values() for v in vs]
+        edges = np.histogram_bin_edges(pooled, bins=20)
+        counts = {mode: np.histogram(values, bins=edges)[0] for mode, values in finite.items() if values}
+        top = max(int(c.max()) for c in counts.values())
+        yt = svg.nice_ticks(0, top)
+        plot = svg.Plot(50 + k * PANEL_W, 20, PANEL_W - 70, PANEL_H - 80, (float(edges[0]), float(edges[-1])),
+                        (0.0, yt[-1]))
+        for mode, c in counts.items():
+            for i, n in enumerate(c):
+                if n:
+                    plot.rect(edges[i], 0.0, edges[i + 1], float(n), MODE_COLORS.get(mode, "#555555"), 0.6)
+        plot.axes(CRITICALITY_METRICS[metric], "variations", svg.nice_ticks(edges[0], edges[-1], 4), yt)
+        parts += plot.parts
+        parts += svg.legend(plot.left, PANEL_H - 10, [(f"{mode} ({len(finite[mode])}/"
+                                                       f"{len(per_mode[mode].get(metric, []))})",
+                                                       MODE_COLORS.get(mode, "#555555")) for mode in per_mode])
+    return svg.document(PANEL_W * len(metrics), PANEL_H, parts)

@@ -56,8 +56,10 @@ def footprint(x: float, y: float, yaw: float, length: float, width: float) -> np
     return half @ np.array([[c, s], [-s, c]]) + (x, y)
 
 
-def closest_approach(tracks: list[ActorTrack]) -> Focus | None:
-    """The moment two vehicles came closest (footprint gap), or None with fewer than two vehicles."""
+def closest_approach(tracks: list[ActorTrack], involving: str | None = None) -> Focus | None:
+    """The moment two vehicles came closest (footprint gap), or None with fewer than two vehicles.
+
+    `involving` (a role) restricts the pairs to those with that vehicle, e.g. the ADS under test."""
     from shapely.geometry import Polygon
     from shapely.ops import nearest_points
 
@@ -65,6 +67,8 @@ def closest_approach(tracks: list[ActorTrack]) -> Focus | None:
     for i in range(len(tracks)):
         for j in range(i + 1, len(tracks)):
             a, b = tracks[i], tracks[j]
+            if involving is not None and involving not in (a.role, b.role):
+                continue
             times = np.union1d(a.t, b.t)
             pa_, pb_ = np.array([a.at(t)[:2] for t in times]), np.array([b.at(t)[:2] for t in times])
             centre = np.hypot(*(pa_ - pb_).T)

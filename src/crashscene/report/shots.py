@@ -124,7 +124,9 @@ def focus_of(shot: Shot, actor_tracks: list[ActorTrack]) -> framing.Focus:
         ads = next((tr for tr in actor_tracks if tr.is_ads), actor_tracks[0])
         x, y, _ = ads.at(shot.t_key)
         return framing.Focus("alone", min(float(shot.t_key), t_end), x, y)
-    return framing.closest_approach(actor_tracks) or framing.alone(actor_tracks, t_end)
+    ads = next((tr.role for tr in actor_tracks if tr.is_ads), None) if shot.name in CLOSEST_CALLS else None
+    return (framing.closest_approach(actor_tracks, ads) or framing.closest_approach(actor_tracks)
+            or framing.alone(actor_tracks, t_end))
 
 
 def draw_shots(shots: list[Shot]) -> dict:
