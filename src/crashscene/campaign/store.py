@@ -58,11 +58,16 @@ CREATE TABLE IF NOT EXISTS shown_traces (
 CREATE TABLE IF NOT EXISTS shown_actors (
     {KEYS}, variation INTEGER NOT NULL, actor VARCHAR, label VARCHAR, type VARCHAR, is_ads BOOLEAN, length DOUBLE,
     width DOUBLE);
+-- databases written before the crash sequence was judged gain its columns (NULL in their old rows)
+ALTER TABLE variations ADD COLUMN IF NOT EXISTS first_contact BOOLEAN;
+ALTER TABLE variations ADD COLUMN IF NOT EXISTS sequence BOOLEAN;
+ALTER TABLE variations ADD COLUMN IF NOT EXISTS area_match BOOLEAN;
+ALTER TABLE collisions ADD COLUMN IF NOT EXISTS contact_index INTEGER;
+ALTER TABLE collisions ADD COLUMN IF NOT EXISTS area_a VARCHAR;
+ALTER TABLE collisions ADD COLUMN IF NOT EXISTS area_b VARCHAR;
+ALTER TABLE collisions ADD COLUMN IF NOT EXISTS delta_v_a DOUBLE;
+ALTER TABLE collisions ADD COLUMN IF NOT EXISTS delta_v_b DOUBLE;
 """
-# columns added after the first release: a database written before them gains them on open (null in old rows)
-ADDED_COLUMNS = {"variations": "first_contact BOOLEAN, sequence BOOLEAN, area_match BOOLEAN",
-                 "collisions": "contact_index INTEGER, area_a VARCHAR, area_b VARCHAR, delta_v_a DOUBLE, "
-                               "delta_v_b DOUBLE"}
 
 
 def _now() -> datetime:
@@ -86,9 +91,6 @@ class Store:
                                 "is another campaign writing to it?") from exc
         if not read_only:
             self.con.execute(DDL)
-            for table, columns in ADDED_COLUMNS.items():
-                for column in columns.split(", "):
-                    self.con.execute(f"ALTER TABLE {table} ADD COLUMN IF NOT EXISTS {column}")
 
     def close(self) -> None:
         self.con.close()
@@ -177,10 +179,6 @@ class Store:
 def _conform(name: str, table: pa.Table, task: ChunkTask) -> pa.Table:
     """Check a worker's table against its schema and the chunk's range; cast to the schema."""
     schema = ROW_SCHEMAS[name]
-    optional = [c.split()[0] for c in ADDED_COLUMNS.get(name, "").split(", ") if c]
-    for column in optional:  # a worker written before these columns existed leaves them null
-        if column not in table.column_names:
-            table = table.append_column(column, pa.nulls(table.num_rows, schema.field(column).type))
     missing = [c for c in schema.names if c not in table.column_names]
     if missing:
         raise CampaignError(f"chunk {task.key}: worker's {name} rows lack columns {missing}")
