@@ -127,5 +127,7 @@ def test_criticality_distributions_when_the_campaign_has_them(fake_campaign, tmp
     assert html.count('class="criticality"') == 2
     png = charts.criticality_histograms({"test": {"min_ttc": [0.4, 1.0, float("nan")], "pet": [float("nan")]},
                                          "reproduce": {"min_ttc": [], "pet": []}})
-    assert png is not None and png.startswith(b"\x89PNG")
+    root = ET.fromstring(png)  # well-formed SVG: one panel per metric with a finite value (min_ttc only)
+    assert root.tag.endswith("svg") and root.get("width") == str(charts.PANEL_W)
+    assert sum(e.tag.endswith("rect") and e.get("fill-opacity") == "0.6" for e in root.iter()) == 2  # two bins
     assert charts.criticality_histograms({"test": {"pet": [float("nan")]}}) is None

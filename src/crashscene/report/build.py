@@ -114,7 +114,6 @@ def _gather(store: Store, out: Path, gifs: bool, progress: Callable[[str], None]
         for mode, run in runs.items():
             entry = run.model_dump(exclude={"case_id", "mode", "scenario_hash"})
             entry.update(_firsts(store, run))
-            entry.update(_contact_rates(store, run))
             case["modes"][mode] = entry
         missing = {m: r["n"] - r["variations"] for m, r in case["modes"].items() if r["variations"] < r["n"]}
         if case["status"] == "ok" and missing:
@@ -174,18 +173,6 @@ def _scenario_fields(text: str | None) -> dict:
 def _columns(store: Store, table: str) -> set[str]:
     return {r["column_name"] for r in store.query(
         "SELECT column_name FROM information_schema.columns WHERE table_name=?", [table])}
-
-
-def _contact_rates(store: Store, run) -> dict:
-    """First-contact, sequence and area-match rates over valid variations (None where the monitor gave none)."""
-    names = ("first_contact", "sequence", "area_match")
-    if not set(names) <= _columns(store, "variations"):
-        return {f"{n}_rate": None for n in names}
-    sums = ", ".join(f"avg(CASE WHEN {n} THEN 1.0 ELSE 0.0 END) FILTER (WHERE {n} IS NOT NULL) AS {n}_rate"
-                     for n in names)
-    row = store.query(f"SELECT {sums} FROM variations WHERE scenario_hash=? AND mode=? AND valid",
-                      [run.scenario_hash, run.mode])[0]
-    return {k: None if v is None else round(float(v), 4) for k, v in row.items()}
 
 
 def _contacts(store: Store, case: dict, scenario_text: str | None) -> dict:
