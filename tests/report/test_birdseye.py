@@ -104,3 +104,18 @@ def test_gif_animates_the_window(town02):
         first = np.asarray(img.convert("RGB")).copy()
         img.seek(img.n_frames - 1)
         assert not np.array_equal(first, np.asarray(img.convert("RGB")))  # the ego moved
+
+
+@pytest.mark.slow
+def test_a_run_off_road_is_shown_just_after_the_departure(town02):
+    x, y, _ = town02.nearest_road_point(-7.5, -200.0)
+    t = np.arange(0.0, 6.0, 0.1)
+    off = next(dx for dx in (-30.0, -40.0, 30.0, 40.0) if town02.nearest_road_point(x + dx, y)[2] > 15.0)
+    xs = x + np.clip(t - 2.0, 0.0, None) * np.sign(off) * 10.0  # on the road for 2 s, then straight off it
+    car = ActorTrack("ego", t, xs, np.full_like(t, y), np.zeros_like(t), 4.5, 1.9)
+    focus = framing.road_departure(town02, car)
+    assert focus is not None and focus.kind == "departure"
+    leave = t[np.argmax([town02.nearest_road_point(a, y)[2] > 0 for a in xs])]
+    assert focus.t == pytest.approx(leave + framing.DEPARTURE_AFTER, abs=1e-9)
+    assert framing.road_departure(town02, ActorTrack("ego", t, np.full_like(t, x), np.full_like(t, y),
+                                                     np.zeros_like(t), 4.5, 1.9)) is None

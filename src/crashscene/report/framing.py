@@ -22,12 +22,13 @@ JUNCTION_REACH = 35.0  # [m] a junction this close to the focus is shown whole
 MARGIN = 8.0  # [m] around what must be in frame
 APPROACH = 1.0  # [s] of each vehicle's approach kept in frame
 ROAD_SHOWN = 12.0  # [m] of road beside a vehicle that left it
+DEPARTURE_AFTER = 1.0  # [s] after leaving the road: the picture of a run-off-road crash
 MAX_ASPECT = 2.0  # width / height at most; frames are never taller than wide
 
 
 @dataclass(frozen=True)
 class Focus:
-    """What a picture is about: `kind` contact | closest | alone, at time t [s] and point (x, y) [m]."""
+    """What a picture is about: `kind` contact | closest | departure | alone, at time t [s] and point (x, y) [m]."""
 
     kind: str
     t: float
@@ -91,6 +92,19 @@ def alone(tracks: list[ActorTrack], t: float) -> Focus:
     """The lone vehicle's position at time t [s]."""
     x, y, _ = tracks[0].at(t)
     return Focus("alone", t, x, y)
+
+
+def road_departure(geometry: MapGeometry, track: ActorTrack) -> Focus | None:
+    """The vehicle DEPARTURE_AFTER seconds after its centre first left the drivable area, or None if it never did."""
+    import shapely
+
+    on = shapely.contains_xy(geometry.region, track.x, track.y)
+    off = np.nonzero(~on)[0]
+    if not len(off) or off[0] == 0:
+        return None
+    t = min(float(track.t[off[0]]) + DEPARTURE_AFTER, float(track.t[-1]))
+    x, y, _ = track.at(t)
+    return Focus("departure", t, x, y)
 
 
 def choose_frame(geometry: MapGeometry, tracks: list[ActorTrack], focus: Focus) -> Frame:

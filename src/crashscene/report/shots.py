@@ -114,8 +114,9 @@ def plan_shots(store: Store, out: Path, case: dict, gifs: bool) -> list[Shot]:
     return shots
 
 
-def focus_of(shot: Shot, actor_tracks: list[ActorTrack]) -> framing.Focus:
-    """First contact, else (when no violation time is the key) the closest approach, else the lone vehicle."""
+def focus_of(shot: Shot, actor_tracks: list[ActorTrack], geometry=None) -> framing.Focus:
+    """First contact, else (when no violation time is the key) the closest approach, else where the lone vehicle
+    left the road, else the lone vehicle at the end."""
     c = shot.contact
     if c is not None and (shot.t_key is None or shot.t_key >= c["t"] - 0.5) and c["x"] is not None:
         return framing.Focus("contact", float(c["t"]), float(c["x"]), float(c["y"]), pair=(c["actor_a"], c["actor_b"]))
@@ -125,7 +126,8 @@ def focus_of(shot: Shot, actor_tracks: list[ActorTrack]) -> framing.Focus:
         x, y, _ = ads.at(shot.t_key)
         return framing.Focus("alone", min(float(shot.t_key), t_end), x, y)
     ads = next((tr.role for tr in actor_tracks if tr.is_ads), None) if shot.name in CLOSEST_CALLS else None
-    return (framing.closest_approach(actor_tracks, ads) or framing.closest_approach(actor_tracks)
+    departure = framing.road_departure(geometry, actor_tracks[0]) if geometry is not None else None
+    return (framing.closest_approach(actor_tracks, ads) or framing.closest_approach(actor_tracks) or departure
             or framing.alone(actor_tracks, t_end))
 
 
@@ -148,7 +150,7 @@ def draw_shots(shots: list[Shot]) -> dict:
             if not actor_tracks:
                 raise ReportError(f"{shot.case_id}: no trace rows for {shot.mode} variation {shot.variation}")
             geometry = load_map(map_file)
-            focus = focus_of(shot, actor_tracks)
+            focus = focus_of(shot, actor_tracks, geometry)
             frame = framing.choose_frame(geometry, actor_tracks, focus)
             where = f"{shot.mode} mode, variation {shot.variation}"
             if shot.name.startswith("gif_"):
@@ -173,6 +175,7 @@ def _caption(shot: Shot, focus: framing.Focus, where: str, north: bool) -> str:
     moment = {"contact": "at the first contact (star)",
               "closest": f"at the closest approach, {focus.gap:.1f} m between footprints" if focus.gap is not None
               else "at the closest approach",
-              "alone": "at the key moment"}[focus.kind]
+              "departure": f"{framing.DEPARTURE_AFTER:g} s after leaving the road",
+              "alone": "at the key moment" if shot.t_key is not None else "at the end"}[focus.kind]
     orientation = "north up" if north else "no north on this generated map: the ego approaches from the left"
     return f"{shot.label} ({where}) {moment}, t = {focus.t:.1f} s; {orientation}"
