@@ -93,6 +93,7 @@ def classify_collisions(arrays: TraceArrays, contacts: pa.Table | None, ads: np.
     source = np.where(hit, "footprint", "").astype(object)
     sim_xy = np.full(first.shape + (2,), np.nan)
     sim_t = np.full(first.shape, np.inf)
+    sim_dv = np.full(first.shape + (2,), np.nan)  # [m/s] delta-v of a and b (passed through from the simulator)
     role_index = {r: i for i, r in enumerate(arrays.roles)}
     if contacts is not None and contacts.num_rows:
         rows = contacts.to_pydict()
@@ -109,6 +110,9 @@ def classify_collisions(arrays: TraceArrays, contacts: pa.Table | None, ads: np.
                 sim_t[v, p] = t
                 sim_xy[v, p] = [np.nan if rows["x"][k] is None else rows["x"][k],
                                 np.nan if rows["y"][k] is None else rows["y"][k]]
+                dv = [rows.get(c, [None] * contacts.num_rows)[k] for c in ("delta_v_a", "delta_v_b")]
+                dv = [np.nan if x is None else x for x in dv]
+                sim_dv[v, p] = dv if ra < rb else dv[::-1]
     sim_hit = np.isfinite(sim_t)
     source = np.where(sim_hit & hit, "both", np.where(sim_hit, "simulator", source))
     t_event = np.fmin(t_first, sim_t)
@@ -145,6 +149,7 @@ def classify_collisions(arrays: TraceArrays, contacts: pa.Table | None, ads: np.
         "actor_a": roles[a_idx],
         "actor_b": roles[b_idx],
         "speed_a": va, "speed_b": vb, "yaw_a": yawa, "yaw_b": yawb, "x": cx, "y": cy,
+        "delta_v_a": sim_dv[vv, pp, 0], "delta_v_b": sim_dv[vv, pp, 1],
         "relative_heading_deg": np.degrees(rel),
         "class": cls,
         "striking_actor": striking,
