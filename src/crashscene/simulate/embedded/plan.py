@@ -15,6 +15,7 @@ import numpy as np
 from crashscene.scene import SampledScene
 from crashscene.simulate.drivers.behaviors import OVER_LIMIT, SPEEDING_CODES, speed_factor
 from crashscene.simulate.embedded import signals, timing
+from crashscene.simulate.embedded import skid as skid_plan
 from crashscene.simulate.embedded.control import entry_before
 from crashscene.simulate.embedded.world import RouteArrays
 from crashscene.simulate.roads import ROUTE_DS
@@ -33,7 +34,9 @@ def plan_variation(v: int, scene: SampledScene, rng: np.random.Generator, column
                     length: np.ndarray, entry_control: np.ndarray, lateral_target: np.ndarray, hold: np.ndarray,
                     trigger: np.ndarray, scale: np.ndarray, phase: np.ndarray, conflict_time: np.ndarray,
                     runs_red: bool, cond: float, default_limit: float, planned_out: np.ndarray,
-                    moved: np.ndarray, reproduce: bool, drifted: np.ndarray) -> None:
+                    moved: np.ndarray, reproduce: bool, drifted: np.ndarray, skids: np.ndarray,
+                    classes: dict[frozenset[str], str], friction: float, width: np.ndarray,
+                    lane_width: float) -> None:
     """Fill row v of the timing arrays (draws from rng in a fixed order)."""
     n_a = len(columns)
     planned = [_planned_speed(arrays, route[v, a], s0[v, a], speed[v, a], columns[a], cond, default_limit)
@@ -41,7 +44,8 @@ def plan_variation(v: int, scene: SampledScene, rng: np.random.Generator, column
     planned_out[v] = planned
     draws = {"offset": rng.normal(timing.ARRIVAL_OFFSET_MEAN, timing.ARRIVAL_OFFSET_SD, n_a),
              "lead": rng.uniform(0.8, 2.0, n_a), "trigger": rng.uniform(1.0, 4.0, n_a),
-             "green": rng.uniform(3.0, 15.0), "spin": rng.choice([-1.0, 1.0], n_a)}
+             "green": rng.uniform(3.0, 15.0), "spin": rng.choice([-1.0, 1.0], n_a),
+             "rotation": rng.uniform(0.0, 1.0, n_a)}
     ra = route[v, anchor]
     va = planned[anchor]
     anchor_col = columns[anchor]
@@ -86,6 +90,18 @@ def plan_variation(v: int, scene: SampledScene, rng: np.random.Generator, column
                 if closing < planned[a] + planned[partner]:
                     scale[v, partner] = max(timing.SPEED_SCALE[0], (closing - planned[a]) / planned[partner])
                     planned[partner] *= scale[v, partner]
+            skid = None
+            if col.behavior == "lose_control":
+                contact = classes.get(frozenset((col.role, p_col.role)))
+                moves_in = p_col.behavior in ("change_lane_left", "change_lane_right") and not opposite
+                skid = skid_plan.plan(planned[a], gap, planned[partner], opposite, 0.0 if moves_in else lateral,
+                                      lane_width, friction, float(length[v, a]), float(width[v, a]),
+                                      skid_plan.rotation_for(contact, opposite, float(draws["rotation"][a])),
+                                      contact)
+            if skid is not None:
+                skids[v, a] = (skid.spin_rate, skid.drift, skid.hold)
+                trigger[v, a] = skid.trigger
+                continue
             if col.behavior == "lose_control":
                 t_trig = timing.skid_trigger(gap, planned[a], planned[partner], lateral, timing.SPIN_RATE,
                                              opposite=opposite) - lead

@@ -78,6 +78,9 @@ class BatchSetup:
     hold_until: np.ndarray
     trigger_time: np.ndarray
     lateral_target: np.ndarray
+    spin_rate: np.ndarray  # [rad/s] planned yaw rate of a loss of control, NaN: the driver's
+    drift: np.ndarray  # [rad] planned veer of its velocity, NaN: the default
+    spin_hold: np.ndarray  # [s] how long the planned spin is held before friction slows it, NaN: until rest
     condition_factor: float  # [-] safe speed / posted limit for the weather, surface and light
     friction: float  # [-] tyre-road friction coefficient
     invalid: list[str | None]  # per variation, the first reason found at setup
@@ -197,13 +200,16 @@ def build(scenario: Scenario, scenes: list[SampledScene], roadmap: RoadMap,
     moved = np.zeros((n_v, n_a), dtype=bool)
     start_cap = np.full((n_v, n_a), np.inf)  # [m/s] highest initial speed (curve right ahead)
     drifted = np.zeros((n_v, n_a))  # [m] lateral head start of a swerve that began before t = 0
+    skids = np.full((n_v, n_a, 3), np.nan)  # planned (spin rate [rad/s], drift [rad], hold [s]) of a loss of control
     runs_red = "CVC_21453" in columns[anchor].dispositions
+    classes = contact_classes(scenario)
     for v, scene in enumerate(scenes):
         rng = variation_rng(scene.seed, scene.index)
         plan_variation(v, scene, rng, columns, anchor, arrays, route, s0, d0, speed, length, tables[v][0],
                         lateral_target, hold, trigger, scale, phase, conflict_time, runs_red,
                         condition_factor(scenario), mph(scenario.road_network.speed_limit_mph), planned, moved,
-                        settings.mode == "reproduce", drifted)
+                        settings.mode == "reproduce", drifted, skids, classes, friction(scenario), width,
+                        float(np.median(lane_width[v])))
     if drifted.any():
         vv, aa = np.nonzero(drifted)
         _, _, ryaw = arrays.point(route[vv, aa], s0[vv, aa])
@@ -237,6 +243,7 @@ def build(scenario: Scenario, scenes: list[SampledScene], roadmap: RoadMap,
         routes=arrays, route=route, x=x, y=y, yaw=yaw, speed=speed0, cruise=cruise, length=length, width=width,
         s0=s0, d0=d0, lane_width=lane_width, entry_control=entry_control, entry_group=entry_group,
         priority=priority, phase=phase, hold_until=hold, trigger_time=trigger, lateral_target=lateral_target,
+        spin_rate=skids[..., 0], drift=skids[..., 1], spin_hold=skids[..., 2],
         condition_factor=condition_factor(scenario), friction=friction(scenario),
         invalid=invalid, conflict_time=conflict_time, default_speed_limit=limit * MPH if limit else math.nan,
         lane_width_table=lane_width_table,
@@ -244,6 +251,15 @@ def build(scenario: Scenario, scenes: list[SampledScene], roadmap: RoadMap,
         lane_forward=np.array([lane.forward for lane in roadmap.lanes]),
         lane_marker=np.array([MARKERS.index(lane.marker) for lane in roadmap.lanes]),
     )
+
+
+def contact_classes(scenario: Scenario) -> dict[frozenset[str], str]:
+    """The class of the first written contact of each actor pair (DSL `collisions`); empty when not written."""
+    out: dict[frozenset[str], str] = {}
+    for contact in getattr(scenario, "collisions", None) or []:
+        pair = frozenset((str(contact.striking), str(contact.struck)))
+        out.setdefault(pair, str(getattr(contact.class_, "value", contact.class_)))
+    return out
 
 
 # ------------------------------------------------------------------ routes

@@ -42,7 +42,7 @@ from crashscene.simulate.roads import STOP_LINE_SETBACK, RoadMap
 CHUNK = 500  # variations simulated together (bounds memory; results do not depend on it)
 LOOKAHEAD = (4.0, 25.0)  # [m] pure-pursuit lookahead range
 LOOKAHEAD_TIME = 0.9  # [s]
-SKID_DECEL = 3.0  # [m/s2] while out of control
+DEFAULT_DRIFT = 0.15  # [rad] veer of a skidding car's velocity when no plan sets it
 
 
 class EmbeddedSimulator(Simulator):
@@ -137,15 +137,30 @@ def run_batch(batch: batch_setup.BatchSetup, recorder: Recorder) -> None:
             else:
                 lat_cmd[:, a] = 0.0
             if action.lose_control is not None:
-                newly = np.asarray(action.lose_control, dtype=bool) & ~state.lost[:, a]
-                spin = np.broadcast_to(np.asarray(action.spin_rate if action.spin_rate is not None else 0.3,
-                                                  dtype=float), (n_v,))
-                state.spin[:, a] = np.where(newly, spin, state.spin[:, a])
-                state.lost[:, a] |= newly
+                _lose_control(batch, state, a, np.asarray(action.lose_control, dtype=bool), action.spin_rate, t)
         _move(batch, state, accel_cmd, lat_cmd, dt, t + dt, accel_max, brake_max, steer_max, steer_rate,
               speed_max, wheelbase)
         _check_collisions(batch, state, recorder, t + dt)
     recorder.end(batch, state)
+
+
+def _lose_control(batch: batch_setup.BatchSetup, state: State, a: int, lose: np.ndarray, spin, t: float) -> None:
+    """From now on actor a slides (impact.slide) yawing at the planned rate (else the driver's), its velocity
+    veered by the planned drift angle: a loss of control planned from its impact (skid)."""
+    newly = lose & ~state.lost[:, a] & ~state.free[:, a] & ~state.gone[:, a]
+    if not newly.any():
+        return
+    driver_spin = np.broadcast_to(np.asarray(spin if spin is not None else 0.35, dtype=float), newly.shape)
+    rate = np.where(np.isfinite(batch.spin_rate[:, a]), batch.spin_rate[:, a], driver_spin)
+    drift = np.where(np.isfinite(batch.drift[:, a]), batch.drift[:, a], np.sign(rate) * DEFAULT_DRIFT)
+    heading = state.yaw[:, a] + drift
+    state.vx[:, a] = np.where(newly, state.v[:, a] * np.cos(heading), state.vx[:, a])
+    state.vy[:, a] = np.where(newly, state.v[:, a] * np.sin(heading), state.vy[:, a])
+    state.yaw_rate[:, a] = np.where(newly, rate, state.yaw_rate[:, a])
+    state.spin[:, a] = np.where(newly, rate, state.spin[:, a])
+    state.lost[:, a] |= newly
+    state.free[:, a] |= newly
+    state.lost_time[:, a] = np.where(newly, t, state.lost_time[:, a])
 
 
 class State:
@@ -164,6 +179,7 @@ class State:
         self.d_ref = batch.d0.copy()
         self.lost = np.zeros(self.x.shape, dtype=bool)
         self.spin = np.zeros_like(self.x)
+        self.lost_time = np.full(self.x.shape, np.nan)  # [s] when the actor lost control
         self.collided = np.zeros(self.x.shape, dtype=bool)  # has had a contact
         self.free = np.zeros(self.x.shape, dtype=bool)  # sliding after an impact, out of its driver's control
         self.vx = np.zeros_like(self.x)  # [m/s] velocity of a sliding vehicle (world frame)
@@ -362,13 +378,11 @@ def _move(batch: batch_setup.BatchSetup, state: State, accel_cmd: np.ndarray, la
     state.steer = np.clip(state.steer, -steer_max, steer_max)
 
     accel = np.clip(accel_cmd, -brake_max, accel_max)
-    accel = np.where(state.lost, -SKID_DECEL, accel)
     v_new = np.clip(state.v + accel * dt, 0.0, speed_max)
     v_new = np.where(frozen, 0.0, v_new)
     accel = np.where(frozen, 0.0, (v_new - state.v) / dt)
     v_mid = 0.5 * (state.v + v_new)
-    yaw_rate = np.where(state.lost, state.spin * np.minimum(v_mid / 5.0, 1.0),
-                        v_mid / wheelbase * np.tan(state.steer))
+    yaw_rate = v_mid / wheelbase * np.tan(state.steer)
     yaw_rate = np.where(frozen, 0.0, yaw_rate)
     heading = state.yaw + 0.5 * yaw_rate * dt
     x_new = state.x + v_mid * np.cos(heading) * dt
@@ -378,6 +392,9 @@ def _move(batch: batch_setup.BatchSetup, state: State, accel_cmd: np.ndarray, la
     if sliding.any():
         vx, vy, w = impact.slide(state.vx, state.vy, state.yaw, state.yaw_rate, batch.friction, batch.length,
                                  batch.width, dt)
+        held = ~(t_next - state.lost_time > batch.spin_hold)  # NaN hold: held until rest
+        spinning = state.lost & ~state.collided & held & (np.hypot(vx, vy) > impact.REST_SPEED)
+        w = np.where(spinning, state.spin, w)  # out of control the yaw is held until an impact or rest
         v_slide = np.hypot(vx, vy)
         x_new = np.where(sliding, state.x + 0.5 * (state.vx + vx) * dt, x_new)
         y_new = np.where(sliding, state.y + 0.5 * (state.vy + vy) * dt, y_new)
@@ -461,7 +478,6 @@ def _exchange(batch: batch_setup.BatchSetup, state: State, recorder: Recorder, o
         state.yaw_rate[idx, k] = w
         state.v[idx, k] = np.hypot(*vel)
         state.free[idx, k] = True
-        state.lost[idx, k] = False
         state.collided[idx, k] = True
 
 
