@@ -26,6 +26,8 @@ if TYPE_CHECKING:
 MPH = 0.44704  # [m/s] per mph
 LATERAL_BEHAVIORS = ("change_lane_left", "change_lane_right", "cross_centerline", "overtake", "lose_control",
                      "leave_road")
+SYNC_SLACK = 0.8  # [s] an actor moved back to meet later is placed this much early (sync.Meeting slows it)
+START_MARGIN = 5.0  # [m] an actor moved back along its route stays this far from the route's start
 ADVANCE_MARGIN = 3.0  # [m] an actor advanced by its timing plan stays this far before its junction entry
 
 
@@ -35,7 +37,9 @@ def plan_variation(v: int, scene: SampledScene, rng: np.random.Generator, column
                     trigger: np.ndarray, scale: np.ndarray, phase: np.ndarray, conflict_time: np.ndarray,
                     runs_red: bool, cond: float, default_limit: float, planned_out: np.ndarray,
                     moved: np.ndarray, reproduce: bool, drifted: np.ndarray, skids: np.ndarray,
-                    classes: dict[frozenset[str], str], friction: float, width: np.ndarray,
+                    classes: dict[frozenset[str], str], strikers: dict[frozenset[str], str],
+                    first_pair: frozenset[str] | None, friction: float,
+                    width: np.ndarray,
                     lane_width: float) -> None:
     """Fill row v of the timing arrays (draws from rng in a fixed order)."""
     n_a = len(columns)
@@ -140,7 +144,22 @@ def plan_variation(v: int, scene: SampledScene, rng: np.random.Generator, column
             offset -= timing.TURNER_LEAD
         elif turn_e and not turn_a:
             offset += timing.TURNER_LEAD
+        striking = strikers.get(frozenset((col.role, anchor_col.role)))
+        if striking is not None:
+            # the written contact says who strikes: the striker's front meets the middle of the struck one's side
+            s_idx = a if striking == col.role else anchor
+            t_idx = anchor if s_idx == a else a
+            r_t, cs_t = (r, cs_a) if t_idx == a else (ra, cs_e)
+            s_t0 = s0[v, t_idx]
+            v_struck = _effective_speed(arrays, r_t, max(cs_t - 10.0, s_t0), cs_t, planned[t_idx], columns[t_idx])
+            # ...behind the middle of its side: its centre has passed the striker's path by a quarter length
+            side_hit = (length[v, s_idx] / 2 + width[v, t_idx] / 2) / max(planned[s_idx], 1.0) \
+                + length[v, t_idx] / 4 / max(v_struck, 1.0)
+            jitter = offset - timing.ARRIVAL_OFFSET_MEAN * (timing.REPRODUCE_OFFSET_SCALE if reproduce else 1.0)
+            offset = (side_hit if s_idx == a else -side_hit) + jitter
         target = arrival_anchor + offset
+        # the first written contact's pair meets closed loop (sync.Meeting): place the free one a little early
+        slack = SYNC_SLACK if reproduce and first_pair == frozenset((col.role, anchor_col.role)) else 0.0
         va_ = planned[a]
         if stop is not None:
             v_eff = _effective_speed(arrays, r, s0[v, a], cs_a, va_, col)
@@ -158,6 +177,12 @@ def plan_variation(v: int, scene: SampledScene, rng: np.random.Generator, column
             if t_at(hi) > target:
                 sc = hi
                 late = t_at(hi) - target
+            elif t_at(lo) < target and (back := _start_back(
+                    arrays, v, a, route, s0, max(target - t_at(1.0) - slack, 0.0) * va_, length)) is not None:
+                # far too early: it was further back along its approach, driving at its own speed
+                sc, late = 1.0, 0.0
+                s0[v, a] = back
+                moved[v, a] = True
             elif t_at(lo) < target:
                 sc = lo
                 late = 0.0
@@ -191,7 +216,13 @@ def plan_variation(v: int, scene: SampledScene, rng: np.random.Generator, column
             # also for an actor that must first stop at its line, which no advance along its approach fixes
             t_new = arrival_anchor + late
             lo, hi = timing.SPEED_SCALE[0], 1.0
-            if arrays.travel_time(ra, s0[v, anchor], cs_e, va * lo, lat_e, v0=va * lo) < t_new:
+            # ...placed a little early rather than late: on the way it can slow down to meet (sync), rarely speed up
+            back = _start_back(arrays, v, anchor, route, s0, max(late - slack, 0.0) * va, length)
+            if back is not None:
+                # it started that much further back along its approach, at its own speed
+                s0[v, anchor] = back
+                moved[v, anchor] = True
+            elif arrays.travel_time(ra, s0[v, anchor], cs_e, va * lo, lat_e, v0=va * lo) < t_new:
                 scale[v, anchor] = lo
                 t_rest = arrays.travel_time(ra, s0[v, anchor], cs_e, va * lo, lat_e, v0=0.0)
                 hold[v, anchor] = max(0.0, t_new - t_rest)
@@ -210,6 +241,20 @@ def plan_variation(v: int, scene: SampledScene, rng: np.random.Generator, column
     t_junction = (ahead[0] - s0[v, anchor]) / va if len(ahead) else 5.0
     green = float(scene.params.get("SIGNAL_GREEN_REMAINING", draws["green"]))
     phase[v] = float(signals.phase_for(np.array(t_junction), np.array(green), runs_red))
+
+
+def _start_back(arrays: RouteArrays, v: int, a: int, route: np.ndarray, s0: np.ndarray, dist: float,
+                length: np.ndarray) -> float | None:
+    """Station `dist` [m] behind actor a's start on its route, if the route has room and no other actor on the
+    same route is within a car length and a margin of the new start; else None."""
+    new = s0[v, a] - dist
+    if new < START_MARGIN:
+        return None
+    for b in range(route.shape[1]):
+        if b != a and route[v, b] == route[v, a] and abs(s0[v, b] - new) < (length[v, a] + length[v, b]) / 2 + 4.0 \
+                or b != a and route[v, b] == route[v, a] and new < s0[v, b] < s0[v, a]:
+            return None
+    return float(new)
 
 
 def _param(params: dict, role: str, names: tuple[str, ...], default: float) -> float:

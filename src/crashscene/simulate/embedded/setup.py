@@ -18,6 +18,7 @@ from crashscene.scene import SampledActor, SampledScene
 from crashscene.simulate.backend import SimulationError, SimulationSettings
 from crashscene.simulate.embedded import timing
 from crashscene.simulate.embedded.control import control_tables, priorities
+from crashscene.simulate.embedded.sync import Meeting
 from crashscene.simulate.embedded.plan import MPH, mph, plan_variation, stop_dist
 from crashscene.simulate.embedded.vehicles import VehicleLimits, limits_for
 from crashscene.simulate.embedded.world import RouteArrays
@@ -81,6 +82,8 @@ class BatchSetup:
     spin_rate: np.ndarray  # [rad/s] planned yaw rate of a loss of control, NaN: the driver's
     drift: np.ndarray  # [rad] planned veer of its velocity, NaN: the default
     spin_hold: np.ndarray  # [s] how long the planned spin is held before friction slows it, NaN: until rest
+    unseen: np.ndarray  # (A, A) bool: driver a does not perceive actor b (unseen_partners)
+    meeting: Meeting  # reproduce mode: who adjusts its speed to meet at the first written contact
     condition_factor: float  # [-] safe speed / posted limit for the weather, surface and light
     friction: float  # [-] tyre-road friction coefficient
     invalid: list[str | None]  # per variation, the first reason found at setup
@@ -139,6 +142,7 @@ def build(scenario: Scenario, scenes: list[SampledScene], roadmap: RoadMap,
     route = np.zeros((n_v, n_a), dtype=np.int64)
     lateral_target = np.zeros((n_v, n_a))
     lane_cache: dict[tuple, Lane | None] = {}
+    start_lanes: dict[tuple[int, int], Lane] = {}
     road_edge = np.full((n_v, n_a), np.nan)  # [m] signed offset of the road edge a leave_road actor drifts over
     for v, scene in enumerate(scenes):
         for a, actor in enumerate(scene.actors):
@@ -153,6 +157,7 @@ def build(scenario: Scenario, scenes: list[SampledScene], roadmap: RoadMap,
                 continue
             route_lane, target = _route_lane(roadmap, lane, actor)
             lateral_target[v, a] = target
+            start_lanes[v, a] = route_lane
             if actor.behavior == "leave_road":
                 road_edge[v, a] = _road_edge_offset(roadmap, lane, scenario)
             intent = _junction_intent(actor)
@@ -161,7 +166,11 @@ def build(scenario: Scenario, scenes: list[SampledScene], roadmap: RoadMap,
                 route_index[key] = len(routes)
                 routes.append(roadmap.route(route_lane.uid, intent, min_length))
             route[v, a] = route_index[key]
+    classes = contact_classes(scenario)
+    crossing = _crossing_candidates(scenes, columns, classes, roadmap, start_lanes, route, route_index, routes,
+                                    min_length)
     arrays = RouteArrays.pack(routes)
+    relocated = _choose_crossing_lanes(crossing, arrays, route, x, y, classes, columns)
 
     s0 = np.zeros((n_v, n_a))
     d0 = np.zeros((n_v, n_a))
@@ -170,6 +179,11 @@ def build(scenario: Scenario, scenes: list[SampledScene], roadmap: RoadMap,
         if mask.any():
             s0[mask], d0[mask] = _project_many(rt, x[mask], y[mask])
 
+    if relocated.any():
+        # an actor placed in another lane of its approach starts on that lane's centre
+        vv, aa = np.nonzero(relocated)
+        x[vv, aa], y[vv, aa], yaw[vv, aa] = arrays.point(route[vv, aa], s0[vv, aa])
+        d0[vv, aa] = 0.0
     lane_width_table = np.array([lane.width for lane in roadmap.lanes])
     start_lane_idx = arrays.lane[route, np.clip((s0 / ROUTE_DS).astype(int), 0, arrays.lane.shape[1] - 1)]
     lane_width = np.where(start_lane_idx >= 0, lane_width_table[np.maximum(start_lane_idx, 0)], 3.5)
@@ -202,13 +216,14 @@ def build(scenario: Scenario, scenes: list[SampledScene], roadmap: RoadMap,
     drifted = np.zeros((n_v, n_a))  # [m] lateral head start of a swerve that began before t = 0
     skids = np.full((n_v, n_a, 3), np.nan)  # planned (spin rate [rad/s], drift [rad], hold [s]) of a loss of control
     runs_red = "CVC_21453" in columns[anchor].dispositions
-    classes = contact_classes(scenario)
     for v, scene in enumerate(scenes):
         rng = variation_rng(scene.seed, scene.index)
         plan_variation(v, scene, rng, columns, anchor, arrays, route, s0, d0, speed, length, tables[v][0],
                         lateral_target, hold, trigger, scale, phase, conflict_time, runs_red,
                         condition_factor(scenario), mph(scenario.road_network.speed_limit_mph), planned, moved,
-                        settings.mode == "reproduce", drifted, skids, classes, friction(scenario), width,
+                        settings.mode == "reproduce", drifted, skids, classes, contact_strikers(scenario),
+                        first_contact_pair(scenario),
+                        friction(scenario), width,
                         float(np.median(lane_width[v])))
     if drifted.any():
         vv, aa = np.nonzero(drifted)
@@ -244,6 +259,8 @@ def build(scenario: Scenario, scenes: list[SampledScene], roadmap: RoadMap,
         s0=s0, d0=d0, lane_width=lane_width, entry_control=entry_control, entry_group=entry_group,
         priority=priority, phase=phase, hold_until=hold, trigger_time=trigger, lateral_target=lateral_target,
         spin_rate=skids[..., 0], drift=skids[..., 1], spin_hold=skids[..., 2],
+        unseen=unseen_partners(scenario, columns, settings.mode == "reproduce"),
+        meeting=_meeting(scenario, columns, arrays, route, s0, length, hold, tables, settings),
         condition_factor=condition_factor(scenario), friction=friction(scenario),
         invalid=invalid, conflict_time=conflict_time, default_speed_limit=limit * MPH if limit else math.nan,
         lane_width_table=lane_width_table,
@@ -260,6 +277,143 @@ def contact_classes(scenario: Scenario) -> dict[frozenset[str], str]:
         pair = frozenset((str(contact.striking), str(contact.struck)))
         out.setdefault(pair, str(getattr(contact.class_, "value", contact.class_)))
     return out
+
+
+def first_contact_pair(scenario: Scenario) -> frozenset[str] | None:
+    """The two actors of the first written contact (DSL `collisions`), None when not written or empty."""
+    contacts = getattr(scenario, "collisions", None) or []
+    return frozenset((str(contacts[0].striking), str(contacts[0].struck))) if contacts else None
+
+
+def contact_strikers(scenario: Scenario) -> dict[frozenset[str], str]:
+    """The striking actor of the first written contact of each actor pair (DSL `collisions`)."""
+    out: dict[frozenset[str], str] = {}
+    for contact in getattr(scenario, "collisions", None) or []:
+        out.setdefault(frozenset((str(contact.striking), str(contact.struck))), str(contact.striking))
+    return out
+
+
+def unseen_partners(scenario: Scenario, columns: list[ActorColumn], reproduce: bool) -> np.ndarray:
+    """(A, A) True where driver a does not perceive actor b: in reproduce mode, the striking driver of a
+    written contact never saw what it struck (an inattentive driver), so it does not brake for it."""
+    roles = [c.role for c in columns]
+    out = np.zeros((len(roles), len(roles)), dtype=bool)
+    if not reproduce:
+        return out
+    for contact in getattr(scenario, "collisions", None) or []:
+        a, b = str(contact.striking), str(contact.struck)
+        if a in roles and b in roles and a != b and not columns[roles.index(a)].is_ads:
+            out[roles.index(a), roles.index(b)] = True
+    return out
+
+
+FREE_BEHAVIORS = ("go_forward", "accelerate", "turn_left", "turn_right", "u_turn")
+
+
+def _meeting(scenario: Scenario, columns: list[ActorColumn], arrays: RouteArrays, route: np.ndarray, s0: np.ndarray,
+             length: np.ndarray, hold: np.ndarray, tables: list, settings: SimulationSettings) -> Meeting:
+    """The follower of the first written contact, per variation (sync.Meeting): the striker when it drives
+    freely (a scripted driver, not held, not stopping at a sign first), else the struck actor."""
+    n_v = route.shape[0]
+    meeting = Meeting.none(n_v)
+    contacts = getattr(scenario, "collisions", None) or []
+    roles = [c.role for c in columns]
+    if settings.mode != "reproduce" or not contacts:
+        return meeting
+    first = contacts[0]
+    if str(first.striking) not in roles or str(first.struck) not in roles:
+        return meeting
+    si, ti = roles.index(str(first.striking)), roles.index(str(first.struck))
+    for v in range(n_v):
+        cs_s = arrays.conflict_s[route[v, si], route[v, ti]]
+        cs_t = arrays.conflict_s[route[v, ti], route[v, si]]
+        if not (np.isfinite(cs_s) and np.isfinite(cs_t)) or cs_s <= s0[v, si] + length[v, si] / 2 \
+                or cs_t <= s0[v, ti] + length[v, ti] / 2:
+            continue
+        for f, l_ in ((si, ti), (ti, si)):
+            col = columns[f]
+            if col.is_ads or col.behavior not in FREE_BEHAVIORS or hold[v, f] > 0 \
+                    or stop_dist(arrays, route[v, f], s0[v, f], tables[v][0], col) is not None:
+                continue
+            meeting.follower[v], meeting.leader[v] = f, l_
+            meeting.cs_follower[v] = cs_s if f == si else cs_t
+            meeting.cs_leader[v] = cs_t if f == si else cs_s
+            meeting.follower_strikes[v] = f == si
+            stop = stop_dist(arrays, route[v, l_], s0[v, l_], tables[v][0], columns[l_])
+            if stop is not None:
+                meeting.leader_stop[v] = s0[v, l_] + stop
+            break
+    return meeting
+
+
+# ------------------------------------------------------------------ placement: which lane meets as the report says
+CLASS_CROSSING = {"angle": math.pi / 2}  # [rad] relative heading at a crossing conflict that gives the class
+SPAWN_CLEARANCE = 8.0  # [m] an actor moved to another lane keeps this far from every other actor
+
+
+def _crossing_candidates(scenes: list[SampledScene], columns: list[ActorColumn], classes: dict, roadmap: RoadMap,
+                         start_lanes: dict, route: np.ndarray, route_index: dict, routes: list[Route],
+                         min_length: float) -> dict[tuple[int, int, int], list[int]]:
+    """For a straight-going actor whose written contact with a turning actor crosses its path, the routes
+    from every same-direction lane of its approach: (v, a, partner) -> candidate route indices."""
+    out: dict[tuple[int, int, int], list[int]] = {}
+    roles = [c.role for c in columns]
+    for a, col in enumerate(columns):
+        for b, other in enumerate(columns):
+            klass = classes.get(frozenset((col.role, other.role)))
+            if b == a or klass not in CLASS_CROSSING:
+                continue
+            for v, scene in enumerate(scenes):
+                mine, theirs = scene.actors[a], scene.actors[b]
+                if _junction_intent(mine) != "straight" or _junction_intent(theirs) == "straight" \
+                        or (v, a) not in start_lanes or mine.behavior not in ("go_forward", "accelerate"):
+                    continue
+                lanes, seen = [start_lanes[v, a]], {start_lanes[v, a].uid}
+                for side in ("left", "right"):
+                    uid = getattr(start_lanes[v, a], side)
+                    while uid and uid in roadmap.by_uid and uid not in seen:
+                        seen.add(uid)
+                        lanes.append(roadmap.by_uid[uid])
+                        uid = getattr(roadmap.by_uid[uid], side)
+                if len(lanes) < 2:
+                    continue
+                cands = []
+                for lane in lanes:
+                    key = (lane.uid, "straight", min_length)
+                    if key not in route_index:
+                        route_index[key] = len(routes)
+                        routes.append(roadmap.route(lane.uid, "straight", min_length))
+                    cands.append(route_index[key])
+                out[v, a, b] = cands
+    del roles
+    return out
+
+
+def _choose_crossing_lanes(candidates: dict, arrays: RouteArrays, route: np.ndarray, x: np.ndarray, y: np.ndarray,
+                           classes: dict, columns: list[ActorColumn]) -> np.ndarray:
+    """Route each candidate actor along the lane whose crossing with its partner's path is closest to the
+    relative heading of the written contact's class; (V, A) True where an actor changed lane."""
+    moved = np.zeros(route.shape, dtype=bool)
+    for (v, a, b), cands in candidates.items():
+        target = CLASS_CROSSING[classes[frozenset((columns[a].role, columns[b].role))]]
+        best, best_miss = route[v, a], math.inf
+        for rc in cands:
+            angle = arrays.conflict_angle[rc, route[v, b]]
+            if not np.isfinite(angle):
+                continue
+            xy = arrays.xy[rc]
+            k = int(np.argmin(np.hypot(xy[:, 0] - x[v, a], xy[:, 1] - y[v, a])))
+            px, py = xy[k]
+            others = [c for c in range(route.shape[1]) if c != a]
+            if any(math.hypot(px - x[v, c], py - y[v, c]) < SPAWN_CLEARANCE for c in others) and rc != route[v, a]:
+                continue
+            miss = abs(abs(float(angle)) - target)
+            if miss < best_miss - 1e-6:
+                best, best_miss = rc, miss
+        if best != route[v, a]:
+            route[v, a] = best
+            moved[v, a] = True
+    return moved
 
 
 # ------------------------------------------------------------------ routes

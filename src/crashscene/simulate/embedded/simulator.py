@@ -121,12 +121,17 @@ def run_batch(batch: batch_setup.BatchSetup, recorder: Recorder) -> None:
     recorder.begin(batch)
     _check_collisions(batch, state, recorder, 0.0, initial=True)
     lat_cmd = batch.d0.copy()
+    planned_cruise = batch.cruise.copy()
+    meeting = batch.meeting
     for step in range(n_steps + 1):
         t = step * dt
         geo = _geometry(batch, state, t)
         recorder.record(step, t, state, geo, lat_cmd)
         if step == n_steps:
             break
+        idx, cruise = meeting.cruise(state.s, state.v, state.a, batch.length, batch.width, planned_cruise, batch.cruise)
+        if len(idx):
+            batch.cruise[idx, meeting.follower[idx]] = cruise  # the drivers hold views of these columns
         accel_cmd = np.zeros((n_v, n_a))
         for a, driver in enumerate(drivers):
             obs = _observe(batch, state, geo, a, t, ranges[a])
@@ -286,7 +291,7 @@ def _observe(batch: batch_setup.BatchSetup, state: State, geo: Geometry, a: int,
     others_x = state.x.copy()
     others_y = state.y.copy()
     dist_all = np.hypot(state.x - state.x[:, a:a + 1], state.y - state.y[:, a:a + 1])
-    hidden = (dist_all > perception_range) | state.gone
+    hidden = (dist_all > perception_range) | state.gone | batch.unseen[a][None, :]
     hidden[:, a] = False
     others_x[hidden] = np.nan
     others_y[hidden] = np.nan
