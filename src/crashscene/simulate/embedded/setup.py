@@ -16,10 +16,12 @@ import shapely
 from crashscene.dsl import Scenario
 from crashscene.scene import SampledActor, SampledScene
 from crashscene.simulate.backend import SimulationError, SimulationSettings
+from crashscene.simulate.drivers.behaviors import NO_YIELD_CODES
 from crashscene.simulate.embedded import timing
-from crashscene.simulate.embedded.control import control_tables, priorities
-from crashscene.simulate.embedded.sync import Meeting
+from crashscene.simulate.embedded.control import control_tables, entry_before, priorities
 from crashscene.simulate.embedded.plan import MPH, mph, plan_variation, stop_dist
+from crashscene.simulate.embedded.pullout import PullOut, line_station
+from crashscene.simulate.embedded.sync import Meeting
 from crashscene.simulate.embedded.vehicles import VehicleLimits, limits_for
 from crashscene.simulate.embedded.world import RouteArrays
 from crashscene.simulate.roads import ROUTE_DS, Lane, RoadMap, Route
@@ -84,6 +86,7 @@ class BatchSetup:
     spin_hold: np.ndarray  # [s] how long the planned spin is held before friction slows it, NaN: until rest
     unseen: np.ndarray  # (A, A) bool: driver a does not perceive actor b (unseen_partners)
     meeting: Meeting  # reproduce mode: who adjusts its speed to meet at the first written contact
+    pullout: PullOut  # test mode: the NPC that waits at its line and pulls out in front of the ADS
     condition_factor: float  # [-] safe speed / posted limit for the weather, surface and light
     friction: float  # [-] tyre-road friction coefficient
     invalid: list[str | None]  # per variation, the first reason found at setup
@@ -225,6 +228,7 @@ def build(scenario: Scenario, scenes: list[SampledScene], roadmap: RoadMap,
                         first_contact_pair(scenario),
                         friction(scenario), width,
                         float(np.median(lane_width[v])))
+    pullout = _pullout(columns, anchor, arrays, route, s0, tables, priority, hold, settings)
     if drifted.any():
         vv, aa = np.nonzero(drifted)
         _, _, ryaw = arrays.point(route[vv, aa], s0[vv, aa])
@@ -261,6 +265,7 @@ def build(scenario: Scenario, scenes: list[SampledScene], roadmap: RoadMap,
         spin_rate=skids[..., 0], drift=skids[..., 1], spin_hold=skids[..., 2],
         unseen=unseen_partners(scenario, columns, settings.mode == "reproduce"),
         meeting=_meeting(scenario, columns, arrays, route, s0, length, hold, tables, settings),
+        pullout=pullout,
         condition_factor=condition_factor(scenario), friction=friction(scenario),
         invalid=invalid, conflict_time=conflict_time, default_speed_limit=limit * MPH if limit else math.nan,
         lane_width_table=lane_width_table,
@@ -304,6 +309,32 @@ def unseen_partners(scenario: Scenario, columns: list[ActorColumn], reproduce: b
         a, b = str(contact.striking), str(contact.struck)
         if a in roles and b in roles and a != b and not columns[roles.index(a)].is_ads:
             out[roles.index(a), roles.index(b)] = True
+    return out
+
+
+def _pullout(columns: list[ActorColumn], anchor: int, arrays: RouteArrays, route: np.ndarray, s0: np.ndarray,
+             tables: list, priority: np.ndarray, hold: np.ndarray, settings: SimulationSettings) -> PullOut:
+    """Test mode: the NPC that must yield to the ADS at a stop or yield line and, by its oracle, does not
+    (pullout.PullOut); it drives to its line instead of being held at its start."""
+    n_v = route.shape[0]
+    out = PullOut.none(n_v, columns[anchor].limits.brake_max)
+    if settings.mode != "test" or not columns[anchor].is_ads:
+        return out
+    for a, col in enumerate(columns):
+        if col.is_ads or not (col.dispositions & NO_YIELD_CODES) or col.behavior not in FREE_BEHAVIORS:
+            continue
+        for v in range(n_v):
+            if out.npc[v] >= 0 or not priority[v, a, anchor]:
+                continue
+            r, ra = route[v, a], route[v, anchor]
+            cs, cs_ads = arrays.conflict_s[r, ra], arrays.conflict_s[ra, r]
+            j = entry_before(arrays, r, cs) if np.isfinite(cs) else None
+            if j is None or int(tables[v][0][r, j]) not in (2, 3) or arrays.entry_s[r, j] <= s0[v, a]:
+                continue
+            out.npc[v], out.ads[v] = a, anchor
+            out.line[v] = line_station(float(arrays.entry_s[r, j]))
+            out.cs_npc[v], out.cs_ads[v] = cs, cs_ads
+            hold[v, a] = 0.0
     return out
 
 

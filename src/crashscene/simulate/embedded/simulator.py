@@ -129,6 +129,7 @@ def run_batch(batch: batch_setup.BatchSetup, recorder: Recorder) -> None:
         recorder.record(step, t, state, geo, lat_cmd)
         if step == n_steps:
             break
+        batch.pullout.step(t, state.s, state.v, batch.length, batch.hold_until, batch.invalid)
         idx, cruise = meeting.cruise(state.s, state.v, state.a, batch.length, batch.width, planned_cruise, batch.cruise)
         if len(idx):
             batch.cruise[idx, meeting.follower[idx]] = cruise  # the drivers hold views of these columns
