@@ -24,6 +24,7 @@ if TYPE_CHECKING:
     from crashscene.simulate.embedded.setup import ActorColumn
 
 MPH = 0.44704  # [m/s] per mph
+VEER_BEHAVIORS = ("change_lane_left", "change_lane_right", "cross_centerline", "overtake")
 LATERAL_BEHAVIORS = ("change_lane_left", "change_lane_right", "cross_centerline", "overtake", "lose_control",
                      "leave_road")
 SYNC_SLACK = 0.8  # [s] an actor moved back to meet later is placed this much early (sync.Meeting slows it)
@@ -95,13 +96,22 @@ def plan_variation(v: int, scene: SampledScene, rng: np.random.Generator, column
                     scale[v, partner] = max(timing.SPEED_SCALE[0], (closing - planned[a]) / planned[partner])
                     planned[partner] *= scale[v, partner]
             skid = None
-            if col.behavior == "lose_control":
-                contact = classes.get(frozenset((col.role, p_col.role)))
+            contact = classes.get(frozenset((col.role, p_col.role)))
+            if col.behavior == "lose_control" or (contact == "angle" and col.behavior in VEER_BEHAVIORS):
+                # a lateral manoeuvre that ends in an angle contact is a sudden veer: planned as a skid
                 moves_in = p_col.behavior in ("change_lane_left", "change_lane_right") and not opposite
-                skid = skid_plan.plan(planned[a], gap, planned[partner], opposite, 0.0 if moves_in else lateral,
+                skid = skid_plan.plan(planned[a], gap, planned[partner], opposite,
+                                      (0.0 if moves_in else lateral) - d0[v, a],
                                       lane_width, friction, float(length[v, a]), float(width[v, a]),
                                       skid_plan.rotation_for(contact, opposite, float(draws["rotation"][a])),
                                       contact)
+                if skid is not None and skid.partner_shift:
+                    placed = _shift_start(arrays, v, partner, route, s0, skid.partner_shift, length, d0)
+                    if placed is None:
+                        skid = None
+                    else:
+                        s0[v, partner] = placed
+                        moved[v, partner] = True
             if skid is not None:
                 skids[v, a] = (skid.spin_rate, skid.drift, skid.hold)
                 trigger[v, a] = skid.trigger
@@ -178,7 +188,7 @@ def plan_variation(v: int, scene: SampledScene, rng: np.random.Generator, column
                 sc = hi
                 late = t_at(hi) - target
             elif t_at(lo) < target and (back := _start_back(
-                    arrays, v, a, route, s0, max(target - t_at(1.0) - slack, 0.0) * va_, length)) is not None:
+                    arrays, v, a, route, s0, max(target - t_at(1.0) - slack, 0.0) * va_, length, d0)) is not None:
                 # far too early: it was further back along its approach, driving at its own speed
                 sc, late = 1.0, 0.0
                 s0[v, a] = back
@@ -217,7 +227,7 @@ def plan_variation(v: int, scene: SampledScene, rng: np.random.Generator, column
             t_new = arrival_anchor + late
             lo, hi = timing.SPEED_SCALE[0], 1.0
             # ...placed a little early rather than late: on the way it can slow down to meet (sync), rarely speed up
-            back = _start_back(arrays, v, anchor, route, s0, max(late - slack, 0.0) * va, length)
+            back = _start_back(arrays, v, anchor, route, s0, max(late - slack, 0.0) * va, length, d0)
             if back is not None:
                 # it started that much further back along its approach, at its own speed
                 s0[v, anchor] = back
@@ -243,16 +253,36 @@ def plan_variation(v: int, scene: SampledScene, rng: np.random.Generator, column
     phase[v] = float(signals.phase_for(np.array(t_junction), np.array(green), runs_red))
 
 
+def _same_lane(route: np.ndarray, d0: np.ndarray | None, v: int, a: int, b: int) -> bool:
+    """Whether actors a and b start in the same lane (same route, lateral offsets within a lane)."""
+    return b != a and route[v, b] == route[v, a] and (d0 is None or abs(d0[v, b] - d0[v, a]) < 2.0)
+
+
+def _shift_start(arrays: RouteArrays, v: int, a: int, route: np.ndarray, s0: np.ndarray, shift: float,
+                 length: np.ndarray, d0: np.ndarray | None = None) -> float | None:
+    """Station `shift` [m] along actor a's route from its start (negative: back), if the route has room and
+    no other actor on the same route is in the way; else None."""
+    if shift < 0:
+        return _start_back(arrays, v, a, route, s0, -shift, length, d0)
+    new = s0[v, a] + shift
+    if new > arrays.length[route[v, a]] - 100.0:
+        return None
+    for b in range(route.shape[1]):
+        if _same_lane(route, d0, v, a, b) and s0[v, a] < s0[v, b] < new + (length[v, a] + length[v, b]) / 2 + 4.0:
+            return None
+    return float(new)
+
+
 def _start_back(arrays: RouteArrays, v: int, a: int, route: np.ndarray, s0: np.ndarray, dist: float,
-                length: np.ndarray) -> float | None:
+                length: np.ndarray, d0: np.ndarray | None = None) -> float | None:
     """Station `dist` [m] behind actor a's start on its route, if the route has room and no other actor on the
     same route is within a car length and a margin of the new start; else None."""
     new = s0[v, a] - dist
     if new < START_MARGIN:
         return None
     for b in range(route.shape[1]):
-        if b != a and route[v, b] == route[v, a] and abs(s0[v, b] - new) < (length[v, a] + length[v, b]) / 2 + 4.0 \
-                or b != a and route[v, b] == route[v, a] and new < s0[v, b] < s0[v, a]:
+        if _same_lane(route, d0, v, a, b) and (abs(s0[v, b] - new) < (length[v, a] + length[v, b]) / 2 + 4.0
+                                               or new < s0[v, b] < s0[v, a]):
             return None
     return float(new)
 

@@ -118,6 +118,7 @@ def run_batch(batch: batch_setup.BatchSetup, recorder: Recorder) -> None:
     ranges = np.array([getattr(d, "perception_range", math.inf) for d in drivers])
 
     state = State(batch)
+    veers = np.isfinite(batch.spin_rate).any(axis=0)
     recorder.begin(batch)
     _check_collisions(batch, state, recorder, 0.0, initial=True)
     lat_cmd = batch.d0.copy()
@@ -144,6 +145,10 @@ def run_batch(batch: batch_setup.BatchSetup, recorder: Recorder) -> None:
                 lat_cmd[:, a] = 0.0
             if action.lose_control is not None:
                 _lose_control(batch, state, a, np.asarray(action.lose_control, dtype=bool), action.spin_rate, t)
+            elif veers[a]:
+                # a planned sudden veer (plan: a lateral manoeuvre ending in an angle contact)
+                _lose_control(batch, state, a, np.isfinite(batch.spin_rate[:, a]) & (t >= batch.trigger_time[:, a]),
+                              None, t)
         _move(batch, state, accel_cmd, lat_cmd, dt, t + dt, accel_max, brake_max, steer_max, steer_rate,
               speed_max, wheelbase)
         _check_collisions(batch, state, recorder, t + dt)

@@ -18,6 +18,7 @@ from crashscene.simulate.embedded import impact
 SPIN_RATES = np.array([0.05, 0.15, 0.25, 0.35, 0.5, 0.7, 0.9, 1.2])  # [rad/s] candidate yaw rates of a car out of control
 DRIFT_ANGLES = np.array([0.08, 0.15, 0.25, 0.35])  # [rad] candidate veer of the velocity at the loss of control
 DT = 0.05  # [s] plan integration step
+PLACED_TRIGGER = 1.0  # [s] when the partner is placed to meet the skid, the skid starts this late
 HORIZON = 6.0  # [s] a skid that has not reached the partner's lane by then does not count
 # relative heading [rad] between the two vehicles at contact that each class needs (rules.md bands, mid)
 CLASS_HEADING = {"rear_end": 0.1, "head_on": math.pi - 0.2, "angle": math.pi / 2, "sideswipe": 0.4}
@@ -33,6 +34,7 @@ class Skid:
     trigger: float
     t_meet: float
     hold: float
+    partner_shift: float = 0.0  # [m] the partner must start this much further along its road to meet
 
 
 def rotation_for(contact_class: str | None, opposite: bool, rng_value: float) -> float:
@@ -79,7 +81,7 @@ def trajectories(speed: float, friction: float, length: float, width: float) -> 
 
 def plan(speed: float, gap: float, partner_speed: float, opposite: bool, partner_lateral: float,
          lane_width: float, friction: float, length: float, width: float, rotation: float,
-         contact_class: str | None = None, latest: float = 12.0) -> Skid | None:
+         contact_class: str | None = None, latest: float = 12.0, dwell: float = 0.0) -> Skid | None:
     """The loss of control that puts the car in its partner's lane, turned closest to `rotation` [rad], just
     as the partner gets there. gap: partner's station ahead along the road [m] (negative: behind);
     partner_lateral: its lane's offset [m] (left positive). None when no candidate meets the partner."""
@@ -97,9 +99,22 @@ def plan(speed: float, gap: float, partner_speed: float, opposite: bool, partner
     else:
         t_trig = np.full(x.shape, 1.0)
         ok = in_lane & (np.abs(gap + sigma * partner_speed * tau - x) < 1.5)
-    if not ok.any():
+    if dwell > 0:
+        # it is in the partner's lane for `dwell` [s] before they meet (a wrong-side driver is seen there)
+        k = int(round(dwell / DT))
+        ok[:, k:] &= in_lane[:, :-k]
+        ok[:, :k] = False
+    if ok.any():
+        miss = np.where(ok, np.abs(yaw - rotation) + 0.02 * tau, np.inf)
+        c, k = np.unravel_index(int(np.argmin(miss)), miss.shape)
+        return Skid(sign * float(spin[c]), sign * float(drift[c]), float(t_trig[c, k]), float(tau[0, k]),
+                    float(tau[0, k]) + 0.5)
+    # no start time meets the partner where it is: keep the best skid and place the partner to meet it
+    miss = np.where(in_lane, np.abs(yaw - rotation) + 0.02 * tau, np.inf)
+    if not np.isfinite(miss).any():
         return None
-    miss = np.where(ok, np.abs(yaw - rotation) + 0.02 * tau, np.inf)
     c, k = np.unravel_index(int(np.argmin(miss)), miss.shape)
-    return Skid(sign * float(spin[c]), sign * float(drift[c]), float(t_trig[c, k]), float(tau[0, k]),
-                float(tau[0, k]) + 0.5)
+    t0 = PLACED_TRIGGER
+    needed = speed * t0 + x[c, k] - sigma * partner_speed * (t0 + tau[0, k])
+    return Skid(sign * float(spin[c]), sign * float(drift[c]), t0, float(tau[0, k]), float(tau[0, k]) + 0.5,
+                float(needed - gap))
