@@ -297,7 +297,7 @@ def _observe(batch: batch_setup.BatchSetup, state: State, geo: Geometry, a: int,
     others_x = state.x.copy()
     others_y = state.y.copy()
     dist_all = np.hypot(state.x - state.x[:, a:a + 1], state.y - state.y[:, a:a + 1])
-    hidden = (dist_all > perception_range) | state.gone | batch.unseen[a][None, :]
+    hidden = (dist_all > perception_range) | state.gone
     hidden[:, a] = False
     others_x[hidden] = np.nan
     others_y[hidden] = np.nan
@@ -311,7 +311,9 @@ def _observe(batch: batch_setup.BatchSetup, state: State, geo: Geometry, a: int,
         near_route = np.abs(ds) < 150.0
         rel_yaw = np.remainder(state.yaw[:, b] - qyaw + np.pi, 2 * np.pi) - np.pi
         speed_along = state.v[:, b] * np.cos(rel_yaw)
-        in_path = visible & near_route & (np.abs(lat - state.d[:, a]) < (wa + wb) / 2 + 0.3) & (ds > 0)
+        # an inattentive striker (setup.unseen_partners) does not see what it strikes in its path
+        in_path = visible & near_route & (np.abs(lat - state.d[:, a]) < (wa + wb) / 2 + 0.3) & (ds > 0) \
+            & ~batch.unseen[a, b]
         gap = ds - (la + lb) / 2
         closer = in_path & (gap < lead_gap)
         lead_gap = np.where(closer, gap, lead_gap)
