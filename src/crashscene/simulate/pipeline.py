@@ -32,6 +32,7 @@ from crashscene.simulate.backend import (
     SimulationSettings,
     check_ego_role,
     create_simulator,
+    get_simulator_class,
 )
 from crashscene.simulate.embedded.collisions import classify
 from crashscene.traces import write_table
@@ -43,13 +44,14 @@ def simulate_scenario(scenario: Scenario, out_dir: Path, n: int, seed: int, firs
                       ads_params: dict[str, Any] | None = None, dt: float = DEFAULT_DT,
                       horizon: float = DEFAULT_HORIZON, carla_host: str = "127.0.0.1", carla_port: int = 2000,
                       monitor: bool = True, progress: Callable[[int], None] | None = None,
-                      workers: int = 1, sampler: str = "compiled") -> dict[str, Any]:
+                      workers: int = 1, sampler: str | None = None) -> dict[str, Any]:
     """Simulate variations [first, first + n) of `scenario` and write the run directory `out_dir`.
 
     `workers` > 1 simulates contiguous blocks of variations in that many forked processes (embedded backend;
     with `sampler="scenic"` it also samples in them); the tables are the blocks' tables in index order, the
     same bytes as one process. Keep 1 when the caller already runs in a process pool (a campaign worker).
-    `sampler`: "compiled" (numpy, default) or "scenic" (the reference), see `crashscene.sample.sample_scenes`.
+    `sampler`: "compiled" (numpy) or "scenic" (the reference), see `crashscene.sample.sample_scenes`; None: the
+    backend's (`Simulator.scene_sampler`: compiled for embedded, scenic for backends that replay Scenic scenes).
 
     Returns the JSON summary (also written to summary.json): variations, valid,
     invalid (reason -> count), collisions (by class, by actor pair), seconds, and
@@ -65,6 +67,7 @@ def simulate_scenario(scenario: Scenario, out_dir: Path, n: int, seed: int, firs
     settings = SimulationSettings(dt=dt, horizon=horizon, mode=mode, ego_role=ego_role, ads=ads,
                                   ads_params=ads_params or {}, carla_host=carla_host, carla_port=carla_port)
     check_ego_role(scenario, settings)
+    sampler = _sampler_for(backend, sampler)
     from crashscene.render import RenderError, render
     from crashscene.sample import sample_scenes
 
@@ -109,6 +112,16 @@ def simulate_scenario(scenario: Scenario, out_dir: Path, n: int, seed: int, firs
     summary["timings"] = {k: round(v, 3) for k, v in timings.items()}
     (out_dir / "summary.json").write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
     return summary
+
+
+def _sampler_for(backend: str, sampler: str | None) -> str:
+    needs = get_simulator_class(backend).scene_sampler
+    if sampler is None:
+        return needs
+    if needs == "scenic" and sampler != "scenic":
+        raise SimulationError(f"--sampler {sampler}: the {backend} backend re-generates every scene with Scenic "
+                              "from (seed, index), so its scenes must come from --sampler scenic")
+    return sampler
 
 
 MIN_BLOCK = 100  # variations per process below which forking costs more than it saves
