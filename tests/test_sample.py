@@ -172,7 +172,7 @@ def test_memoised_model_parse_gives_the_same_scenes(tmp_path, monkeypatch):
     from scenic.syntax import translator
 
     r = rendered("3-C2-2018-008", "generated", tmp_path)
-    memoised = sample_scenes(r.program, 4, seed=11)  # compile_program installs the memo
+    memoised = sample_scenes(r.program, 4, seed=11, sampler="scenic")  # compile_program installs the memo
     assert translator.parse_string.crashscene_memo
     monkeypatch.setattr(translator, "parse_string", translator.parse_string.original)
     plain = scenic.scenarioFromFile(str(r.program), params={"render": False}, mode2D=True)

@@ -122,6 +122,8 @@ def sample_scenes(program: Path, n: int, seed: int, first: int = 0, scenario: An
         raise SampleError(f"n and first must be >= 0 and workers >= 1 (got n={n}, first={first}, workers={workers})")
     if sampler not in SAMPLERS:
         raise SampleError(f"sampler {sampler!r} is not allowed; allowed: {', '.join(SAMPLERS)}")
+    if not program.is_file():
+        raise SampleError(f"program {program} not found (render it first: crashscene render FILE.yaml -o DIR)")
     meta = _render_meta(program)
     digest = meta.get("scenario_hash") or _program_hash(program)
     map_file = str(map_path) if map_path is not None else str(program.parent / meta.get("map", "map.xodr"))
@@ -132,8 +134,6 @@ def sample_scenes(program: Path, n: int, seed: int, first: int = 0, scenario: An
             raise SampleError(f"model {model!r}: the compiled sampler reproduces the program's own world model "
                               f"({CARLA_MODEL}); sample with sampler 'scenic' to override it")
 
-        if not program.is_file():
-            raise SampleError(f"program {program} not found (render it first: crashscene render FILE.yaml -o DIR)")
         try:
             compiled = CompiledSampler(program, map_path)
         except PlanError as exc:
