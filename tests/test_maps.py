@@ -202,3 +202,11 @@ def test_asam_checker_catches_an_invalid_map(tmp_path):
     path.write_text(text, encoding="utf-8")
     problems = _asam_check(path)
     assert problems and "stopMarking" in "\n".join(problems)
+
+
+def test_same_spec_same_bytes(tmp_path):
+    """Signal/object ids and the header date do not depend on the process's history or the clock."""
+    one = build_map(spec(controls={"ego": "traffic_light", "right": "stop_sign"}), tmp_path / "a.xodr").read_bytes()
+    build_map(spec(controls={"left": "yield_sign"}), tmp_path / "other.xodr")
+    two = build_map(spec(controls={"ego": "traffic_light", "right": "stop_sign"}), tmp_path / "b.xodr").read_bytes()
+    assert one == two

@@ -26,6 +26,7 @@ import math
 from pathlib import Path
 
 from scenariogeneration import xodr
+from scenariogeneration.helpers import printToFile
 
 from crashscene.convert import LANE_WIDTH, MapSpec
 
@@ -34,6 +35,7 @@ OPENDRIVE_REVISION = ("1", "8")  # (major, minor) written to the header
 SIGNAL_TYPE = {"traffic_light": ("OpenDRIVE", "1000001"), "stop_sign": ("US", "R1-1"), "yield_sign": ("US", "R1-2")}
 SIGNAL_SIZE = {"traffic_light": (0.4, 1.0), "stop_sign": (0.75, 0.75), "yield_sign": (0.9, 0.8)}  # [m] width, height
 STOP_LINE_LENGTH = 0.3  # [m] along the road
+HEADER_DATE = "2026-01-01T00:00:00"  # fixed, so that the same spec gives the same bytes
 MPH_55 = 24.5872  # [m/s]
 
 
@@ -74,7 +76,12 @@ def build_map(spec: MapSpec, path: Path) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     for road in odr.roads.values():
         road.add_elevation(s=0.0, a=0.0, b=0.0, c=0.0, d=0.0)  # flat; the schema wants an elevation record
-    odr.write_xml(str(path))
+    element = odr.get_element()
+    element.find("header").set("date", HEADER_DATE)  # scenariogeneration writes the clock time
+    for tag in ("signal", "object"):  # scenariogeneration numbers them with a process-wide counter
+        for number, item in enumerate(element.iter(tag), 1):
+            item.set("id", str(number))
+    printToFile(element, str(path), True)
     return path
 
 
