@@ -8,7 +8,7 @@ import pytest
 
 from tests.conftest import EXAMPLES
 
-RUN_VARIATIONS = 2  # simulated variations per case: each becomes a concrete scenario
+RUN_VARIATIONS = 4  # simulated variations per case: each becomes a concrete scenario
 RUN_SEED = 7
 
 

@@ -5,7 +5,7 @@ reference scene, scene 0 of the export's seed) and builds:
 - entities: one vehicle per DSL actor (model `$ROLE_MODEL` where Scenic draws it from a pool);
 - init: each actor on its lane, its road coordinate s written as an expression of the
   placement parameters (`${s0 - ($EGO_INIT_DIST - d0)}`), so the position moves with them
-  exactly as the program's placement does along a straight approach; its speed `$ROLE_SPEED`;
+  as the program's placement does (to first order on bends); its speed `$ROLE_SPEED`;
   a route (AssignRouteAction) through the junction to its exit for actors that cross one;
 - storyboard: the DSL behaviour as actions with simulation-time triggers
   (`$ROLE_MANEUVER_TIME`, `$ROLE_STOP_DURATION`): lane change, centre-line crossing,
@@ -53,11 +53,11 @@ MAX_OFF_LANE = 2.0  # [m] a start farther than this from every lane cannot be wr
 
 @dataclass(frozen=True)
 class Placed:
-    """An actor's start in road coordinates and the linear dependence of its route station on parameters."""
+    """An actor's start in road coordinates and how its road s moves with the placement parameters."""
 
     actor: SampledActor
     point: RoadPoint
-    along: dict[str, float]  # parameter -> d(route station)/d(parameter) in the actor's direction of travel
+    ds: dict[str, float]  # parameter -> d(road s of the start)/d(parameter)
 
 
 def prefix(role: str) -> str:
@@ -68,50 +68,66 @@ def model_parameter(role: str) -> str:
     return f"{prefix(role)}_MODEL"
 
 
-def _linear_stations(plan: RenderPlan, scene: SampledScene) -> dict[str, dict[str, float]]:
-    """Per actor, how its route station moves with the placement parameters (render.scenic_support's placement)."""
-    along: dict[str, dict[str, float]] = {}
+def _carrier_stations(plan: RenderPlan, scene: SampledScene) -> dict[str, tuple[str, dict[str, float]]]:
+    """Per actor: the route its start is measured on (its own, or its reference's for side and oncoming
+    placements: render.scenic_support projects a point of the reference's route), and how the start's station
+    along that route moves with the placement parameters (the placement functions are sums of them)."""
+    own: dict[str, dict[str, float]] = {}  # station along the actor's own route
+    out: dict[str, tuple[str, dict[str, float]]] = {}
     plans = {a.role: a for a in plan.actors}
     for actor in scene.actors:
         ap = plans[actor.role]
         p = prefix(actor.role)
         sign = 1.0 if ap.along == "front" else -1.0
-        ref = dict(along.get(ap.placement_ref, {})) if ap.placement_ref != actor.role else {}
+        ref = dict(own.get(ap.placement_ref, {})) if ap.placement_ref != actor.role else {}
         if ap.placement is Placement.ANCHOR:
-            along[actor.role] = {f"{p}_INIT_DIST": sign}
+            out[actor.role] = (actor.role, {f"{p}_INIT_DIST": sign})
         elif ap.placement is Placement.FOLLOW:
-            along[actor.role] = {**ref, f"{p}_INIT_DIST": ref.get(f"{p}_INIT_DIST", 0.0) + sign}
+            out[actor.role] = (actor.role, {**ref, f"{p}_INIT_DIST": ref.get(f"{p}_INIT_DIST", 0.0) + sign})
         elif ap.placement in (Placement.SIDE_LEFT, Placement.SIDE_RIGHT):
-            along[actor.role] = {**ref, f"{p}_SIDE_OFFSET": 1.0}
+            out[actor.role] = (ap.placement_ref, {**ref, f"{p}_SIDE_OFFSET": 1.0})
         elif ap.placement is Placement.ONCOMING:
-            moved = {**ref, f"{p}_INIT_DIST": sign}
-            along[actor.role] = {k: -v for k, v in moved.items()}  # drives the other way
+            out[actor.role] = (ap.placement_ref, {**ref, f"{p}_INIT_DIST": sign})
         else:  # approach: INIT_DIST before its junction entry
-            along[actor.role] = {f"{p}_INIT_DIST": -1.0}
-    return along
+            out[actor.role] = (actor.role, {f"{p}_INIT_DIST": -1.0})
+        carrier, station = out[actor.role]
+        own[actor.role] = station if ap.placement is not Placement.ONCOMING else {k: -v for k, v in station.items()}
+    return out
 
 
 def place(plan: RenderPlan, scene: SampledScene, frame: RoadFrame) -> list[Placed]:
-    along = _linear_stations(plan, scene)
-    out = []
+    """Each actor's start on a lane, with d(road s)/d(parameter): a route station change moves the start by
+    dir / (1 - curvature * t) in road s, t being the carrier lane's lateral offset (lanes are longer outside
+    a bend), dir +1 on right-hand lanes (they run along +s)."""
+    carriers = _carrier_stations(plan, scene)
+    points = {}
     for actor in scene.actors:
         point = frame.locate(actor.x, actor.y)
         if point.distance > MAX_OFF_LANE:
             raise ExportError(f"{frame.path}: {actor.role} starts at ({actor.x:.1f}, {actor.y:.1f}) m, "
                               f"{point.distance:.1f} m off the nearest road's lanes; cannot express its start on a lane")
-        out.append(Placed(actor, point, along[actor.role]))
+        points[actor.role] = point
+    out = []
+    for actor in scene.actors:
+        point = points[actor.role]
+        carrier_role, station = carriers[actor.role]
+        carrier = points[carrier_role]
+        if carrier.road == point.road:
+            lane, t = carrier.lane, frame.lane_center(point.road, carrier.lane)
+        else:  # reference on another road: the start's own lane stands in
+            lane, t = point.lane, point.t
+        scale = (1.0 if lane < 0 else -1.0) / (1.0 - frame.curvature(point.road, point.s) * t)
+        out.append(Placed(actor, point, {k: v * scale for k, v in station.items()}))
     return out
 
 
 def _s_expression(placed: Placed, values: dict[str, float | str]) -> str | float:
     """Road s of the actor's start as an OpenSCENARIO expression of the placement parameters."""
-    direction = 1.0 if placed.point.lane < 0 else -1.0  # right-hand lanes run along +s
     terms = []
-    for name, coeff in sorted(placed.along.items()):
-        if name not in values or coeff == 0.0:
+    for name, k in sorted(placed.ds.items()):
+        if name not in values or k == 0.0:
             continue
-        k = direction * coeff
-        terms.append(f"{'+' if k > 0 else '-'} {_num(abs(k))} * (${name} - {_num(float(values[name]))})")
+        terms.append(f"{'+' if k > 0 else '-'} {_num(round(abs(k), 9))} * (${name} - {_num(float(values[name]))})")
     if not terms:
         return round(placed.point.s, 6)
     return "${" + _num(round(placed.point.s, 6)) + " " + " ".join(terms) + "}"

@@ -81,6 +81,24 @@ class RoadFrame:
                             for ln in section.iterfind("./right/lane")), key=lambda p: -p[0])
             self.roads[road.get("id")] = (float(road.get("length")), pieces, left, right)
 
+    def curvature(self, road: str, s: float) -> float:
+        """[1/m] of the reference line of `road` at `s` (0 on lines)."""
+        pieces = self.roads[road][1]
+        current = pieces[0]
+        for g in pieces:
+            if s >= g.s:
+                current = g
+        return current.curvature
+
+    def lane_center(self, road: str, lane: int) -> float:
+        """[m] lateral offset t of the centre of lane `lane` of `road` (+ left)."""
+        _, _, left, right = self.roads[road]
+        widths = [w for lane_id, w in (left if lane > 0 else right) if abs(lane_id) <= abs(lane)]
+        if not widths:
+            return 0.0
+        center = sum(widths[:-1]) + widths[-1] / 2
+        return center if lane > 0 else -center
+
     def locate(self, x: float, y: float) -> RoadPoint:
         """The road point nearest to (x, y) [m] among roads whose lanes contain it (else the nearest road)."""
         best: tuple[float, RoadPoint] | None = None
