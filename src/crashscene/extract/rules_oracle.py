@@ -113,12 +113,8 @@ def _junction_oracle(state: RulesState, road: dict, oracle: _Oracle) -> None:
 
 
 def _controlled(state: RulesState, named: set[str]) -> set[str]:
-    """The approaches a sign controls: those the text names, else the crossing traffic's (dsl.md section 3)."""
-    if named:
-        return named
-    ego = state.vehicles["V1"]
-    return {v.label for v in state.vehicles.values()
-            if v is not ego and relative_heading(ego, v) in ("from_left", "from_right")}
+    """The approaches a sign controls (rules_road attributes every sign it reports)."""
+    return named
 
 
 _NO_LABEL = r"(?:(?!\bV[1-9]\b)[^.]){0,100}?"  # words that name no other vehicle
