@@ -73,8 +73,6 @@ def extract_rules(report: Report, facts: list[SketchFact] | None = None) -> Scen
         "collisions": collisions,
         "evidence": dict(sorted(state.evidence.items())),
     }
-    if "collisions" not in Scenario.model_fields:  # TEMP until the DSL lands Contact
-        raw.pop("collisions")
     try:
         scenario = from_raw(raw, source=f"rules extraction of {report.source}")
         validate(scenario)

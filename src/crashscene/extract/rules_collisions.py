@@ -196,7 +196,7 @@ def _subject(text: str, start: int, verb_start: int) -> Side | None:
     """The striker: an area phrase right before the verb ('the front of V2 struck', "V3's frontal plane
     subsequently struck", 'causing the front of V2 to strike'), else the acting vehicle of the clause."""
     head = text[start:verb_start]
-    glue = r"\s+(?:(?:then|subsequently|also|to|again|first|initially|partially)\s+)*$"
+    glue = r"\s+(?:(?:then|subsequently|also|to|again|first|initially|partially|was|were|been|being|is|had)\s+)*$"
     for pattern in (_AREA_OF, _POSSESSIVE):
         match = re.search(pattern + glue, head, re.I)
         if match:

@@ -61,8 +61,7 @@ def stated(state: RulesState, pattern: str) -> list[tuple[str, re.Match]]:
 
 
 _TOO_FAST = (r"\btoo fast\b|excessive (?:speed|rate of speed)|unsafe speed|speed too (?:great|high|fast)|"
-             r"high rate of speed|speed (?:was|as) (?:a|the) (?:\w+ )?factor|(?:could not|unable to|failed to) "
-             r"negotiate")
+             r"high rate of speed|speed (?:was|as) (?:a|the) (?:\w+ )?factor")
 _SPEEDING = (r"\bspeeding\b|exceed(?:ed|ing) the (?:posted )?speed limit|above the (?:posted )?speed limit|"
              r"over the (?:posted )?speed limit")
 _RED = (r"red (?:light|signal|indication|traffic signal)|against (?:the|a) (?:steady )?red|ran the red|"
