@@ -107,6 +107,13 @@ def test_rear_end_on_a_stopped_vehicle_is_unsafe_speed():
     assert _oracle(s) == {("CVC_22350", "ego")}
 
 
+def test_striking_the_side_of_a_vehicle_stopped_across_the_lane_is_unsafe_speed():
+    s = _text("V1 was traveling north in the northbound lane of a two-lane, two-way road. V2 was stopped at an "
+              "angle, blocking the northbound lane. The front of V1 struck the left side of V2.")
+    assert _oracle(s) == {("CVC_22350", "ego")}
+    assert _contacts(s) == [("ego", "npc1", "front", "left", "angle")]
+
+
 def test_lost_control_is_unsafe_speed_and_crossing_a_double_line_adds_21460():
     s = _text("V1 was traveling east in the eastbound lane of a two-lane, two-way road divided by double yellow "
               "lines. V2 was traveling west. V1 lost control on the wet road, crossed the center line and the front "

@@ -162,16 +162,17 @@ def _sequence_oracle(state: RulesState, oracle: _Oracle) -> None:
     for contact in state.contacts:
         striker = state.vehicles[contact.striking.label]
         struck = state.vehicles[contact.struck.label]
-        # striking a vehicle ahead: its rear is hit (the striker's front or a glancing front side)
+        # striking a vehicle ahead: its rear is hit (the striker's front or a glancing front side), or any part of
+        # a vehicle stopped in the striker's path (stopped at an angle across the lane)
         rear_end = contact.areas.get("striking") != "rear" and contact.areas.get("struck") == "rear"
+        stopped = struck.behavior in ("stop", "static") or bool(re.search(
+            rf"\b{struck.label}\b[^.]{{0,60}}\b(?:was|had)\s+(?:\w+\s+)?stopped|stopped {struck.label}\b", text, re.I))
+        in_path = stopped and relative_heading(striker, struck) in (None, "same_direction")
         free = not contact.pushed and striker.label not in struck_before
-        if rear_end and free and striker.behavior not in ("leave_road", "lose_control", "static"):
-            stopped = struck.behavior in ("stop", "static") or re.search(
-                rf"\b{struck.label}\b[^.]{{0,60}}\b(?:was|had)\s+(?:\w+\s+)?stopped|stopped {struck.label}\b", text,
-                re.I)
+        if (rear_end or in_path) and free and striker.behavior not in ("leave_road", "lose_control", "static"):
             if stopped:
                 oracle.add("CVC_22350", "unsafe_speed", striker.role,
-                           f"{striker.label} struck the stopped {struck.label} from behind: too fast for the traffic "
+                           f"{striker.label} struck the stopped {struck.label} ahead: too fast for the traffic "
                            f"ahead.", contact.quote)
             else:
                 oracle.add("CVC_21703", "following_too_closely", striker.role,
