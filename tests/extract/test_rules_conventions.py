@@ -196,3 +196,19 @@ def test_run_off_road_without_a_stated_cause_has_no_oracle():
               "struck a utility pole.")
     assert s.oracle == []
     assert s.collisions == []
+
+
+def test_drifting_into_the_path_of_an_oncoming_vehicle_is_crossing_the_centre_line():
+    s = _text(EAST_WEST + "V2 drifted to the left and into the path of V1. The front of V2 struck the front of V1.")
+    assert s.actors["npc1"].behavior.value == "cross_centerline"
+    assert ("CVC_21650", "npc1") in _oracle(s)
+    # into the path of a crossing vehicle is not a centre-line crossing
+    s = _text(EAST_NORTH + "V2 moved into the path of V1 and the front of V1 struck the left side of V2.")
+    assert s.actors["npc1"].behavior.value != "cross_centerline"
+
+
+def test_left_turn_in_front_of_oncoming_traffic_without_stated_directions():
+    s = _text("V1 was approaching a four-leg intersection. V2 was approaching from the opposite direction and began "
+              "to turn left in front of V1. The front of V1 struck the right side of V2.")
+    assert s.actors["npc1"].behavior.value == "turn_left"
+    assert ("CVC_21801", "npc1") in _oracle(s)

@@ -119,7 +119,9 @@ def _junction_oracle(state: RulesState, road: dict, oracle: _Oracle) -> None:
     for label, vehicle in state.vehicles.items():
         role, quote = vehicle.role, vehicle.behavior_quote
         headings = {relative_heading(vehicle, other) for other in state.vehicles.values() if other is not vehicle}
-        if vehicle.behavior == "turn_left" and "opposite_direction" in headings and not (arrow or ran_red):
+        oncoming = "opposite_direction" in headings or (headings <= {None} and re.search(
+            r"\boncoming\b|\bopposite direction\b", state.pre_crash + " " + state.crash_sentence, re.I))
+        if vehicle.behavior == "turn_left" and oncoming and not (arrow or ran_red):
             oracle.add("CVC_21801", "left_turn_yield", role,
                        f"{label} turned left across the path of oncoming traffic.", quote)
         if from_driveway == label:
