@@ -16,6 +16,7 @@ from pydantic import BaseModel
 
 from crashscene.dsl import Scenario
 from crashscene.evaluate import EvalError, EvalResult, evaluate
+from crashscene.evaluate import _pct  # one percentage format for both reports
 
 
 class FoldResult(BaseModel):
@@ -89,6 +90,3 @@ def format_folds(folds: list[FoldResult], pooled: EvalResult | None) -> str:
             lines.append(f"held out extensions: {extensions}")
     return "\n".join(lines)
 
-
-def _pct(value: float | None) -> str:
-    return "n/a" if value is None else f"{100 * value:.1f}%"
