@@ -212,3 +212,11 @@ def test_left_turn_in_front_of_oncoming_traffic_without_stated_directions():
               "to turn left in front of V1. The front of V1 struck the right side of V2.")
     assert s.actors["npc1"].behavior.value == "turn_left"
     assert ("CVC_21801", "npc1") in _oracle(s)
+
+
+def test_pair_named_without_a_striker_is_settled_by_a_later_formula_or_the_manoeuvre():
+    s = _text(EAST_WEST + "V2 drifted left of center. The two vehicles collided. The front of V1 struck the front "
+              "of V2 (Event 1).")
+    assert _contacts(s) == [("ego", "npc1", "front", "front", "head_on")]
+    s = _text(EAST_WEST + "V2 drifted left of center, resulting in a head-on collision with V1.")
+    assert _contacts(s) == [("npc1", "ego", "front", "front", "head_on")]

@@ -74,6 +74,7 @@ class Contact:
     class_word: str | None = None
     pushed: bool = False  # the striker was propelled into it by an earlier impact
     again: bool = False  # the text says it is a further contact ("again", "a second time")
+    guessed: bool = False  # the text names the pair but not who struck whom ("V1 and V2 collided")
     areas: dict[str, str] = field(default_factory=dict)
 
 
@@ -114,11 +115,25 @@ def _contacts(state: RulesState) -> list[Contact]:
         contact = _active_or_passive(text, match)
         if contact is not None:
             found.append(contact)
-    for match in re.finditer(r"\b(V[1-9])\s+and\s+(V[1-9])\s+(?:then\s+|subsequently\s+)?(?:collided|crashed)\b"
-                             r"(?!\s+with)", text, re.I):
-        first, second = match.group(1), match.group(2)
+    pair = r"(?:the\s+two|both)\s+vehicles" if len(state.vehicles) == 2 else r"(?!)"
+    for match in re.finditer(rf"\b(?:(V[1-9])\s+and\s+(V[1-9])|{pair})\s+(?:then\s+|subsequently\s+)?"
+                             r"(?:collided|crashed)\b(?!\s+with)", text, re.I):
+        first, second = (match.group(1), match.group(2)) if match.group(1) else ("V1", _second(state))
         striker, struck = _at_fault_first(state, first, second)
-        found.append(_finish(text, match, Side(striker), Side(struck), match.end()))
+        contact = _finish(text, match, Side(striker), Side(struck), match.end())
+        contact.guessed = True
+        found.append(contact)
+    if not found:  # only a noun names the contact: "a head-on collision with V2"
+        for match in re.finditer(r"\b(?:collision|crash|impact)\s+(?:with|between)\s+(?:the\s+)?(V[1-9])\b"
+                                 r"(?:\s+and\s+(V[1-9]))?", text, re.I):
+            first = match.group(2) and match.group(1) or label_at(text, match.start()) or "V1"
+            second = match.group(2) or match.group(1)
+            if first == second:
+                continue
+            striker, struck = _at_fault_first(state, first, second)
+            contact = _finish(text, match, Side(striker), Side(struck), match.end())
+            contact.guessed = True
+            found.append(contact)
     for match in re.finditer(r"\b(V[1-9])\s+(?:was|were)\s+(?:then\s+)?(?:pushed|propelled|redirected|forced)\s+"
                              r"(?:\w+\s+){0,4}?into\s+(?:the\s+(?:rear|back|side|front)\s+of\s+)?(V[1-9])\b",
                              text, re.I):
@@ -222,6 +237,11 @@ def _finish(text: str, match: re.Match, striker: Side, struck: Side, tail_from: 
                    again=again)
 
 
+def _second(state: RulesState) -> str:
+    """The other vehicle of a two-vehicle report."""
+    return next(label for label in state.vehicles if label != "V1")
+
+
 def _at_fault_first(state: RulesState, first: str, second: str) -> tuple[str, str]:
     """'V1 and V2 collided': the vehicle whose manoeuvre left its lane strikes, else the first named."""
     one, two = state.vehicles.get(first), state.vehicles.get(second)
@@ -240,7 +260,9 @@ def _merge(contacts: list[Contact]) -> list[Contact]:
         if same is None:
             kept.append(contact)
             continue
-        if same.striking.label == contact.striking.label:
+        if same.guessed and not contact.guessed:  # a later formula says who struck whom
+            same.striking, same.struck, same.guessed = contact.striking, contact.struck, False
+        elif same.striking.label == contact.striking.label:
             same.striking.words = same.striking.words or contact.striking.words
             same.struck.words = same.struck.words or contact.struck.words
         same.class_word = same.class_word or contact.class_word
