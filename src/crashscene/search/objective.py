@@ -3,8 +3,10 @@
 - `robustness`: the minimum rule robustness of the actors under test over the
   rulebook (rules.md: signed margin to each threshold, negative when
   violated), clipped to [-ROBUSTNESS_CAP, ROBUSTNESS_CAP]; a collision
-  involving them is the lowest value, COLLISION_ROBUSTNESS; no applicable rule
-  scores ROBUSTNESS_CAP.
+  involving them is the lowest value, COLLISION_ROBUSTNESS minus the impact
+  speed [m/s] (among collisions, a harder impact is the worse failure, so a
+  search keeps a gradient after its first contact); no applicable rule scores
+  ROBUSTNESS_CAP.
 - `ttc`: their minimum time to collision [s] (crashscene.monitor.criticality),
   0 at a contact, TTC_CAP when never on a collision course.
 
@@ -50,5 +52,8 @@ def objective_values(objective: str, variations: np.ndarray, verdicts: pa.Table,
         out = np.clip(rob, -ROBUSTNESS_CAP, ROBUSTNESS_CAP)
         hit = collisions.filter(collisions["involves_ads"]) if collisions.num_rows else collisions
         collided = set(int(v) for v in hit["variation"].to_pylist()) if hit.num_rows else set()
-        out = np.where([int(v) in collided for v in variations], COLLISION_ROBUSTNESS, out)
+        impact = ads_objectives(criticality)
+        severity = np.array([impact.get(int(v), {}).get("impact_speed", np.nan) for v in variations], dtype=float)
+        severity = np.where(np.isfinite(severity), severity, 0.0)
+        out = np.where([int(v) in collided for v in variations], COLLISION_ROBUSTNESS - severity, out)
     return np.where(invalid, np.nan, out)
