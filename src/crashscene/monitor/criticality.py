@@ -37,7 +37,7 @@ import pyarrow as pa
 import pyarrow.compute as pc
 
 from crashscene.monitor.arrays import TraceArrays
-from crashscene.monitor.collisions import footprint_contacts
+from crashscene.monitor.collisions import pair_overlaps
 from crashscene.monitor.geometry import heading_difference, relative_position
 from crashscene.monitor.timeseries import first_index, last_index
 
@@ -233,7 +233,8 @@ def criticality_table(arrays: TraceArrays, collisions: pa.Table | None = None) -
     n_var, n_act, _ = arrays.shape
     if n_act < 2:
         return CRITICALITY_SCHEMA.empty_table()
-    ia, ib, contact = footprint_contacts(arrays)
+    ia, ib, overlap = pair_overlaps(arrays)
+    contact = first_index(overlap)   # (V, P) first overlapping step, -1 none
     recorded = _recorded_delta_v(arrays, collisions)
     parts = []
     for p, (a, b) in enumerate(zip(ia, ib)):
