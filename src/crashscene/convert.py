@@ -31,11 +31,11 @@ from crashscene.dsl.tokens import (
     TimeOfDay,
     Weather,
 )
+from crashscene.units import MPH
 
 # ---------------------------------------------------------------- defaults (the one table)
 
 HORIZON = 20.0  # [s] default simulation horizon; maps are long enough for it
-MPH = 0.44704  # [m/s] per mph
 DEFAULT_SPEED = 10.0  # [m/s] reference pipeline default when the report is silent
 SPEED_SPREAD = 2.0  # [m/s] half-width of the speed range around the nominal speed (VerifaiRange(8, 12))
 SPEED_SPREAD_FRACTION = 0.1  # half-width as a fraction of a stated speed, when larger than SPEED_SPREAD
@@ -50,7 +50,6 @@ STOP_DURATION = (2.0, 4.0)  # [s] how long a stopping actor stays stopped before
 # speed: room for a prudent driver to stop (0.5 s reaction + 6 m/s2 braking needs ~2.6 s at 25 m/s), so a
 # test-mode ADS is not handed an unavoidable crash, while a driver charged with CVC_22350 still strikes it.
 STANDING_LEAD_TIME = (3.5, 5.0)
-LANE_WIDTH = 3.5  # [m] generated maps
 STRAIGHT_BACK = 60.0  # [m] road behind the anchor on generated straight roads (room for followers)
 CURVE_ANGLE = 1.3  # [rad] heading change of a generated curve (~75 deg)
 CURVE_LATERAL_ACC = 2.0  # [m/s2] design lateral acceleration at the speed limit -> curve radius

@@ -22,7 +22,8 @@ from pathlib import Path
 
 from scenariogeneration import xodr
 
-from crashscene.convert import LANE_WIDTH, MapSpec
+from crashscene.convert import MapSpec
+from crashscene.geometry import LANE_WIDTH
 
 ARM_ANGLE = {"ego": math.pi, "left": math.pi / 2, "opposite": 0.0, "right": 3 * math.pi / 2}  # [rad] on the circle
 SIGNAL_TYPE = {"traffic_light": ("OpenDRIVE", "1000001"), "stop_sign": ("DE", "206"), "yield_sign": ("DE", "205")}

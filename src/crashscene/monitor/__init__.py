@@ -5,7 +5,8 @@
 stored run. Rules are small classes registered by code (`register_rule`);
 thresholds come from a `Rulebook` (defaults of rules.md, YAML overrides).
 """
-from crashscene.monitor.collisions import COLLISION_CLASSES, classify
+from crashscene.geometry import classify_contact as classify
+from crashscene.monitor.collisions import COLLISION_CLASSES
 from crashscene.monitor.context import EvalContext
 from crashscene.monitor.errors import (
            MonitorError,

@@ -13,13 +13,14 @@ import numpy as np
 import pyarrow as pa
 
 from crashscene.monitor.arrays import TraceArrays
-from crashscene.monitor.geometry import (
-    corners,
+from crashscene.geometry import (
+    classify_contact,
+    footprints_overlap,
+    heading_difference,
     pair_indices,
-    rectangles_overlap,
     relative_position,
 )
-from crashscene.monitor.timeseries import first_index, wrap_angle
+from crashscene.monitor.timeseries import first_index
 from crashscene.traces import COLLISION_SCHEMA
 
 COLLISION_CLASSES = ("rear_end", "head_on", "angle", "sideswipe")
@@ -33,23 +34,6 @@ CLASSIFIED_SCHEMA = pa.schema(list(COLLISION_SCHEMA) + [
     ("source", pa.string()),            # simulator | footprint | both
     ("involves_ads", pa.bool_()),       # an actor under test (is_ads) is one of the two
 ])
-
-
-def classify(rel_heading: np.ndarray, lon: np.ndarray, lat: np.ndarray, half_len: np.ndarray,
-             half_wid: np.ndarray) -> np.ndarray:
-    """Class names for contacts given the relative heading [rad] and b's offset in a's frame [m].
-
-    `half_len`/`half_wid` are the sums of the two half lengths / half widths:
-    a contact is end-on (rear-end or head-on) when the longitudinal gap is
-    closer to touching than the lateral one.
-    """
-    deg = np.degrees(rel_heading)
-    end_on = (np.abs(lon) - half_len) > (np.abs(lat) - half_wid)
-    out = np.full(deg.shape, "sideswipe", dtype=object)
-    out[(deg < 30) & end_on] = "rear_end"
-    out[(deg > 150) & end_on] = "head_on"
-    out[(deg >= 60) & (deg <= 120)] = "angle"
-    return out
 
 
 def footprint_contacts(arrays: TraceArrays) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -70,9 +54,9 @@ def footprint_contacts(arrays: TraceArrays) -> tuple[np.ndarray, np.ndarray, np.
         overlap = np.zeros((n_var, n_steps), dtype=bool)
         if near.any():
             vv, tt = np.nonzero(near)
-            box_a = corners(x[vv, a, tt], y[vv, a, tt], yaw[vv, a, tt], arrays.length[vv, a], arrays.width[vv, a])
-            box_b = corners(x[vv, b, tt], y[vv, b, tt], yaw[vv, b, tt], arrays.length[vv, b], arrays.width[vv, b])
-            overlap[vv, tt] = rectangles_overlap(box_a, box_b, yaw[vv, a, tt], yaw[vv, b, tt])
+            overlap[vv, tt] = footprints_overlap(x[vv, a, tt], y[vv, a, tt], yaw[vv, a, tt], arrays.length[vv, a],
+                                                 arrays.width[vv, a], x[vv, b, tt], y[vv, b, tt], yaw[vv, b, tt],
+                                                 arrays.length[vv, b], arrays.width[vv, b])
         first[:, p] = first_index(overlap)
     return ia, ib, first
 
@@ -123,12 +107,12 @@ def classify_collisions(arrays: TraceArrays, contacts: pa.Table | None, ads: np.
     f = arrays.floats
     xa, ya, yawa, va = (f[c][vv, a_idx, step] for c in ("x", "y", "yaw", "speed"))
     xb, yb, yawb, vb = (f[c][vv, b_idx, step] for c in ("x", "y", "yaw", "speed"))
-    rel = np.abs(wrap_angle(yawb - yawa))
+    rel = heading_difference(yawa, yawb)
     lon_ab, lat_ab = relative_position(xa, ya, yawa, xb, yb)
     lon_ba, lat_ba = relative_position(xb, yb, yawb, xa, ya)
     half_len = (arrays.length[vv, a_idx] + arrays.length[vv, b_idx]) / 2
     half_wid = (arrays.width[vv, a_idx] + arrays.width[vv, b_idx]) / 2
-    cls = classify(rel, lon_ab, lat_ab, half_len, half_wid)
+    cls = classify_contact(rel, lon_ab, lat_ab, half_len, half_wid)
     # the striker has the other ahead of it: larger forward offset relative to its lateral offset
     a_strikes = (lon_ab - np.abs(lat_ab)) >= (lon_ba - np.abs(lat_ba))
     head_on = cls == "head_on"

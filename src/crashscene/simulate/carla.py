@@ -55,6 +55,7 @@ from crashscene.simulate.newtonian import (
     quiet_scenic,
     seeded_globals,
 )
+from crashscene.units import KMH_PER_MPS
 
 CARLA_MODEL = "scenic.simulators.carla.model"
 CARLA_CLIENT_PIN = "carla==0.9.16"
@@ -105,7 +106,7 @@ class CarlaBasicAgent:
             raise BackendUnavailable("CarlaBasicAgent needs CARLA's PythonAPI `agents` package: add "
                                      "<CARLA>/PythonAPI/carla to PYTHONPATH") from exc
         speed = self.target_speed if self.target_speed is not None else actor.speed
-        self.agent = BasicAgent(ego, target_speed=speed * 3.6)  # CARLA agents take km/h
+        self.agent = BasicAgent(ego, target_speed=speed * KMH_PER_MPS)  # CARLA agents take km/h
         start = world.get_map().get_waypoint(ego.get_location())
         ahead = start.next(self.horizon)
         self.agent.set_destination((ahead[0] if ahead else start).transform.location)

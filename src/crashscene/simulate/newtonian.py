@@ -39,6 +39,7 @@ from pathlib import Path
 
 import numpy as np
 
+from crashscene.geometry import footprints_overlap, wrap_angle
 from crashscene.scene import SampledActor, SampledScene
 from crashscene.simulate import scenic_trace
 from crashscene.simulate.backend import (
@@ -189,11 +190,11 @@ def _tracing_classes():
             touched = {(a, b) for a, b, _, _ in self.contacts} | self._spawn_overlaps
             for i in range(len(after)):
                 for j in range(i + 1, len(after)):
-                    if (i, j) in touched or not scenic_trace.footprints_overlap(
-                            after[i], self._sizes[i], after[j], self._sizes[j]):
+                    if (i, j) in touched or not footprints_overlap(*after[i], *self._sizes[i], *after[j],
+                                                                   *self._sizes[j]):
                         continue
-                    if self.currentTime == 0 and scenic_trace.footprints_overlap(
-                            before[i], self._sizes[i], before[j], self._sizes[j]):
+                    if self.currentTime == 0 and footprints_overlap(*before[i], *self._sizes[i], *before[j],
+                                                                    *self._sizes[j]):
                         self._spawn_overlaps.add((i, j))  # an invalid variation, not a crash: nobody halts
                         continue
                     frac = 1.0
@@ -208,14 +209,14 @@ def _tracing_classes():
             def pose(k, f):
                 (x0, y0, t0), (x1, y1, t1) = before[k], after[k]
                 return (x0 + f * (x1 - x0), y0 + f * (y1 - y0),
-                        t0 + f * float(scenic_trace.wrap_angle(t1 - t0)))
+                        t0 + f * float(wrap_angle(t1 - t0)))
 
             lo, hi = 0.0, 1.0
-            if scenic_trace.footprints_overlap(pose(i, 0.0), self._sizes[i], pose(j, 0.0), self._sizes[j]):
+            if footprints_overlap(*pose(i, 0.0), *self._sizes[i], *pose(j, 0.0), *self._sizes[j]):
                 return 1.0  # already touching before the step (a graze): leave them where they are
             for _ in range(10):
                 mid = (lo + hi) / 2
-                if scenic_trace.footprints_overlap(pose(i, mid), self._sizes[i], pose(j, mid), self._sizes[j]):
+                if footprints_overlap(*pose(i, mid), *self._sizes[i], *pose(j, mid), *self._sizes[j]):
                     hi = mid
                 else:
                     lo = mid

@@ -18,6 +18,7 @@ from typing import Any
 import pyarrow as pa
 
 from crashscene.dsl import Scenario, dump_file
+from crashscene.geometry import classify_contact, heading_difference
 from crashscene.simulate.backend import (
     DEFAULT_DT,
     DEFAULT_HORIZON,
@@ -28,7 +29,6 @@ from crashscene.simulate.backend import (
     check_ego_role,
     create_simulator,
 )
-from crashscene.simulate.embedded.collisions import classify
 from crashscene.traces import write_table
 
 
@@ -114,7 +114,7 @@ def summarize(tables: dict[str, pa.Table]) -> dict[str, Any]:
     for row in coll:
         if row["variation"] not in valid:
             continue
-        klass = classify(row["yaw_a"], row["yaw_b"])
+        klass = classify_contact(heading_difference(row["yaw_a"], row["yaw_b"])).item()
         by_class[klass] += 1
         by_pair.setdefault(f"{row['actor_a']}-{row['actor_b']}", Counter())[klass] += 1
     collided = {row["variation"] for row in coll if row["variation"] in valid}

@@ -10,7 +10,7 @@ entries, traffic control and signal plans, its lane lookups), so every column
 means the same whichever backend produced the trace.
 
 Angles: Scenic heading is 0 = +y, counter-clockwise; crashscene yaw is
-0 = +x (OpenDRIVE), so yaw = heading + pi/2, wrapped to (-pi, pi].
+0 = +x (OpenDRIVE), so yaw = heading + pi/2, wrapped to [-pi, pi] (`geometry.wrap_angle`).
 """
 from __future__ import annotations
 
@@ -22,19 +22,16 @@ from dataclasses import dataclass, field
 import numpy as np
 import pyarrow as pa
 
+from crashscene.geometry import footprint_corners, footprints_overlap, wrap_angle
 from crashscene.scene import SampledActor, SampledScene
 from crashscene.simulate.backend import BatchResult, SimulationError, SimulationRequest
+from crashscene.units import G
 
 SCENIC_TO_YAW = math.pi / 2  # [rad] yaw = Scenic heading + pi/2
 
 
-def wrap_angle(angle: np.ndarray | float) -> np.ndarray | float:
-    """Wrap [rad] to (-pi, pi]."""
-    return np.pi - np.mod(np.pi - np.asarray(angle), 2 * np.pi)
-
-
 def yaw_from_heading(heading: np.ndarray | float) -> np.ndarray | float:
-    """Scenic heading [rad] (0 = +y) -> crashscene yaw [rad] (0 = +x), wrapped to (-pi, pi]."""
+    """Scenic heading [rad] (0 = +y) -> crashscene yaw [rad] (0 = +x), wrapped to [-pi, pi]."""
     return wrap_angle(np.asarray(heading) + SCENIC_TO_YAW)
 
 
@@ -99,37 +96,6 @@ def tracks_from_trajectory(trajectory: Sequence[Sequence[tuple[float, float, flo
 
 # ---------------------------------------------------------------- footprints and contacts
 
-def footprint_corners(x, y, yaw, length: float, width: float) -> np.ndarray:
-    """Corners [m] of oriented rectangles centred at (x, y): shape (..., 4, 2), counter-clockwise."""
-    x, y, yaw = np.broadcast_arrays(np.asarray(x, float), np.asarray(y, float), np.asarray(yaw, float))
-    c, s = np.cos(yaw), np.sin(yaw)
-    hl, hw = length / 2, width / 2
-    local = np.array([(hl, hw), (-hl, hw), (-hl, -hw), (hl, -hw)])  # front-left first
-    cx = x[..., None] + local[:, 0] * c[..., None] - local[:, 1] * s[..., None]
-    cy = y[..., None] + local[:, 0] * s[..., None] + local[:, 1] * c[..., None]
-    return np.stack([cx, cy], axis=-1)
-
-
-def footprints_overlap(a: Track | tuple, size_a: tuple[float, float], b: Track | tuple,
-                       size_b: tuple[float, float]) -> np.ndarray:
-    """Separating-axis test of two oriented rectangles at every step: bool array, True = overlap.
-
-    `a`/`b` are Tracks or (x, y, yaw) tuples of arrays; sizes are (length, width) [m], scalars or arrays.
-    """
-    xa, ya, ta = (a.x, a.y, a.yaw) if isinstance(a, Track) else a
-    xb, yb, tb = (b.x, b.y, b.yaw) if isinstance(b, Track) else b
-    dx, dy = np.asarray(xb) - np.asarray(xa), np.asarray(yb) - np.asarray(ya)
-    (la, wa), (lb, wb) = size_a, size_b
-    separated = np.zeros(np.broadcast(dx, np.asarray(ta), np.asarray(tb)).shape, dtype=bool)
-    axes = [(np.cos(ta), np.sin(ta)), (-np.sin(ta), np.cos(ta)), (np.cos(tb), np.sin(tb)), (-np.sin(tb), np.cos(tb))]
-    for ux, uy in axes:
-        # half extent of each rectangle projected on the axis
-        ra = la / 2 * np.abs(np.cos(ta) * ux + np.sin(ta) * uy) + wa / 2 * np.abs(-np.sin(ta) * ux + np.cos(ta) * uy)
-        rb = lb / 2 * np.abs(np.cos(tb) * ux + np.sin(tb) * uy) + wb / 2 * np.abs(-np.sin(tb) * ux + np.cos(tb) * uy)
-        separated |= np.abs(dx * ux + dy * uy) > ra + rb
-    return ~separated
-
-
 def contact_point(a: Track, size_a: tuple[float, float], b: Track, size_b: tuple[float, float],
                   step: int) -> tuple[float, float]:
     """Estimate [m] of where two overlapping footprints touch: the centroid of their overlap at `step`."""
@@ -151,7 +117,7 @@ def find_contacts(tracks: dict[str, Track], sizes: dict[str, tuple[float, float]
     for i, role_a in enumerate(roles):
         for role_b in roles[i + 1:]:
             a, b = tracks[role_a], tracks[role_b]
-            hits = np.flatnonzero(footprints_overlap(a, sizes[role_a], b, sizes[role_b]))
+            hits = np.flatnonzero(footprints_overlap(a.x, a.y, a.yaw, *sizes[role_a], b.x, b.y, b.yaw, *sizes[role_b]))
             if hits.size == 0:
                 continue
             k = int(hits[0])
@@ -165,7 +131,7 @@ def find_contacts(tracks: dict[str, Track], sizes: dict[str, tuple[float, float]
 
 # ---------------------------------------------------------------- recording through the embedded backend
 
-LOST_GRIP = 0.8 * 9.81  # [m/s2] lateral acceleration beyond dry-road friction: the actor is skidding
+LOST_GRIP = 0.8 * G  # [m/s2] lateral acceleration beyond dry-road friction: the actor is skidding
 LATERAL_MOVE = 0.3  # [m/s] lateral speed off the route above which a lane changer counts as changing
 
 
@@ -260,8 +226,8 @@ def record_tables(scenario, scenes: Sequence[SampledScene], runs: Sequence[Sceni
     contact_t = np.zeros((n_v, n_a, n_a))
     for a in range(n_a):  # footprints overlapping at spawn: the embedded recorder invalidates the variation
         for b in range(a + 1, n_a):
-            spawn = footprints_overlap((x[0, :, a], y[0, :, a], yaw[0, :, a]), (batch.length[:, a], batch.width[:, a]),
-                                       (x[0, :, b], y[0, :, b], yaw[0, :, b]), (batch.length[:, b], batch.width[:, b]))
+            spawn = footprints_overlap(x[0, :, a], y[0, :, a], yaw[0, :, a], batch.length[:, a], batch.width[:, a],
+                                       x[0, :, b], y[0, :, b], yaw[0, :, b], batch.length[:, b], batch.width[:, b])
             contact_step[spawn, a, b] = 0
     for v, run in enumerate(runs):
         for row in run.contacts:
@@ -308,13 +274,8 @@ class _TrackState:
             # follow the route from the last station: predict with the route heading, correct along the tangent
             _, _, ryaw = routes.point(r, self.s)
             s_pred = self.s + np.hypot(x - self.x, y - self.y) * np.cos(yaw - ryaw)
-            for _ in range(3):
-                qx, qy, qyaw = routes.point(r, s_pred)
-                s_pred = s_pred + (x - qx) * np.cos(qyaw) + (y - qy) * np.sin(qyaw)
-            self.s = np.clip(s_pred, 0.0, routes.length[r])
-            qx, qy, qyaw = routes.point(r, self.s)
             self.d_prev = self.d
-            self.d = -(x - qx) * np.sin(qyaw) + (y - qy) * np.cos(qyaw)
+            self.s, self.d, _ = routes.local_coordinates(r, x, y, s_pred, iterations=3)
             end = routes.length[r] - self.batch.length / 2 - 0.5
             self.gone_time = np.where(np.isnan(self.gone_time) & (self.s >= end) & ~lost, t, self.gone_time)
         self.x, self.y, self.yaw, self.v, self.a, self.yaw_rate, self.lost = x, y, yaw, v, a, yaw_rate, lost

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 from pydantic import Field
 
+from crashscene.geometry import heading_difference, relative_position
 from crashscene.monitor.context import EvalContext
-from crashscene.monitor.geometry import heading_difference, relative_position
 from crashscene.monitor.rules.base import Rule, RuleOutcome, RuleParams, register_rule
 from crashscene.monitor.timeseries import first_index, margin_in, runs, steps_for
 

@@ -13,10 +13,11 @@ from dataclasses import dataclass
 import numpy as np
 from pydantic import Field
 
+from crashscene.geometry import heading_difference, wrap_angle
 from crashscene.monitor.arrays import code_of
 from crashscene.monitor.context import EvalContext
 from crashscene.monitor.rules.base import Rule, RuleOutcome, RuleParams, register_rule
-from crashscene.monitor.timeseries import first_index, margin_in, take, wrap_angle
+from crashscene.monitor.timeseries import first_index, margin_in, take
 
 
 @dataclass
@@ -133,7 +134,7 @@ class LeftTurnYield(Rule):
                 step = np.where(ref[:, i] >= 0, ref[:, i], np.maximum(s.enter_a[:, i, j] - back, 0))
                 step = np.where(s.enter_a[:, i, j] >= 0, np.minimum(step, s.enter_a[:, i, j]), -1)
                 step = np.clip(step, -1, n_steps - 1)
-                diff = np.abs(wrap_angle(take(yaw[:, j], step) - take(yaw[:, i], step)))
+                diff = heading_difference(take(yaw[:, i], step), take(yaw[:, j], step))
                 out[:, i, j] = diff > np.radians(135)
         return out
 

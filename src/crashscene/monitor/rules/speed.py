@@ -12,7 +12,7 @@ from typing import Literal
 import numpy as np
 from pydantic import Field
 
-from crashscene.monitor.context import MPH, EvalContext
+from crashscene.monitor.context import EvalContext
 from crashscene.monitor.rules.base import Rule, RuleOutcome, RuleParams, register_rule
 from crashscene.monitor.timeseries import (
     first_index,
@@ -20,8 +20,8 @@ from crashscene.monitor.timeseries import (
     steps_for,
     window_min,
 )
+from crashscene.units import G, MPH
 
-G = 9.81  # [m/s2]
 
 
 class LimitParams(RuleParams):

@@ -27,6 +27,7 @@ from crashscene.simulate.drivers.longitudinal import (
     desired_speed,
     longitudinal_accel,
 )
+from crashscene.units import G
 
 NO_YIELD_CODES = frozenset({"CVC_21800", "CVC_21801", "CVC_21802", "CVC_21803", "CVC_21804", "CVC_22450"})
 CLOSE_HEADWAY = 0.5  # [s] CVC_21703
@@ -49,7 +50,6 @@ LANE_CHANGE_GAP = 1.0  # [s] time gap a careful driver needs in the target lane
 
 SPEEDING_CODES = frozenset({"CVC_22350", "CVC_22349"})
 OVER_LIMIT = 3.0  # [m/s] a speeding driver's margin above the (condition-adjusted) limit
-G = 9.81  # [m/s2]
 
 
 def speed_factor(dispositions: frozenset[str]) -> float:

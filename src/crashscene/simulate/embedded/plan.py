@@ -18,11 +18,11 @@ from crashscene.simulate.embedded import signals, timing
 from crashscene.simulate.embedded.control import entry_before
 from crashscene.simulate.embedded.world import RouteArrays
 from crashscene.simulate.roads import ROUTE_DS
+from crashscene.units import MPH
 
 if TYPE_CHECKING:
     from crashscene.simulate.embedded.setup import ActorColumn
 
-MPH = 0.44704  # [m/s] per mph
 LATERAL_BEHAVIORS = ("change_lane_left", "change_lane_right", "cross_centerline", "overtake", "lose_control",
                      "leave_road")
 ADVANCE_MARGIN = 3.0  # [m] an actor advanced by its timing plan stays this far before its junction entry
