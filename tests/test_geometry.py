@@ -32,6 +32,12 @@ def test_wrap_angle_keeps_the_array_form_bit_for_bit():
     assert all(wrap_angle(float(v)) == math.remainder(float(v), 2 * math.pi) for v in a[:50])
 
 
+def test_exact_array_wrap_is_the_ieee_remainder():
+    a = np.concatenate([np.random.default_rng(4).uniform(-20, 20, 5000), [math.pi, -math.pi, 3 * math.pi, 0.0]])
+    want = np.array([math.remainder(v, 2 * math.pi) for v in a])
+    assert np.array_equal(wrap_angle(a, exact=True), want)
+
+
 def test_heading_difference_is_unsigned_and_symmetric():
     assert heading_difference(0.1, -0.1) == pytest.approx(0.2)
     assert heading_difference(3.0, -3.0) == pytest.approx(2 * math.pi - 6.0)

@@ -24,18 +24,28 @@ HEAD_ON_MIN = 150.0  # [deg] above: opposite directions (head-on, or sideswipe w
 ANGLE_RANGE = (60.0, 120.0)  # [deg] within: an angle (T-bone) collision; anything else is a sideswipe
 
 
-def wrap_angle(angle):
+def wrap_angle(angle, exact: bool = False):
     """Angle [rad] wrapped to [-pi, pi].
 
     A scalar is wrapped exactly (IEEE remainder, `math.remainder`) and comes
-    back as a float; an array as (angle + pi) mod 2 pi - pi, in [-pi, pi), which
-    can differ from the exact value in the last bit. Both forms are kept so that
-    seeded runs keep their bytes: the simulator's state was always wrapped the
-    array way, scalar headings the exact way.
+    back as a float; so is an array with `exact=True` (element by element).
+    Otherwise an array is wrapped as (angle + pi) mod 2 pi - pi, in [-pi, pi),
+    which can differ from the exact value in the last bit: the simulator's
+    state has always been wrapped that way, and seeded runs keep their bytes.
+    Use `exact=True` where values must agree with scalars wrapped elsewhere
+    (a recorded yaw with the sampled scene's yaw).
     """
     if np.ndim(angle) == 0 and not isinstance(angle, np.ndarray):
         return math.remainder(float(angle), TAU)
-    return np.remainder(np.asarray(angle) + np.pi, TAU) - np.pi
+    angle = np.asarray(angle, dtype=float)
+    if exact:
+        # fmod is exact, and so is the one-turn correction (Sterbenz): the IEEE remainder, vectorised
+        r = np.fmod(angle, TAU)
+        r = np.where(r > np.pi, r - TAU, np.where(r < -np.pi, r + TAU, r))
+        # halfway (+-pi): the remainder takes the even number of turns
+        odd = (np.abs(r) == np.pi) & (np.round((angle - r) / TAU) % 2 == 1)
+        return np.where(odd, -r, r)
+    return np.remainder(angle + np.pi, TAU) - np.pi
 
 
 def heading_difference(yaw_a, yaw_b):

@@ -32,7 +32,7 @@ SCENIC_TO_YAW = math.pi / 2  # [rad] yaw = Scenic heading + pi/2
 
 def yaw_from_heading(heading: np.ndarray | float) -> np.ndarray | float:
     """Scenic heading [rad] (0 = +y) -> crashscene yaw [rad] (0 = +x), wrapped to [-pi, pi]."""
-    return wrap_angle(np.asarray(heading) + SCENIC_TO_YAW)
+    return wrap_angle(np.asarray(heading) + SCENIC_TO_YAW, exact=True)
 
 
 class StateRecorder:
