@@ -144,8 +144,12 @@ def _monitor(tables: dict[str, pa.Table], scenario: Scenario, out_dir: Path) -> 
         "verdicts": s.get("verdicts", {}),
         "reproduced": s.get("reproduced"),
         "reproduction_rate": s.get("reproduction_rate"),
+        "first_contact_rate": s.get("first_contact_rate"),
+        "sequence_rate": s.get("sequence_rate"),
+        "area_match_rate": s.get("area_match_rate"),
         "collision_classes_by": "monitor",
         "monitor_collisions": {"by_class": by_class, "by_pair": s.get("collision_pairs", {}),
                                "total": sum(by_class.values())},
         "expected_collision": s.get("expected_collision"),
+        "expected_sequence": s.get("expected_sequence"),
     }
