@@ -31,6 +31,7 @@ from crashscene.dsl.tokens import (
     TimeOfDay,
     Weather,
 )
+from crashscene.monitor.rules import Disposition, dispositions_of
 from crashscene.units import MPH
 
 # ---------------------------------------------------------------- defaults (the one table)
@@ -261,18 +262,15 @@ def carla_weather(weather: Weather, time_of_day: TimeOfDay, surface: str = "not_
     return base + LIGHT_SUFFIX[time_of_day]
 
 
-SPEEDING_CODES = {"CVC_22349", "CVC_22350"}  # speed limit, unsafe speed: the actor may exceed the posted limit
-
-
 def speed_range(actor: Actor, speed_limit: float | None, codes: list[str] | tuple[str, ...] = ()) -> Range:
     """[m/s] stated speed +-SPEED_SPREAD (or 10 %); else DEFAULT_SPEED +-SPEED_SPREAD; else, with a posted limit,
     up to the limit for a law-abiding actor ([limit - 2 spread, limit]) and around it for one the oracle charges
-    with speeding or unsafe speed (CVC_22349, CVC_22350)."""
+    with a code whose rule injects speeding (CVC_22349, CVC_22350: `Rule.disposition`)."""
     if actor.behavior in STANDING_BEHAVIORS:
         return Range(low=0.0, high=0.0)
     nominal = actor.speed_mph * MPH if actor.speed_mph else (speed_limit or DEFAULT_SPEED)
     spread = max(SPEED_SPREAD, SPEED_SPREAD_FRACTION * nominal)
-    if speed_limit and not actor.speed_mph and not SPEEDING_CODES.intersection(codes):
+    if speed_limit and not actor.speed_mph and Disposition.SPEEDING not in dispositions_of(codes):
         return Range(low=round(max(MIN_MOVING_SPEED, speed_limit - 2 * spread), 3), high=round(speed_limit, 3))
     return Range(low=round(max(MIN_MOVING_SPEED, nominal - spread), 3), high=round(nominal + spread, 3))
 

@@ -1,4 +1,4 @@
-"""The monitor: 12 California Vehicle Code checks, collision classes and per-variation verdicts.
+"""The monitor: the California Vehicle Code rulebook, collision classes and per-variation verdicts.
 
 `evaluate(tables, scenario, rulebook)` works on the trace tables of
 `crashscene.traces` from any backend; `monitor_run(run_dir)` re-evaluates a
