@@ -16,7 +16,7 @@ import pytest
 
 from crashscene.dsl import load_file
 from crashscene.scene import SampledActor, SampledScene
-from crashscene.simulate import scenic_trace
+from crashscene.simulate import recorder, scenic_trace
 from crashscene.simulate.backend import (
     SimulationError,
     SimulationRequest,
@@ -238,8 +238,8 @@ def test_recorded_tables_flag_spawn_overlap_like_the_embedded_backend(rear_end_r
     scene = scenes[0].model_copy(deep=True)
     ego, npc = scene.actors
     npc.x, npc.y, npc.yaw = ego.x + 2.0, ego.y, ego.yaw  # 2 m apart, 4.5 m long: overlapping
-    run = scenic_trace.ScenicRun({a.role: scenic_trace.still_track(a, settings.steps + 1) for a in scene.actors})
-    tables = scenic_trace.record_tables(scenario, [scene], [run], settings, straight_map)
+    run = recorder.SceneRun({a.role: recorder.still_track(a, settings.steps + 1) for a in scene.actors})
+    tables = recorder.record_tables(scenario, [scene], [run], settings, straight_map)
     variation = tables["variations"].to_pylist()[0]
     assert not variation["valid"] and variation["invalid_reason"].startswith("spawn overlap: ego and npc1")
     assert tables["collisions"].num_rows == 0  # not a crash

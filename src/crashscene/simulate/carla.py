@@ -11,7 +11,7 @@ Runs mirror the newtonian backend: the Scenic scene of each variation
 (checked to be the sampled one), each actor started at its sampled speed
 (CARLA cannot spawn a moving actor: the speed is given as a target velocity
 right after spawning), traces recorded every tick by
-`scenic_trace.StateRecorder` and laid out by `scenic_trace.record_tables`,
+`scenic_trace.StateRecorder` and laid out by `recorder.record_tables`,
 footprint contacts as collisions (CARLA's own physics handles the crash itself).
 
 World: a map file named after a CARLA town (`Town04.xodr`) loads that town;
@@ -37,7 +37,7 @@ from pathlib import Path
 from typing import Any, Protocol, runtime_checkable
 
 from crashscene.scene import SampledActor, SampledScene
-from crashscene.simulate import scenic_trace
+from crashscene.simulate import recorder, scenic_trace
 from crashscene.simulate.backend import (
     BackendUnavailable,
     BatchResult,
@@ -266,7 +266,7 @@ class CarlaSimulator(Simulator):
                                       f"got --mode {self.settings.mode}")
             load_agent(self.settings.ads, self.settings.ads_params)  # fail before connecting, not mid-batch
         self.check_available()
-        result = scenic_trace.run_scenes(self.name, request, self.settings, self.run_scene)
+        result = recorder.run_scenes(self.name, request, self.settings, self.run_scene)
         if self.settings.mode == "test" and self.settings.ads is None:
             result.notes.append(f"carla: no --ads given, the ADS role {self.settings.ego_role!r} runs the "
                                 f"program's Scenic behaviour")
@@ -305,7 +305,7 @@ class CarlaSimulator(Simulator):
             self._scenic_simulator.destroy()
             self._scenic_simulator, self._world_key = None, None
 
-    def run_scene(self, request: SimulationRequest, scene: SampledScene) -> scenic_trace.ScenicRun:
+    def run_scene(self, request: SimulationRequest, scene: SampledScene) -> recorder.SceneRun:
         """Run one scene in CARLA: its tracks and footprint contacts, or why it is invalid."""
         settings = self.settings
         steps = settings.steps
@@ -322,7 +322,7 @@ class CarlaSimulator(Simulator):
             drift = max(drift, math.hypot(float(obj.position[0]) - actor.x, float(obj.position[1]) - actor.y))
         mismatch = placement_mismatch(scenic_scene, scene, drift)
         if mismatch:
-            return scenic_trace.failed_run(scene, steps, mismatch)
+            return recorder.failed_run(scene, steps, mismatch)
         agent, agent_index = None, None
         if settings.ads is not None and settings.mode == "test":
             agent = load_agent(settings.ads, settings.ads_params)
@@ -338,13 +338,13 @@ class CarlaSimulator(Simulator):
             with seeded_globals(scene.seed, scene.index):
                 simulation = simulator.simulate(scenic_scene, maxSteps=steps, verbosity=0)
         except Exception as exc:  # noqa: BLE001 - a spawn or behaviour failure invalidates this variation only
-            return scenic_trace.failed_run(scene, steps, f"carla run failed: {type(exc).__name__}: {exc}")
+            return recorder.failed_run(scene, steps, f"carla run failed: {type(exc).__name__}: {exc}")
         finally:
             if agent is not None:
                 agent.teardown()
         if simulation is None:
-            return scenic_trace.failed_run(scene, steps, "scenic rejected the simulation (a requirement was violated)")
-        tracks = scenic_trace.pad_tracks(scenic_trace.tracks_from_trajectory(simulation.result.trajectory, roles),
+            return recorder.failed_run(scene, steps, "scenic rejected the simulation (a requirement was violated)")
+        tracks = recorder.pad_tracks(scenic_trace.tracks_from_trajectory(simulation.result.trajectory, roles),
                                          steps + 1)
         sizes = {actor.role: (actor.length, actor.width) for actor in scene.actors}
-        return scenic_trace.ScenicRun(tracks, contacts=scenic_trace.find_contacts(tracks, sizes, settings.dt))
+        return recorder.SceneRun(tracks, contacts=recorder.find_contacts(tracks, sizes, settings.dt))
