@@ -70,6 +70,9 @@ class SimOptions(BaseModel):
     map_mode: Literal["generated", "carla"] = "generated"
     carla_maps: str | None = Field(default=None, description="folder of CARLA .xodr towns for map_mode=carla")
     rules_file: str | None = Field(default=None, description="YAML rulebook overriding the monitor's thresholds")
+    sampler: Literal["compiled", "scenic"] | None = Field(default=None, description="scene sampler: compiled "
+                                                          "(numpy, render's sampler.json), scenic (the reference), "
+                                                          "None: the backend's")
 
 
 class ChunkTask(BaseModel):

@@ -45,7 +45,7 @@ def _simulate_and_monitor(task: ChunkTask, run_dir: Path) -> ChunkResult:
     opts = task.options
     simulate_scenario(scenario, run_dir, n=task.count, seed=task.seed, first=task.first, mode=task.mode,
                       backend=opts.backend, ego_role=opts.ego_role, map_mode=opts.map_mode,
-                      carla_maps=Path(opts.carla_maps) if opts.carla_maps else None)
+                      carla_maps=Path(opts.carla_maps) if opts.carla_maps else None, sampler=opts.sampler)
     tables = {name: read_table(run_dir, name) for name in TABLES if (run_dir / f"{name}.parquet").exists()}
     return rows_from(tables, _monitor(run_dir, opts.rules_file))
 

@@ -15,7 +15,7 @@ ModeOpt = Annotated[str, typer.Option("--mode", help="reproduce (re-enact the cr
 
 def build_config(n: int, seed: int, mode: str, engine: str, workers: int | None, address: str | None, resume: bool,
                  chunk_size: int, extractor: str, dsl: str | None, simulator: str, ego: str, map_mode: str,
-                 carla_maps: Path | None, rules: Path | None = None):
+                 carla_maps: Path | None, rules: Path | None = None, sampler: str | None = None):
     """Options -> CampaignConfig, with the CLI's spelling of each bad value in the error."""
     from crashscene.campaign import CampaignConfig, CampaignError, SimOptions
 
@@ -36,7 +36,11 @@ def build_config(n: int, seed: int, mode: str, engine: str, workers: int | None,
         raise CampaignError(f"--rules {rules}: no such rulebook file")
     if chunk_size <= 0:
         raise CampaignError(f"--chunk-size {chunk_size}: must be positive")
-    sim = SimOptions(backend=simulator, ego_role=ego, map_mode=map_mode,
+    from crashscene.sample import SAMPLERS
+
+    if sampler is not None and sampler not in SAMPLERS:
+        raise CampaignError(f"--sampler {sampler!r}: allowed: {', '.join(SAMPLERS)}")
+    sim = SimOptions(sampler=sampler, backend=simulator, ego_role=ego, map_mode=map_mode,
                      carla_maps=str(carla_maps.resolve()) if carla_maps else None,
                      rules_file=str(rules.resolve()) if rules else None)
     return CampaignConfig(n=n, seed=seed, modes=modes[mode], engine=engine, workers=workers, address=address,
@@ -102,6 +106,7 @@ def campaign(
     map_mode: Annotated[str, typer.Option("--map", help="generated or carla.")] = "generated",
     carla_maps: Annotated[Optional[Path], typer.Option("--carla-maps", help="Folder of CARLA .xodr towns (--map carla).")] = None,
     rules: Annotated[Optional[Path], typer.Option("--rules", help="YAML rulebook overriding the monitor's thresholds.")] = None,
+    sampler: Annotated[Optional[str], typer.Option("--sampler", help="Scene sampler: compiled (numpy) or scenic (the reference) [default: compiled; scenic for newtonian and carla].")] = None,
     keep_traces: Annotated[bool, typer.Option("--keep-traces", help="Keep every chunk's traces under OUT/cases.")] = False,
     report: Annotated[bool, typer.Option("--report/--no-report", help="Write OUT/report.html at the end.")] = True,
     as_json: Annotated[bool, typer.Option("--json", help="Summary as JSON on stdout.")] = False,
@@ -111,7 +116,7 @@ def campaign(
 
     try:
         config = build_config(n, seed, mode, engine, workers, address, resume, chunk_size, extractor, dsl,
-                              simulator, ego, map_mode, carla_maps, rules)
+                              simulator, ego, map_mode, carla_maps, rules, sampler)
         llm = {k: str(v) for k, v in (("model", model), ("base_url", base_url), ("model_path", model_path)) if v}
         config = config.model_copy(update={"llm": llm})
         config = config.model_copy(update={"keep_traces": keep_traces})

@@ -8,10 +8,14 @@ collisions_classified.parquet, verdicts.parquet, monitor.json) when
 """
 from __future__ import annotations
 
+import dataclasses
+import itertools
 import json
+import multiprocessing
 import time
 from collections import Counter
 from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 from typing import Any
 
@@ -21,6 +25,7 @@ from crashscene.dsl import Scenario, dump_file
 from crashscene.geometry import classify_contact, heading_difference
 from crashscene.simulate.backend import (
     DEFAULT_DT,
+    BatchResult,
     DEFAULT_HORIZON,
     MODES,
     SimulationError,
@@ -28,6 +33,7 @@ from crashscene.simulate.backend import (
     SimulationSettings,
     check_ego_role,
     create_simulator,
+    get_simulator_class,
 )
 from crashscene.traces import write_table
 
@@ -38,11 +44,14 @@ def simulate_scenario(scenario: Scenario, out_dir: Path, n: int, seed: int, firs
                       ads_params: dict[str, Any] | None = None, dt: float = DEFAULT_DT,
                       horizon: float = DEFAULT_HORIZON, carla_host: str = "127.0.0.1", carla_port: int = 2000,
                       monitor: bool = True, progress: Callable[[int], None] | None = None,
-                      sample_workers: int = 1) -> dict[str, Any]:
+                      workers: int = 1, sampler: str | None = None) -> dict[str, Any]:
     """Simulate variations [first, first + n) of `scenario` and write the run directory `out_dir`.
 
-    `sample_workers` > 1 samples scenes in that many forked processes (same scenes as 1); keep 1 when the
-    caller already runs in a process pool.
+    `workers` > 1 simulates contiguous blocks of variations in that many forked processes (embedded backend;
+    with `sampler="scenic"` it also samples in them); the tables are the blocks' tables in index order, the
+    same bytes as one process. Keep 1 when the caller already runs in a process pool (a campaign worker).
+    `sampler`: "compiled" (numpy) or "scenic" (the reference), see `crashscene.sample.sample_scenes`; None: the
+    backend's (`Simulator.scene_sampler`: compiled for embedded, scenic for backends that replay Scenic scenes).
 
     Returns the JSON summary (also written to summary.json): variations, valid,
     invalid (reason -> count), collisions (by class, by actor pair), seconds, and
@@ -53,9 +62,12 @@ def simulate_scenario(scenario: Scenario, out_dir: Path, n: int, seed: int, firs
         raise SimulationError(f"mode {mode!r} is not allowed; allowed: {', '.join(MODES)}")
     if n < 1 or first < 0:
         raise SimulationError(f"n must be >= 1 and first >= 0 (got n={n}, first={first})")
+    if workers < 1:
+        raise SimulationError(f"workers must be >= 1 (got {workers})")
     settings = SimulationSettings(dt=dt, horizon=horizon, mode=mode, ego_role=ego_role, ads=ads,
                                   ads_params=ads_params or {}, carla_host=carla_host, carla_port=carla_port)
     check_ego_role(scenario, settings)
+    sampler = _sampler_for(backend, sampler)
     from crashscene.render import RenderError, render
     from crashscene.sample import sample_scenes
 
@@ -68,7 +80,7 @@ def simulate_scenario(scenario: Scenario, out_dir: Path, n: int, seed: int, firs
         rendered = render(scenario, out_dir, map_mode=map_mode, carla_maps=carla_maps)
         timings["render"] = time.perf_counter() - start
         t0 = time.perf_counter()
-        scenes = sample_scenes(rendered.program, n, seed, first=first, workers=sample_workers)
+        scenes = sample_scenes(rendered.program, n, seed, first=first, workers=workers, sampler=sampler)
         timings["sample"] = time.perf_counter() - t0
     except RenderError as exc:
         raise SimulationError(f"render/sample failed: {exc}") from exc
@@ -78,8 +90,7 @@ def simulate_scenario(scenario: Scenario, out_dir: Path, n: int, seed: int, firs
     t0 = time.perf_counter()
     request = SimulationRequest(scenario=scenario, scenes=scenes, map_file=Path(rendered.map), settings=settings,
                                 program=Path(rendered.program).read_text(encoding="utf-8"), progress=progress)
-    with create_simulator(backend, settings) as simulator:
-        result = simulator.simulate(request)
+    result = simulate_blocks(backend, settings, request, workers)
     timings["simulate"] = time.perf_counter() - t0
     for name, table in result.tables.items():
         write_table(out_dir, name, table)
@@ -101,6 +112,57 @@ def simulate_scenario(scenario: Scenario, out_dir: Path, n: int, seed: int, firs
     summary["timings"] = {k: round(v, 3) for k, v in timings.items()}
     (out_dir / "summary.json").write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
     return summary
+
+
+def _sampler_for(backend: str, sampler: str | None) -> str:
+    needs = get_simulator_class(backend).scene_sampler
+    if sampler is None:
+        return needs
+    if needs == "scenic" and sampler != "scenic":
+        raise SimulationError(f"--sampler {sampler}: the {backend} backend re-generates every scene with Scenic "
+                              "from (seed, index), so its scenes must come from --sampler scenic")
+    return sampler
+
+
+MIN_BLOCK = 100  # variations per process below which forking costs more than it saves
+_INHERITED: dict[str, Any] = {}  # the request, read by forked children only
+
+
+def simulate_blocks(backend: str, settings: SimulationSettings, request: SimulationRequest,
+                    workers: int) -> BatchResult:
+    """`request` simulated in up to `workers` forked processes, one contiguous block of scenes each.
+
+    Variation i depends only on its scene, so the concatenated tables equal one process's. Only the embedded
+    backend is split (a CARLA server is one shared world; Newtonian runs scene by scene anyway).
+    """
+    scenes = list(request.scenes)
+    workers = min(workers, max(1, len(scenes) // MIN_BLOCK)) if backend == "embedded" else 1
+    if workers == 1:
+        with create_simulator(backend, settings) as simulator:
+            return simulator.simulate(request)
+    start = time.perf_counter()
+    bounds = [len(scenes) * k // workers for k in range(workers + 1)]
+    _INHERITED.update(backend=backend, settings=settings, request=request)
+    try:
+        context = multiprocessing.get_context("fork")  # children inherit the imports and the parsed map
+        with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
+            futures = [pool.submit(_simulate_block, lo, hi) for lo, hi in itertools.pairwise(bounds)]
+            if request.progress is not None:
+                for fut in as_completed(futures):
+                    request.progress(fut.result()[1])
+            parts = [fut.result()[0] for fut in futures]
+    finally:
+        _INHERITED.clear()
+    tables = {name: pa.concat_tables([part.tables[name] for part in parts]) for name in parts[0].tables}
+    notes = list(dict.fromkeys(note for part in parts for note in part.notes))
+    return BatchResult(backend=parts[0].backend, tables=tables, seconds=time.perf_counter() - start, notes=notes)
+
+
+def _simulate_block(lo: int, hi: int) -> tuple[BatchResult, int]:
+    backend, settings, request = _INHERITED["backend"], _INHERITED["settings"], _INHERITED["request"]
+    block = dataclasses.replace(request, scenes=list(request.scenes)[lo:hi], progress=None)
+    with create_simulator(backend, settings) as simulator:
+        return simulator.simulate(block), hi - lo
 
 
 def summarize(tables: dict[str, pa.Table]) -> dict[str, Any]:
