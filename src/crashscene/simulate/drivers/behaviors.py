@@ -50,6 +50,7 @@ LANE_CHANGE_GAP = 1.0  # [s] time gap a careful driver needs in the target lane
 
 # The oracle codes a driver carries inject the traits their rule classes declare (`Rule.disposition`).
 SPEEDING_CODES = codes_with(Disposition.SPEEDING)  # the built-in rules' speeding codes
+NO_YIELD_CODES = codes_with(Disposition.NO_YIELD)  # the built-in rules' codes of drivers who take the right of way
 OVER_LIMIT = 3.0  # [m/s] a speeding driver's margin above the (condition-adjusted) limit
 
 
