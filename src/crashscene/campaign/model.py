@@ -57,7 +57,22 @@ COLLISION_ROWS = pa.schema([
     ("delta_v_a", pa.float64()),     # [m/s] when the simulator records it
     ("delta_v_b", pa.float64()),
 ])
-ROW_SCHEMAS = {"variations": VARIATION_ROWS, "violations": VIOLATION_ROWS, "collisions": COLLISION_ROWS}
+CRITICALITY_ROWS = pa.schema([     # monitor.criticality per (variation, actor pair)
+    ("variation", pa.int32()),
+    ("actor_a", pa.string()),
+    ("actor_b", pa.string()),
+    ("involves_ads", pa.bool_()),
+    ("min_ttc", pa.float64()),       # [s]
+    ("pet", pa.float64()),           # [s]
+    ("min_thw", pa.float64()),       # [s]
+    ("max_drac", pa.float64()),      # [m/s2]
+    ("collided", pa.bool_()),
+    ("impact_speed", pa.float64()),  # [m/s]
+    ("delta_v_a", pa.float64()),     # [m/s]
+    ("delta_v_b", pa.float64()),     # [m/s]
+])
+ROW_SCHEMAS = {"variations": VARIATION_ROWS, "violations": VIOLATION_ROWS, "collisions": COLLISION_ROWS,
+               "criticality": CRITICALITY_ROWS}
 
 
 class SimOptions(BaseModel):
@@ -103,6 +118,8 @@ class ChunkResult:
     violations: pa.Table
     collisions: pa.Table
     seconds: float = 0.0
+    criticality: pa.Table | None = None   # None: the worker computed no criticality metrics
 
     def table(self, name: str) -> pa.Table:
-        return getattr(self, name)
+        table = getattr(self, name)
+        return ROW_SCHEMAS[name].empty_table() if table is None else table

@@ -24,7 +24,7 @@ from PIL import Image
 from crashscene.campaign.errors import CampaignError
 from crashscene.campaign.runner import summarize_runs
 from crashscene.campaign.store import DB_NAME, Store
-from crashscene.report import charts
+from crashscene.report import charts, search_section
 from crashscene.report.errors import ReportError
 from crashscene.report.shots import Shot, draw_shots, plan_shots
 from crashscene.report.junit import junit_xml
@@ -221,6 +221,7 @@ def _case_figures(store: Store, out: Path, case: dict, scenario_text: str | None
     """Every image of one case as data URIs, plus notes on what could not be drawn."""
     fig: dict = {"narrative": _narrative(Path(case["case_dir"] or "")), "sketch": _sketch(Path(case["case_dir"] or "")),
                  "dsl": scenario_text, "notes": []}
+    fig.update(search_section.case_figures(store, case))   # criticality and search sections
     modes = case["modes"]
     if not modes:
         return fig

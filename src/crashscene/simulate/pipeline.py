@@ -3,7 +3,7 @@
 Run directory layout: scenario.yaml (canonical DSL), scenario.scenic, map.xodr,
 render.json, scenes.jsonl, traces.parquet, actors.parquet, collisions.parquet,
 variations.parquet, summary.json, and the monitor's outputs (rule_results.parquet,
-collisions_classified.parquet, verdicts.parquet, monitor.json) when
+collisions_classified.parquet, verdicts.parquet, monitor.json, criticality.parquet) when
 `crashscene.monitor` is installed.
 """
 from __future__ import annotations
@@ -197,8 +197,11 @@ def _monitor(tables: dict[str, pa.Table], scenario: Scenario, out_dir: Path) -> 
         from crashscene.monitor.run import write_results
     except ImportError:
         return None
+    from crashscene.monitor.criticality import write_criticality
+
     result = evaluate(tables, scenario)
     write_results(out_dir, result)
+    criticality = write_criticality(out_dir, tables, result.collisions)
     s = result.summary()
     by_class = {k: v for k, v in s.get("collisions", {}).items() if v}
     return {
@@ -214,4 +217,5 @@ def _monitor(tables: dict[str, pa.Table], scenario: Scenario, out_dir: Path) -> 
                                "total": sum(by_class.values())},
         "expected_collision": s.get("expected_collision"),
         "expected_sequence": s.get("expected_sequence"),
+        "criticality": criticality,
     }
