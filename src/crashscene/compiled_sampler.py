@@ -95,6 +95,7 @@ class CompiledSampler:
         self.high = np.array([p["high"] for p in plan["params"]], dtype=float)
         self.column = {name: k for k, name in enumerate(self.param_names)}
         self.width = 1 + len(self.param_names) + len(self.actors)  # uniforms per attempt: candidate, params, blueprints
+        self.last_attempts = np.zeros(0, dtype=np.int64)  # attempts each scene of the last call took
 
     # ------------------------------------------------------------------ drawing
 
@@ -106,7 +107,7 @@ class CompiledSampler:
                                                                                    int(i)])))
                       for i in indices]
         chosen: dict[int, dict[str, np.ndarray]] = {}
-        self.last_attempts = np.zeros(n, dtype=np.int64)  # attempts each scene took (acceptance = n / sum)
+        self.last_attempts = np.zeros(n, dtype=np.int64)  # acceptance rate = n / sum
         pending = list(range(n))
         used = 0
         block = FIRST_ATTEMPTS

@@ -1,4 +1,9 @@
-"""Compile a rendered Scenic program once and sample scenes from it, index-deterministically.
+"""Sample scenes from a rendered program, index-deterministically: compiled (numpy) by default, or Scenic.
+
+The default sampler, "compiled", draws from the sampling plan `render` writes
+beside the program (`crashscene.compiled_sampler`): the same distribution and
+requirements without Scenic's interpreter. "scenic" compiles the program and
+runs Scenic's own sampler, the reference; it is described below.
 
 Scene i depends only on (program, seed, i): before drawing it, Scenic's sources
 of randomness (Python's `random` and numpy's global generator) are reseeded

@@ -117,7 +117,7 @@ def campaign(
     map_mode: Annotated[str, typer.Option("--map", help="generated or carla.")] = "generated",
     carla_maps: Annotated[Optional[Path], typer.Option("--carla-maps", help="Folder of CARLA .xodr towns (--map carla).")] = None,
     rules: Annotated[Optional[Path], typer.Option("--rules", help="YAML rulebook overriding the monitor's thresholds.")] = None,
-    sampler: Annotated[Optional[str], typer.Option("--sampler", help="Scene sampler: compiled (numpy) or scenic (the reference) [default: compiled; scenic for newtonian and carla].")] = None,
+    sampler: Annotated[Optional[str], typer.Option("--sampler", help="Scene sampler: compiled (numpy) or scenic (the reference) (default: compiled; scenic for newtonian and carla).")] = None,
     keep_traces: Annotated[bool, typer.Option("--keep-traces", help="Keep every chunk's traces under OUT/cases.")] = False,
     report: Annotated[bool, typer.Option("--report/--no-report", help="Write OUT/report.html at the end.")] = True,
     search: Annotated[Optional[list[str]], typer.Option("--search", help="Also search each case with this sampler "

@@ -96,7 +96,8 @@ def simulate_scenario(scenario: Scenario, out_dir: Path, n: int, seed: int, firs
         write_table(out_dir, name, table)
 
     summary = summarize(result.tables)
-    summary.update({"backend": result.backend, "mode": mode, "ego_role": ego_role, "seed": seed, "first": first,
+    summary.update({"backend": result.backend, "sampler": sampler, "workers": workers, "mode": mode,
+                    "ego_role": ego_role, "seed": seed, "first": first,
                     "ads": ads or ("reference" if mode == "test" else None)})
     if result.notes:
         summary["notes"] = result.notes
