@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from crashscene.geometry import wrap_angle
 from crashscene.render.sampling_plan import PLAN_FORMAT, SAMPLING_PLAN_NAME, program_digest
 from crashscene.scene import SampledActor, SampledScene
 
@@ -226,7 +227,7 @@ class CompiledSampler:
             actors.append(SampledActor(
                 role=role, label=actor["label"], type=actor["type"], blueprint=actor["blueprints"][bp],
                 behavior=actor["behavior"], x=float(att[f"{role}.x"]), y=float(att[f"{role}.y"]),
-                yaw=math.remainder(float(att[f"{role}.heading"]) + math.pi / 2, 2 * math.pi),
+                yaw=wrap_angle(float(att[f"{role}.heading"]) + math.pi / 2),
                 speed=max(0.0, speed), length=actor["dims"][bp][0], width=actor["dims"][bp][1],
                 lane_id=self.routes.lane_uids[route][int(att[f"{role}.lane"])],
                 route_intent=actor["route_intent"], reference=actor["reference"], relation=actor["relation"],

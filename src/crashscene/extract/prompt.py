@@ -31,7 +31,6 @@ from typing import Any
 
 from crashscene.dsl import Scenario, loads
 from crashscene.dsl.tokens import (
-    MONITORED_CODES,
     ActorType,
     Behavior,
     CollisionClass,
@@ -46,26 +45,18 @@ from crashscene.dsl.tokens import (
     Sign,
     TimeOfDay,
     Weather,
+    monitored_codes,
 )
 
 DEFAULT_EXEMPLARS = 3
 EXEMPLAR_ORDER = ("100237", "103378", "120013", "3-C1-2018-005")  # intersection, head-on, rear-end, curve
 
-# When each monitored code applies (conventions, dsl.md section 5.9); the violation token comes from MONITORED_CODES.
-CODE_GUIDE: dict[str, str] = {
-    "CVC_21650": "drove on the wrong side: entered or drifted into the opposing lanes (crossed the centre line)",
-    "CVC_21460": "crossed a double solid centre line (add it beside CVC_21650 when road_marker is double_solid_line)",
-    "CVC_22350": "lost control, too fast for conditions, or struck a STOPPED vehicle ahead",
-    "CVC_21703": "struck a MOVING vehicle ahead in the same lane (following too closely)",
-    "CVC_21453": "entered against a red light",
-    "CVC_22450": "did not stop at a stop sign",
-    "CVC_21802": "stopped (or stop not stated) at a stop sign, then entered into cross traffic",
-    "CVC_21803": "did not yield at a yield sign",
-    "CVC_21801": "turned left across oncoming traffic that was too close",
-    "CVC_21800": "at an uncontrolled junction, did not yield to the vehicle with priority",
-    "CVC_22107": "changed lanes or merged into another vehicle",
-    "CVC_22349": "speeding above the posted limit is stated",
-}
+def code_guide() -> dict[str, str]:
+    """When each monitored code applies (conventions, dsl.md section 5.9), as its rule class words it
+    (`Rule.guide`), in rulebook order; the violation token comes from the same class."""
+    from crashscene.monitor.rules import registered_rules
+
+    return {code: cls.guide for code, cls in registered_rules().items() if cls.guide}
 
 
 @dataclass(frozen=True)
@@ -81,7 +72,8 @@ def system_prompt() -> str:
     def tokens(enum: Any) -> str:
         return ", ".join(member.value for member in enum)
 
-    codes = "\n".join(f"  - {code} ({MONITORED_CODES[code]}): {guide}" for code, guide in CODE_GUIDE.items())
+    monitored = monitored_codes()
+    codes = "\n".join(f"  - {code} ({monitored[code]}): {guide}" for code, guide in code_guide().items())
     return f"""\
 You convert a police/NHTSA CIREN crash report (a narrative and facts read from its sketch) into one \
 Extended Scenic DSL scenario: what happened, never coordinates. Reply with JSON that fits the given schema. \

@@ -37,9 +37,9 @@ from crashscene.dsl.validate import check
 from crashscene.extract.errors import ExtractError
 from crashscene.extract.llm_schema import from_scenario, to_scenario
 from crashscene.extract.openai_backend import BackendError, ChatBackend, Usage
+from crashscene.units import KMH_PER_MPH
 
 DEFAULT_MAX_REASKS = 2
-KMH_PER_MPH = 1.609344
 
 
 class LlmOutputError(ExtractError):

@@ -8,13 +8,13 @@ import re
 from crashscene.extract.narrative import (
     COMPASS,
     DIR,
-    KMH_PER_MPH,
     around,
     label_after,
     label_at,
 )
 from crashscene.extract.rules_lanes import count_lanes
 from crashscene.extract.rules_state import RulesState, has_cross_traffic
+from crashscene.units import KMH_PER_MPH
 
 
 def decide_road_network(state: RulesState) -> dict:

@@ -36,9 +36,9 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.compute as pc
 
+from crashscene.geometry import heading_difference, relative_position
 from crashscene.monitor.arrays import TraceArrays
 from crashscene.monitor.collisions import pair_overlaps
-from crashscene.monitor.geometry import heading_difference, relative_position
 from crashscene.monitor.timeseries import first_index, last_index
 
 MASS = {"car": 1500.0, "truck": 9000.0, "motorcycle": 250.0}  # [kg] by DSL actor type, for delta-v

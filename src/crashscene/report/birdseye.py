@@ -20,6 +20,8 @@ import numpy as np  # noqa: E402
 from matplotlib.patches import Polygon as PolygonPatch  # noqa: E402
 from PIL import Image  # noqa: E402
 
+from crashscene.geometry import footprint_corners  # noqa: E402
+
 ROLE_COLORS = ("#1f77b4", "#d62728", "#ff7f0e", "#2ca02c", "#9467bd", "#8c564b")  # ego, npc1, npc2, ...
 ASPHALT, LANE_LINE, CENTER_LINE = "#4d4d4d", "#f2f2f2", "#f2c200"
 VIEW_MARGIN = 12.0  # [m] around the actors' paths
@@ -76,13 +78,6 @@ def load_map(path: str) -> MapGeometry:
     return MapGeometry(drivable, holes, edges, centers)
 
 
-def _corners(x: float, y: float, yaw: float, length: float, width: float) -> np.ndarray:
-    c, s = math.cos(yaw), math.sin(yaw)
-    half = np.array([[length / 2, width / 2], [length / 2, -width / 2], [-length / 2, -width / 2],
-                     [-length / 2, width / 2]])
-    return half @ np.array([[c, s], [-s, c]]) + (x, y)
-
-
 def _view(tracks: list[ActorTrack], t0: float, t1: float) -> tuple[float, float, float, float]:
     """Centre and half-extents [m] of a view holding every actor between t0 and t1 (aspect at most MAX_ASPECT)."""
     xs, ys = [], []
@@ -132,10 +127,10 @@ def _draw_actors(ax, tracks: list[ActorTrack], time: float, trail_from: float) -
         if mask.any():
             artists += ax.plot(tr.x[mask], tr.y[mask], color=color, lw=1.6, ls=":", zorder=4)
         x, y, yaw = tr.at(time)
-        box = _corners(x, y, yaw, tr.length, tr.width)
+        box = footprint_corners(x, y, yaw, tr.length, tr.width)
         artists.append(ax.add_patch(PolygonPatch(box, closed=True, facecolor=color, edgecolor="white", lw=0.8,
                                                  zorder=5)))
-        nose = _corners(x, y, yaw, tr.length, tr.width)[:2].mean(axis=0)
+        nose = box[:2].mean(axis=0)
         artists += ax.plot([x, nose[0]], [y, nose[1]], color="white", lw=1.0, zorder=6)
         side = 1 if k % 2 == 0 else -1  # alternate label sides so close actors stay readable
         artists.append(ax.text(x, y + side * (tr.length / 2 + 2.0), tr.role, color="white", fontsize=7, ha="center",

@@ -22,6 +22,7 @@ from typing import Any
 import pyarrow as pa
 
 from crashscene.dsl import Scenario, dump_file
+from crashscene.geometry import classify_contact, heading_difference
 from crashscene.simulate.backend import (
     DEFAULT_DT,
     BatchResult,
@@ -34,7 +35,6 @@ from crashscene.simulate.backend import (
     create_simulator,
     get_simulator_class,
 )
-from crashscene.simulate.embedded.collisions import classify
 from crashscene.traces import write_table
 
 
@@ -177,7 +177,7 @@ def summarize(tables: dict[str, pa.Table]) -> dict[str, Any]:
     for row in coll:
         if row["variation"] not in valid:
             continue
-        klass = classify(row["yaw_a"], row["yaw_b"])
+        klass = classify_contact(heading_difference(row["yaw_a"], row["yaw_b"])).item()
         by_class[klass] += 1
         by_pair.setdefault(f"{row['actor_a']}-{row['actor_b']}", Counter())[klass] += 1
     collided = {row["variation"] for row in coll if row["variation"] in valid}
