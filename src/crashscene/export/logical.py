@@ -27,7 +27,7 @@ from pathlib import Path
 
 from scenariogeneration import xosc
 
-from crashscene.convert import LANE_WIDTH, Placement, RenderPlan
+from crashscene.convert import Placement, RenderPlan
 from crashscene.export.errors import ExportError
 from crashscene.export.program import ProgramSampling
 from crashscene.export.roadframe import RoadFrame, RoadPoint
@@ -39,6 +39,7 @@ from crashscene.export.xosc_common import (
     stop_after,
     vehicle,
 )
+from crashscene.geometry import LANE_WIDTH
 from crashscene.scene import SampledActor, SampledScene
 
 LANE_CHANGE_TIME = 3.0  # [s] sinusoidal lane change
