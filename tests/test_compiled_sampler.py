@@ -138,3 +138,30 @@ def test_a_stale_or_missing_plan_is_refused(tmp_path):
         sample_scenes(r.program, 5, seed=0)
     with pytest.raises(SampleError, match="sampler 'numba' is not allowed"):
         sample_scenes(r.program, 5, seed=0, sampler="numba")
+
+
+def test_rejected_attempts_are_redrawn_until_the_requirements_hold(tmp_path):
+    """A follower placed 0-5 m (centre to centre) ahead of the ego overlaps it unless the draw separates them."""
+    r = _rendered("109176", tmp_path)  # npc1 follows the ego, in front, on a straight road
+    sampler = CompiledSampler(r.program)
+    follower = next(a for a in sampler.actors if a["role"] == "npc1")
+    assert follower["placement"] == "follow" and follower["along"] == "front"
+    follower["gap"] = -15.0  # [m] npc1_INIT_DIST is drawn in [15, 20]
+    scenes = sampler.scenes(0, 400, 3, "", "")
+    acceptance = len(scenes) / sampler.last_attempts.sum()
+    assert 0.0 < acceptance < 0.9
+    for scene in scenes:
+        ego, npc = scene.actors
+        assert math.dist((ego.x, ego.y), (npc.x, npc.y)) >= 0.5 * (ego.length + npc.length) - 1e-6
+    again = sampler.scenes(200, 200, 3, "", "")  # rejections do not break index determinism
+    assert [s.model_dump_json() for s in again] == [s.model_dump_json() for s in scenes[200:]]
+
+
+def test_a_scene_no_attempt_can_satisfy_is_a_clear_error(tmp_path):
+    import shapely
+
+    r = _rendered("120013", tmp_path)
+    sampler = CompiledSampler(r.program)
+    sampler.region = shapely.Polygon([(0, 0), (1, 0), (1, 1)])  # no car fits on this "road"
+    with pytest.raises(SampleError, match=r"scene 7 \(seed 1\) could not be sampled.*30"):
+        sampler.scenes(7, 2, 1, "", "", max_attempts=30)

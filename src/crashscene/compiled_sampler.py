@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from crashscene.geometry import wrap_angle
 from crashscene.render.sampling_plan import PLAN_FORMAT, SAMPLING_PLAN_NAME, program_digest
 from crashscene.scene import SampledActor, SampledScene
 
@@ -94,6 +95,7 @@ class CompiledSampler:
         self.high = np.array([p["high"] for p in plan["params"]], dtype=float)
         self.column = {name: k for k, name in enumerate(self.param_names)}
         self.width = 1 + len(self.param_names) + len(self.actors)  # uniforms per attempt: candidate, params, blueprints
+        self.last_attempts = np.zeros(0, dtype=np.int64)  # attempts each scene of the last call took
 
     # ------------------------------------------------------------------ drawing
 
@@ -105,7 +107,7 @@ class CompiledSampler:
                                                                                    int(i)])))
                       for i in indices]
         chosen: dict[int, dict[str, np.ndarray]] = {}
-        self.last_attempts = np.zeros(n, dtype=np.int64)  # attempts each scene took (acceptance = n / sum)
+        self.last_attempts = np.zeros(n, dtype=np.int64)  # acceptance rate = n / sum
         pending = list(range(n))
         used = 0
         block = FIRST_ATTEMPTS
@@ -225,7 +227,7 @@ class CompiledSampler:
             actors.append(SampledActor(
                 role=role, label=actor["label"], type=actor["type"], blueprint=actor["blueprints"][bp],
                 behavior=actor["behavior"], x=float(att[f"{role}.x"]), y=float(att[f"{role}.y"]),
-                yaw=math.remainder(float(att[f"{role}.heading"]) + math.pi / 2, 2 * math.pi),
+                yaw=wrap_angle(float(att[f"{role}.heading"]) + math.pi / 2),
                 speed=max(0.0, speed), length=actor["dims"][bp][0], width=actor["dims"][bp][1],
                 lane_id=self.routes.lane_uids[route][int(att[f"{role}.lane"])],
                 route_intent=actor["route_intent"], reference=actor["reference"], relation=actor["relation"],

@@ -31,11 +31,12 @@ from crashscene.dsl.tokens import (
     TimeOfDay,
     Weather,
 )
+from crashscene.monitor.rules import Disposition, dispositions_of
+from crashscene.units import MPH
 
 # ---------------------------------------------------------------- defaults (the one table)
 
 HORIZON = 20.0  # [s] default simulation horizon; maps are long enough for it
-MPH = 0.44704  # [m/s] per mph
 DEFAULT_SPEED = 10.0  # [m/s] reference pipeline default when the report is silent
 SPEED_SPREAD = 2.0  # [m/s] half-width of the speed range around the nominal speed (VerifaiRange(8, 12))
 SPEED_SPREAD_FRACTION = 0.1  # half-width as a fraction of a stated speed, when larger than SPEED_SPREAD
@@ -50,7 +51,6 @@ STOP_DURATION = (2.0, 4.0)  # [s] how long a stopping actor stays stopped before
 # speed: room for a prudent driver to stop (0.5 s reaction + 6 m/s2 braking needs ~2.6 s at 25 m/s), so a
 # test-mode ADS is not handed an unavoidable crash, while a driver charged with CVC_22350 still strikes it.
 STANDING_LEAD_TIME = (3.5, 5.0)
-LANE_WIDTH = 3.5  # [m] generated maps
 STRAIGHT_BACK = 60.0  # [m] road behind the anchor on generated straight roads (room for followers)
 CURVE_ANGLE = 1.3  # [rad] heading change of a generated curve (~75 deg)
 CURVE_LATERAL_ACC = 2.0  # [m/s2] design lateral acceleration at the speed limit -> curve radius
@@ -262,18 +262,15 @@ def carla_weather(weather: Weather, time_of_day: TimeOfDay, surface: str = "not_
     return base + LIGHT_SUFFIX[time_of_day]
 
 
-SPEEDING_CODES = {"CVC_22349", "CVC_22350"}  # speed limit, unsafe speed: the actor may exceed the posted limit
-
-
 def speed_range(actor: Actor, speed_limit: float | None, codes: list[str] | tuple[str, ...] = ()) -> Range:
     """[m/s] stated speed +-SPEED_SPREAD (or 10 %); else DEFAULT_SPEED +-SPEED_SPREAD; else, with a posted limit,
     up to the limit for a law-abiding actor ([limit - 2 spread, limit]) and around it for one the oracle charges
-    with speeding or unsafe speed (CVC_22349, CVC_22350)."""
+    with a code whose rule injects speeding (CVC_22349, CVC_22350: `Rule.disposition`)."""
     if actor.behavior in STANDING_BEHAVIORS:
         return Range(low=0.0, high=0.0)
     nominal = actor.speed_mph * MPH if actor.speed_mph else (speed_limit or DEFAULT_SPEED)
     spread = max(SPEED_SPREAD, SPEED_SPREAD_FRACTION * nominal)
-    if speed_limit and not actor.speed_mph and not SPEEDING_CODES.intersection(codes):
+    if speed_limit and not actor.speed_mph and Disposition.SPEEDING not in dispositions_of(codes):
         return Range(low=round(max(MIN_MOVING_SPEED, speed_limit - 2 * spread), 3), high=round(speed_limit, 3))
     return Range(low=round(max(MIN_MOVING_SPEED, nominal - spread), 3), high=round(nominal + spread, 3))
 

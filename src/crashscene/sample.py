@@ -1,4 +1,9 @@
-"""Compile a rendered Scenic program once and sample scenes from it, index-deterministically.
+"""Sample scenes from a rendered program, index-deterministically: compiled (numpy) by default, or Scenic.
+
+The default sampler, "compiled", draws from the sampling plan `render` writes
+beside the program (`crashscene.compiled_sampler`): the same distribution and
+requirements without Scenic's interpreter. "scenic" compiles the program and
+runs Scenic's own sampler, the reference; it is described below.
 
 Scene i depends only on (program, seed, i): before drawing it, Scenic's sources
 of randomness (Python's `random` and numpy's global generator) are reseeded
@@ -26,6 +31,7 @@ from typing import Any
 import numpy as np
 
 from crashscene.convert import RenderError
+from crashscene.geometry import wrap_angle
 from crashscene.scene import SampledActor, SampledScene
 
 CARLA_MODEL = "scenic.simulators.carla.model"
@@ -209,7 +215,7 @@ def to_sampled_scene(scene: Any, index: int, seed: int, digest: str, map_file: s
 
 
 def _actor(obj: Any) -> SampledActor:
-    yaw = math.remainder(float(obj.heading) + math.pi / 2, 2 * math.pi)  # Scenic 0 = +y -> OpenDRIVE 0 = +x
+    yaw = wrap_angle(float(obj.heading) + math.pi / 2)  # Scenic 0 = +y -> OpenDRIVE 0 = +x
     codes = str(obj.cs_dispositions or "")
     props = {key: _scalar(getattr(obj, key)) for key in ("cs_placement", "cs_maneuver", "cs_controlled_by",
                                                          "cs_target_speed", "cs_route_lanes")}

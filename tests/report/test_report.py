@@ -107,27 +107,3 @@ def test_incomplete_run_is_an_error_in_junit_and_the_report(tmp_path, monkeypatc
     error = ET.parse(written.junit).getroot().find("testcase/error")
     assert error is not None and error.get("type") == "IncompleteRun"
     assert "Incomplete:" in written.html.read_text()
-
-
-def test_criticality_distributions_when_the_campaign_has_them(fake_campaign, tmp_path):
-    import shutil
-
-    import duckdb
-
-    from crashscene.report import charts
-
-    out = tmp_path / "with-criticality"
-    shutil.copytree(fake_campaign, out, ignore=shutil.ignore_patterns("report.html", "results.json", "junit.xml"))
-    con = duckdb.connect(str(out / "campaign.duckdb"))
-    con.execute("CREATE TABLE criticality AS SELECT scenario_hash, seed, mode, variation, 'ego' AS actor_a, "
-                "'npc1' AS actor_b, true AS involves_ads, 0.5 + variation / 10.0 AS min_ttc, "
-                "CASE WHEN variation % 2 = 0 THEN 'NaN'::DOUBLE ELSE 1.0 END AS pet FROM variations")
-    con.close()
-    html = write_report(out, gifs=False).html.read_text()
-    assert html.count('class="criticality"') == 2
-    png = charts.criticality_histograms({"test": {"min_ttc": [0.4, 1.0, float("nan")], "pet": [float("nan")]},
-                                         "reproduce": {"min_ttc": [], "pet": []}})
-    root = ET.fromstring(png)  # well-formed SVG: one panel per metric with a finite value (min_ttc only)
-    assert root.tag.endswith("svg") and root.get("width") == str(charts.PANEL_W)
-    assert sum(e.tag.endswith("rect") and e.get("fill-opacity") == "0.6" for e in root.iter()) == 2  # two bins
-    assert charts.criticality_histograms({"test": {"pet": [float("nan")]}}) is None

@@ -19,18 +19,19 @@ from crashscene.simulate.backend import (
 from crashscene.traces import TABLES
 
 EXAMPLE = Path(__file__).parents[2] / "examples" / "ciren" / "100237" / "golden.yaml"
+STRAIGHT = Path(__file__).parents[1] / "monitor" / "scenarios" / "speeding.yaml"  # a straight road, ego + npc1
 
 
-def _actor(role: str, dispositions: list[str]) -> SampledActor:
+def _actor(role: str, dispositions: list[str], x: float = 50.0) -> SampledActor:
     return SampledActor(role=role, type="car", blueprint="vehicle.lincoln.mkz_2017", behavior="go_forward",
-                        x=0.0, y=0.0, yaw=0.0, speed=10.0, length=4.5, width=1.9, route_intent="straight",
+                        x=x, y=-1.75, yaw=0.0, speed=10.0, length=4.5, width=1.9, route_intent="straight",
                         reference="road", relation="behind", dispositions=dispositions)
 
 
-class DummySimulator(Simulator):
-    """Moves every actor straight ahead at its speed: exercises the shared loop without an engine."""
+class RawColumnsSimulator(Simulator):
+    """Moves every actor straight ahead at its speed, as raw trace columns (`simulate_scene`)."""
 
-    name = "dummy"
+    name = "raw"
 
     def simulate_scene(self, request, scene):
         steps = self.settings.steps + 1
@@ -51,14 +52,15 @@ def test_registry_names_and_unknown_backend():
         get_simulator_class("nope")
 
 
-def test_default_loop_builds_contract_tables():
-    scenario = load_file(EXAMPLE)
-    scenes = [SampledScene(index=i, seed=7, scenario_hash="h", map_file="m.xodr",
-                           actors=[_actor("ego", ["CVC_21453"]), _actor("npc1", ["CVC_21803"])]) for i in range(3)]
+def test_default_loop_builds_contract_tables(straight_map):
+    scenario = load_file(STRAIGHT)
+    scenes = [SampledScene(index=i, seed=7, scenario_hash="h", map_file=str(straight_map),
+                           actors=[_actor("ego", ["CVC_21453"]), _actor("npc1", ["CVC_21803"], x=90.0)])
+              for i in range(3)]
     settings = SimulationSettings(horizon=1.0, mode="test")
     done = []
-    result = DummySimulator(settings).simulate(SimulationRequest(scenario, scenes, Path("m.xodr"), settings,
-                                                                 progress=done.append))
+    result = RawColumnsSimulator(settings).simulate(SimulationRequest(scenario, scenes, straight_map, settings,
+                                                                      progress=done.append))
     assert sum(done) == 3
     for name, schema in TABLES.items():
         assert result.tables[name].schema.equals(schema), name
@@ -71,10 +73,16 @@ def test_default_loop_builds_contract_tables():
     variations = result.tables["variations"].to_pylist()
     assert [v["valid"] for v in variations] == [True, False, True]
     assert variations[1]["invalid_reason"] == "ego never moved" and variations[0]["invalid_reason"] is None
+    # the pose went through the shared recorder: map columns filled, the columns the backend gave kept
+    traces = result.tables["traces"].to_pylist()
+    assert all(r["lane_id"] == "road1_lane0" and r["route_s"] is not None and r["speed_limit"] == r["speed_limit"]
+               for r in traces)
+    assert [r["x"] for r in traces if r["variation"] == 0 and r["actor"] == "ego"][:3] == [50.0, 51.0, 52.0]
+    assert all(r["speed"] == pytest.approx(10.0) and r["yaw"] == 0.0 for r in traces if r["step"] > 0)
 
 
 def test_unknown_ego_role_is_a_clear_error():
     scenario = load_file(EXAMPLE)
     settings = SimulationSettings(ego_role="npc7")
     with pytest.raises(SimulationError, match="npc7.*allowed: ego, npc1"):
-        DummySimulator(settings).simulate(SimulationRequest(scenario, [], Path("m.xodr"), settings))
+        RawColumnsSimulator(settings).simulate(SimulationRequest(scenario, [], Path("m.xodr"), settings))

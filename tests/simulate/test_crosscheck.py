@@ -21,6 +21,7 @@ import pytest
 
 from crashscene.dsl import loads
 from crashscene.simulate.backend import SimulationRequest, SimulationSettings, create_simulator
+from crashscene.units import MPH
 
 pytestmark = pytest.mark.slow
 
@@ -29,7 +30,7 @@ SEED = 2024
 CHECK_TIME = 10.0  # [s]
 TOLERANCE = 1.0  # [m]
 SPEED_LIMIT_MPH = 35
-MPH = 0.44704  # [m/s]
+
 
 SCENARIO = """\
 dsl_version: 1

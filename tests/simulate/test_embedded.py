@@ -11,6 +11,7 @@ import pyarrow.parquet as pq
 import pytest
 
 from crashscene.dsl import load_file
+from crashscene.geometry import classify_contact, heading_difference
 from crashscene.scene import SampledScene
 from crashscene.simulate.backend import (
     SimulationError,
@@ -18,7 +19,6 @@ from crashscene.simulate.backend import (
     SimulationSettings,
     create_simulator,
 )
-from crashscene.simulate.embedded.collisions import classify, rectangles_overlap
 from crashscene.traces import TABLES
 
 from .conftest import EXAMPLES, LANE, actor, crossing_scenes
@@ -43,18 +43,6 @@ def actor_trace(tables, variation: int, role: str) -> dict[str, np.ndarray]:
     mask = pc.and_(pc.equal(t["variation"], variation), pc.equal(t["actor"], role))
     rows = t.filter(mask).to_pydict()
     return {k: np.array(v) for k, v in rows.items()}
-
-
-def test_rectangles_overlap_and_classes():
-    z = np.zeros(3)
-    one = np.ones(3)
-    hit = rectangles_overlap(z, z, z, 4.5 * one, 1.9 * one, np.array([4.0, 4.6, 2.0]), np.array([0.0, 0.0, 2.0]),
-                             np.array([0.0, 0.0, math.pi / 4]), 4.5 * one, 1.9 * one)
-    assert hit.tolist() == [True, False, True]
-    assert classify(0.0, math.pi / 2) == "angle"
-    assert classify(0.0, math.pi) == "head_on"
-    assert classify(0.0, 0.05, dx=5.0) == "rear_end"
-    assert classify(0.0, 0.05, dx=1.0) == "sideswipe"
 
 
 def test_tables_follow_the_contract_and_straight_driving_is_exact(straight_map):
@@ -113,7 +101,7 @@ def test_reproduce_collides_and_the_reference_ads_yields(four_way_map):
     assert len(crashed) >= 20  # the timing plan makes the paths meet
     row = reproduce["collisions"].to_pylist()[0]
     assert {row["actor_a"], row["actor_b"]} == {"ego", "npc1"}
-    assert classify(row["yaw_a"], row["yaw_b"]) == "angle"
+    assert classify_contact(heading_difference(row["yaw_a"], row["yaw_b"])) == "angle"
     # the reference ADS watches crossing traffic that is not slowing for its yield line and lets it pass
     assert len(set(test["collisions"]["variation"].to_pylist())) < len(crashed) / 2
     ads = test["actors"].filter(pc.equal(test["actors"]["actor"], "ego")).to_pylist()[0]
@@ -190,7 +178,8 @@ def test_head_on_when_the_npc_crosses_the_centre_line(straight_map):
     for r in rows:  # ordered by (variation, t): every contact onset, the first one per variation first
         first.setdefault(r["variation"], r)
     assert len(first) >= 7
-    assert all(classify(r["yaw_a"], r["yaw_b"]) in ("head_on", "sideswipe") for r in first.values())
+    assert all(classify_contact(heading_difference(r["yaw_a"], r["yaw_b"])) in ("head_on", "sideswipe")
+               for r in first.values())
     npc = actor_trace(tables, 0, "npc1")
     assert npc["opposing_lane"].any() and np.nanmax(npc["centerline_intrusion"]) > 0.1
 

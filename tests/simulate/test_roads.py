@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from crashscene.simulate.backend import SimulationError
+from crashscene.simulate.embedded.world import RouteArrays
 from crashscene.simulate.roads import ROUTE_DS, RoadMap
 
 from .conftest import LANE, TOWN02
@@ -39,8 +40,8 @@ def test_route_takes_the_intended_manoeuvre(four_way_map, intent, end_heading):
 def test_project_and_lookup(four_way_map):
     roadmap = RoadMap.load(four_way_map)
     route = roadmap.route("road1_lane0", "straight")
-    s, d = route.project(50.0, 0.0)
-    assert s == pytest.approx(50.0, abs=0.01) and d == pytest.approx(LANE / 2, abs=0.01)
+    s, d = route.local_coordinates(np.array([50.0, 80.0]), np.array([0.0, -3.5]))
+    assert s == pytest.approx([50.0, 80.0], abs=0.01) and d == pytest.approx([LANE / 2, LANE / 2 - 3.5], abs=0.01)
     lane, junction = roadmap.lookup(np.array([50.0, 50.0, 162.0, 50.0]), np.array([-1.75, 1.75, 0.0, 30.0]))
     assert [roadmap.lanes[k].uid if k >= 0 else None for k in lane[[0, 1, 3]]] == ["road1_lane0", "road1_lane1", None]
     assert junction[2] >= 0 and junction[0] == -1
@@ -61,3 +62,16 @@ def test_centre_line_marker_is_read_from_the_file(straight_map):
 def test_missing_map_is_a_clear_error(tmp_path):
     with pytest.raises(SimulationError, match="map file not found"):
         RoadMap.load(tmp_path / "nope.xodr")
+
+
+def test_route_arrays_local_coordinates_inverts_point(four_way_map):
+    roadmap = RoadMap.load(four_way_map)
+    arrays = RouteArrays.pack([roadmap.route("road1_lane0", "left"), roadmap.route("road1_lane0", "straight")])
+    r = np.array([0, 0, 1, 1])
+    s = np.array([20.0, 57.3, 33.3, 140.0])
+    d = np.array([0.8, -1.2, 0.0, 1.5])
+    x, y, yaw = arrays.point(r, s)
+    px, py = x - np.sin(yaw) * d, y + np.cos(yaw) * d
+    got_s, got_d, got_yaw = arrays.local_coordinates(r, px, py, s + 1.5)
+    assert got_s == pytest.approx(s, abs=0.05) and got_d == pytest.approx(d, abs=0.05)
+    assert np.cos(got_yaw - yaw) == pytest.approx(1.0, abs=1e-3)

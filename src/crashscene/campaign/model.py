@@ -59,8 +59,22 @@ COLLISION_ROWS = pa.schema([
     ("delta_v_a", pa.float64()),     # [m/s] when the simulator records it
     ("delta_v_b", pa.float64()),
 ])
+CRITICALITY_ROWS = pa.schema([     # monitor.criticality per (variation, actor pair)
+    ("variation", pa.int32()),
+    ("actor_a", pa.string()),
+    ("actor_b", pa.string()),
+    ("involves_ads", pa.bool_()),
+    ("min_ttc", pa.float64()),       # [s]
+    ("pet", pa.float64()),           # [s]
+    ("min_thw", pa.float64()),       # [s]
+    ("max_drac", pa.float64()),      # [m/s2]
+    ("collided", pa.bool_()),
+    ("impact_speed", pa.float64()),  # [m/s]
+    ("delta_v_a", pa.float64()),     # [m/s]
+    ("delta_v_b", pa.float64()),     # [m/s]
+])
 ROW_SCHEMAS = {"variations": VARIATION_ROWS, "violations": VIOLATION_ROWS, "collisions": COLLISION_ROWS,
-               **SHOWN_SCHEMAS}
+               "criticality": CRITICALITY_ROWS, **SHOWN_SCHEMAS}
 
 
 class SimOptions(BaseModel):
@@ -109,6 +123,8 @@ class ChunkResult:
     shown: pa.Table = field(default_factory=SHOWN_ROWS.empty_table)  # the report's candidates (campaign.keep)
     shown_traces: pa.Table = field(default_factory=SHOWN_TRACE_ROWS.empty_table)
     shown_actors: pa.Table = field(default_factory=SHOWN_ACTOR_ROWS.empty_table)
+    criticality: pa.Table | None = None   # None: the worker computed no criticality metrics
 
     def table(self, name: str) -> pa.Table:
-        return getattr(self, name)
+        table = getattr(self, name)
+        return ROW_SCHEMAS[name].empty_table() if table is None else table

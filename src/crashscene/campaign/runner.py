@@ -23,6 +23,7 @@ from crashscene.campaign.engines import make_engine, quiet_scenic_warnings
 from crashscene.campaign.errors import CampaignError
 from crashscene.campaign.model import MODES, ChunkResult, ChunkTask, SimOptions
 from crashscene.campaign.progress import CampaignProgress
+from crashscene.campaign.search import SearchPlan, check_plan
 from crashscene.campaign.store import Store
 
 PARALLEL_PREPARE_MIN = 4  # cases from which preparation runs in the process pool
@@ -34,7 +35,7 @@ class CampaignConfig(BaseModel):
 
     model_config = ConfigDict(extra="forbid")
 
-    n: int = Field(gt=0, description="variations per case and mode")
+    n: int = Field(ge=0, description="variations per case and mode (0: searches only)")
     seed: int = 0
     modes: tuple[str, ...] = MODES
     engine: str = "local"
@@ -47,6 +48,7 @@ class CampaignConfig(BaseModel):
     dsl_name: str | None = Field(default=None, description="use CASE/<dsl_name> when present instead of extracting")
     llm: dict[str, str] = Field(default_factory=dict, description="model, base_url, model_path for the LLM extractors")
     sim: SimOptions = SimOptions()
+    search: SearchPlan | None = Field(default=None, description="`--search`: searches per case after the runs")
 
 
 class RunSummary(BaseModel):
@@ -82,6 +84,7 @@ class CampaignSummary(BaseModel):
     cases: list[dict]
     runs: list[RunSummary]
     complete: bool
+    searches: list[dict] = []  # one per stored search: case, sampler, objective, budget, failures, min objective
 
 
 def plan_chunks(n: int, chunk_size: int) -> list[tuple[int, int]]:
@@ -116,6 +119,10 @@ def run_campaign(cases: str | Path | Sequence[str | Path], out_dir: str | Path, 
     start = time.perf_counter()
     if config.engine not in ("local", "ray"):
         raise CampaignError(f"unknown engine {config.engine!r}; allowed: local, ray")
+    if config.n == 0 and config.search is None:
+        raise CampaignError("-n 0 runs nothing; give -n N or --search SAMPLER")
+    if config.search is not None:
+        check_plan(config.search)
     if config.address and config.engine != "ray":
         raise CampaignError("--address joins a Ray cluster; use it with --engine ray")
     with Store(out) as store:
@@ -131,6 +138,12 @@ def run_campaign(cases: str | Path | Sequence[str | Path], out_dir: str | Path, 
                 store.put_case(case.case_id, case.case_dir, case.status, case.error, case.scenario_hash,
                                case.extract_backend, case.warnings, case.seconds)
             ran, failures = _run_chunks(store, engine, tasks, worker, session, prepared, skipped, live, quiet)
+            if config.search is not None:
+                from crashscene.campaign.search import run_searches
+
+                note = (lambda line: None) if quiet else (lambda line: print(line, file=sys.stderr, flush=True))
+                failures += run_searches(store, engine, prepared, config.search, config.seed, config.sim.ego_role,
+                                         out, note)[2]
         except BaseException:  # Ctrl-C or a store error: stop the workers now, finished chunks are stored
             engine.abort()
             raise
@@ -145,7 +158,9 @@ def run_campaign(cases: str | Path | Sequence[str | Path], out_dir: str | Path, 
             failures=[{k: f[k] for k in ("chunk", "error")} for f in failures],
             cases=[c.model_dump(include={"case_id", "status", "error", "scenario_hash", "extract_backend"})
                    for c in prepared],
-            runs=summarize_runs(store), complete=failed == 0 and all(c.status == "ok" for c in prepared))
+            runs=summarize_runs(store), complete=failed == 0 and all(c.status == "ok" for c in prepared),
+            searches=store.query("SELECT case_id, sampler, objective, budget, evaluated, failures, min_objective "
+                                 "FROM searches ORDER BY case_id, sampler"))
 
 
 def _run_chunks(store: Store, engine, tasks: list[ChunkTask], worker, session: int, prepared: list[PreparedCase],
@@ -202,7 +217,7 @@ def _plan(store: Store, prepared: list[PreparedCase], config: CampaignConfig, ou
     for case in prepared:
         if case.status != "ok":
             continue
-        for mode in config.modes:
+        for mode in (config.modes if config.n else ()):
             if (case.scenario_hash, mode) in seen:  # two cases with the same scenario share its rows
                 continue
             seen.add((case.scenario_hash, mode))

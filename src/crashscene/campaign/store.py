@@ -3,8 +3,10 @@
 Tables (keys: scenario_hash, seed, mode, variation):
 - `cases`: one row per case folder (status, error, scenario hash, extraction backend);
 - `runs`: one row per (scenario_hash, seed, mode) with n, chunk size and the DSL text;
-- `variations`, `violations`, `collisions`: result rows (`model.ROW_SCHEMAS` + keys);
 - `shown`, `shown_traces`, `shown_actors`: the variations the report draws and their traces (`keep`);
+- `variations`, `violations`, `collisions`, `criticality`: result rows (`model.ROW_SCHEMAS` + keys);
+- `searches`, `search_evaluations`: `campaign --search` (see `campaign.search`), one row per finished
+  search and one per variation it evaluated, written together;
 - `chunks`: one row per finished chunk, written in the SAME transaction as its result
   rows, so a chunk is either fully stored and marked done or absent (kill -9 included);
 - `chunk_errors`: chunks whose worker failed (retried on resume);
@@ -67,6 +69,19 @@ ALTER TABLE collisions ADD COLUMN IF NOT EXISTS area_a VARCHAR;
 ALTER TABLE collisions ADD COLUMN IF NOT EXISTS area_b VARCHAR;
 ALTER TABLE collisions ADD COLUMN IF NOT EXISTS delta_v_a DOUBLE;
 ALTER TABLE collisions ADD COLUMN IF NOT EXISTS delta_v_b DOUBLE;
+CREATE TABLE IF NOT EXISTS criticality (
+    {KEYS}, variation INTEGER NOT NULL, actor_a VARCHAR, actor_b VARCHAR, involves_ads BOOLEAN, min_ttc DOUBLE,
+    pet DOUBLE, min_thw DOUBLE, max_drac DOUBLE, collided BOOLEAN, impact_speed DOUBLE, delta_v_a DOUBLE,
+    delta_v_b DOUBLE);
+CREATE TABLE IF NOT EXISTS searches (
+    scenario_hash VARCHAR NOT NULL, seed BIGINT NOT NULL, sampler VARCHAR NOT NULL, objective VARCHAR NOT NULL,
+    budget INTEGER NOT NULL, case_id VARCHAR, evaluated INTEGER, failures INTEGER, min_objective DOUBLE,
+    best_parameters VARCHAR, summary VARCHAR, seconds DOUBLE, finished_at TIMESTAMP,
+    PRIMARY KEY (scenario_hash, seed, sampler, objective, budget));
+CREATE TABLE IF NOT EXISTS search_evaluations (
+    scenario_hash VARCHAR NOT NULL, seed BIGINT NOT NULL, sampler VARCHAR NOT NULL, objective VARCHAR NOT NULL,
+    budget INTEGER NOT NULL, variation INTEGER NOT NULL, round INTEGER, objective_value DOUBLE, verdict VARCHAR,
+    failure BOOLEAN, min_ttc DOUBLE, params VARCHAR);
 """
 
 

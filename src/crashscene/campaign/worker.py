@@ -18,7 +18,14 @@ import pyarrow.compute as pc
 import pyarrow.parquet as pq
 
 from crashscene.campaign import keep
-from crashscene.campaign.model import COLLISION_ROWS, VARIATION_ROWS, VIOLATION_ROWS, ChunkResult, ChunkTask
+from crashscene.campaign.model import (
+    COLLISION_ROWS,
+    CRITICALITY_ROWS,
+    VARIATION_ROWS,
+    VIOLATION_ROWS,
+    ChunkResult,
+    ChunkTask,
+)
 from crashscene.dsl import loads
 
 
@@ -48,7 +55,10 @@ def _simulate_and_monitor(task: ChunkTask, run_dir: Path) -> ChunkResult:
                       backend=opts.backend, ego_role=opts.ego_role, map_mode=opts.map_mode,
                       carla_maps=Path(opts.carla_maps) if opts.carla_maps else None, sampler=opts.sampler)
     tables = {name: read_table(run_dir, name) for name in TABLES if (run_dir / f"{name}.parquet").exists()}
-    return rows_from(tables, _monitor(run_dir, opts.rules_file), _ads_ttc(run_dir))
+    result = rows_from(tables, _monitor(run_dir, opts.rules_file), _ads_ttc(run_dir))
+    if (run_dir / "criticality.parquet").exists():
+        result.criticality = pq.read_table(run_dir / "criticality.parquet").select(CRITICALITY_ROWS.names)
+    return result
 
 
 def _ads_ttc(run_dir: Path) -> dict[int, float] | None:

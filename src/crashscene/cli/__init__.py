@@ -20,6 +20,8 @@ from crashscene.cli import report_commands  # noqa: E402,F401  (registers report
 from crashscene.cli import monitor_commands  # noqa: E402,F401  (registers monitor)
 from crashscene.cli import simulate_commands  # noqa: E402,F401  (registers simulate)
 from crashscene.cli import render_commands  # noqa: E402,F401  (registers render, sample)
+from crashscene.cli import export_commands  # noqa: E402,F401  (registers export)
+from crashscene.cli import search_commands  # noqa: E402,F401  (registers search)
 
 
 def main() -> None:

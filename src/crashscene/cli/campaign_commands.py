@@ -15,17 +15,19 @@ ModeOpt = Annotated[str, typer.Option("--mode", help="reproduce (re-enact the cr
 
 def build_config(n: int, seed: int, mode: str, engine: str, workers: int | None, address: str | None, resume: bool,
                  chunk_size: int, extractor: str, dsl: str | None, simulator: str, ego: str, map_mode: str,
-                 carla_maps: Path | None, rules: Path | None = None, sampler: str | None = None):
+                 carla_maps: Path | None, rules: Path | None = None, sampler: str | None = None,
+                 search: list[str] | None = None, budget: int = 400, objective: str = "robustness"):
     """Options -> CampaignConfig, with the CLI's spelling of each bad value in the error."""
     from crashscene.campaign import CampaignConfig, CampaignError, SimOptions
+    from crashscene.campaign.search import SearchPlan, check_plan
 
     modes = {"both": ("reproduce", "test"), "reproduce": ("reproduce",), "test": ("test",)}
     if mode not in modes:
         raise CampaignError(f"--mode {mode!r}: allowed: {', '.join(modes)}")
     if map_mode not in ("generated", "carla"):
         raise CampaignError(f"--map {map_mode!r}: allowed: generated, carla")
-    if n <= 0:
-        raise CampaignError(f"-n {n}: the number of variations must be positive")
+    if n < 0 or (n == 0 and not search):
+        raise CampaignError(f"-n {n}: the number of variations must be positive (0 only with --search)")
     if extractor not in EXTRACTORS:
         raise CampaignError(f"--extractor {extractor!r}: allowed: {', '.join(EXTRACTORS)}")
     from crashscene.simulate import backend_names
@@ -43,8 +45,12 @@ def build_config(n: int, seed: int, mode: str, engine: str, workers: int | None,
     sim = SimOptions(sampler=sampler, backend=simulator, ego_role=ego, map_mode=map_mode,
                      carla_maps=str(carla_maps.resolve()) if carla_maps else None,
                      rules_file=str(rules.resolve()) if rules else None)
+    plan = SearchPlan(samplers=tuple(search), budget=budget, objective=objective) if search else None
+    if plan is not None:
+        check_plan(plan)
     return CampaignConfig(n=n, seed=seed, modes=modes[mode], engine=engine, workers=workers, address=address,
-                          resume=resume, chunk_size=chunk_size, extract_backend=extractor, dsl_name=dsl, sim=sim)
+                          resume=resume, chunk_size=chunk_size, extract_backend=extractor, dsl_name=dsl, sim=sim,
+                          search=plan)
 
 
 def print_summary(summary, as_json: bool) -> None:
@@ -68,7 +74,11 @@ def print_summary(summary, as_json: bool) -> None:
         table.add_row(run.case_id, run.mode, str(run.variations), str(run.valid), str(v.get("pass", 0)),
                       str(v.get("violation", 0)), str(v.get("collision", 0)), str(v.get("invalid", 0)), rate,
                       f"{run.first_contact_rate:.0%}" if run.first_contact_rate is not None else "-")
-    console.print(table)
+    if summary.runs:
+        console.print(table)
+    for row in summary.searches:
+        console.print(f"search {row['case_id']} [{row['sampler']}, {row['objective']}]: {row['failures']} failures "
+                      f"in {row['evaluated']} variations, min objective {row['min_objective']}")
     for failure in summary.failures[:20]:
         console.print(f"[red]chunk {failure['chunk']} failed:[/red] {failure['error'].splitlines()[0]}", soft_wrap=True)
     if len(summary.failures) > 20:
@@ -87,7 +97,8 @@ def print_summary(summary, as_json: bool) -> None:
 @app.command()
 def campaign(
     cases_dir: Annotated[Path, typer.Argument(help="Folder of case folders (narrative.txt, sketch) or scenario .yaml files.")],
-    n: Annotated[int, typer.Option("-n", help="Variations per case and mode.")] = 2000,
+    n: Annotated[Optional[int], typer.Option("-n", help="Variations per case and mode [default: 2000, or none "
+                                                        "with --search].")] = None,
     out: Annotated[Path, typer.Option("--out", "-o", help="Output folder (DuckDB, artefacts, report).")] = Path("out/campaign"),
     engine: Annotated[str, typer.Option("--engine", help="local (process pool) or ray.")] = "local",
     workers: Annotated[Optional[int], typer.Option("--workers", min=1, help="Worker processes / Ray CPUs [default: all cores].")] = None,
@@ -106,17 +117,22 @@ def campaign(
     map_mode: Annotated[str, typer.Option("--map", help="generated or carla.")] = "generated",
     carla_maps: Annotated[Optional[Path], typer.Option("--carla-maps", help="Folder of CARLA .xodr towns (--map carla).")] = None,
     rules: Annotated[Optional[Path], typer.Option("--rules", help="YAML rulebook overriding the monitor's thresholds.")] = None,
-    sampler: Annotated[Optional[str], typer.Option("--sampler", help="Scene sampler: compiled (numpy) or scenic (the reference) [default: compiled; scenic for newtonian and carla].")] = None,
+    sampler: Annotated[Optional[str], typer.Option("--sampler", help="Scene sampler: compiled (numpy) or scenic (the reference) (default: compiled; scenic for newtonian and carla).")] = None,
     keep_traces: Annotated[bool, typer.Option("--keep-traces", help="Keep every chunk's traces under OUT/cases.")] = False,
     report: Annotated[bool, typer.Option("--report/--no-report", help="Write OUT/report.html at the end.")] = True,
+    search: Annotated[Optional[list[str]], typer.Option("--search", help="Also search each case with this sampler "
+                                                                       "(random, halton, ce, bo; repeatable).")] = None,
+    budget: Annotated[int, typer.Option("--budget", help="Variations per search (--search).")] = 400,
+    objective: Annotated[str, typer.Option("--objective", help="Search objective: robustness or ttc.")] = "robustness",
     as_json: Annotated[bool, typer.Option("--json", help="Summary as JSON on stdout.")] = False,
 ) -> None:
-    """Run N variations of every case, chunked into a resumable DuckDB campaign."""
+    """Run N variations of every case, chunked into a resumable DuckDB campaign (and searches with --search)."""
     from crashscene.campaign import CampaignError, run_campaign
 
     try:
+        n = n if n is not None else (0 if search else 2000)
         config = build_config(n, seed, mode, engine, workers, address, resume, chunk_size, extractor, dsl,
-                              simulator, ego, map_mode, carla_maps, rules, sampler)
+                              simulator, ego, map_mode, carla_maps, rules, sampler, search, budget, objective)
         llm = {k: str(v) for k, v in (("model", model), ("base_url", base_url), ("model_path", model_path)) if v}
         config = config.model_copy(update={"llm": llm})
         config = config.model_copy(update={"keep_traces": keep_traces})
@@ -128,7 +144,7 @@ def campaign(
         typer.echo(f"interrupted; finished chunks are stored in {out}; continue with --resume", err=True)
         raise typer.Exit(130) from None
     print_summary(summary, as_json)
-    if report and any(r.variations for r in summary.runs):
+    if report and (any(r.variations for r in summary.runs) or summary.searches):
         write_report_cli(out, quiet=as_json)
     raise typer.Exit(0 if summary.complete else 1)
 

@@ -18,7 +18,7 @@ def monitor(
                                                "(rules: {CVC_21703: {min_headway: 1.5}}).")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print the summary as JSON on stdout.")] = False,
 ) -> None:
-    """Check every actor of every variation against the 12 California Vehicle Code rules, classify
+    """Check every actor of every variation against the rulebook (`crashscene rules`), classify
     collisions and give each variation a verdict; writes rule_results.parquet, collisions_classified.parquet,
     verdicts.parquet and monitor.json into RUN_DIR."""
     from crashscene.monitor import MonitorError, monitor_run

@@ -50,10 +50,10 @@ def simulate(
     dt: Annotated[float, typer.Option("--dt", help="Time step [s].")] = 0.1,
     horizon: Annotated[float, typer.Option("--horizon", help="Simulated time per variation [s].")] = 20.0,
     workers: Annotated[Optional[int], typer.Option("--workers", min=1, help="Processes simulating blocks of "
-                                                  "variations (same bytes for any value) [default: all cores].")] = None,
+                                                  "variations (same bytes for any value) (default: all cores).")] = None,
     sampler: Annotated[Optional[str], typer.Option("--sampler", help="compiled (numpy, from render's sampler.json) "
-                                                   "or scenic (Scenic's own sampler, the reference) [default: "
-                                                   "compiled; scenic for newtonian and carla].")] = None,
+                                                   "or scenic (Scenic's own sampler, the reference) (default: "
+                                                   "compiled; scenic for newtonian and carla).")] = None,
     map_mode: Annotated[str, typer.Option("--map", help="generated or carla.")] = "generated",
     carla_maps: Annotated[Path | None, typer.Option("--carla-maps", help="Folder of CARLA .xodr towns.")] = None,
     carla_host: Annotated[str, typer.Option("--carla-host", help="CARLA server host.")] = "127.0.0.1",

@@ -150,21 +150,23 @@ def areas_fit_class(klass: CollisionClass, striking_area: ImpactArea, struck_are
     return frozenset({ImpactArea(striking_area), ImpactArea(struck_area)}) in CLASS_AREAS[CollisionClass(klass)]
 
 
-# The monitored rulebook (../shared/spec/rules.md): code -> violation token.
-MONITORED_CODES: dict[str, str] = {
-    "CVC_21453": "red_light",
-    "CVC_22450": "stop_sign",
-    "CVC_21800": "intersection_right_of_way",
-    "CVC_21801": "left_turn_yield",
-    "CVC_21802": "stop_sign_yield",
-    "CVC_22350": "unsafe_speed",
-    "CVC_22349": "speed_limit",
-    "CVC_21460": "double_line_crossing",
-    "CVC_21650": "wrong_side",
-    "CVC_22107": "unsafe_lane_change",
-    "CVC_21703": "following_too_closely",
-    "CVC_21803": "yield_sign",
-}
+def monitored_codes() -> dict[str, str]:
+    """The monitored rulebook: code -> violation token, in rulebook order.
+
+    Derived from the monitor's rule registry (each rule class declares its
+    code and token, `crashscene.monitor.rules`); imported on first use, since
+    the monitor builds on the DSL. `MONITORED_CODES` is the same table.
+    """
+    from crashscene.monitor.rules import monitored_codes as registered
+
+    return registered()
+
+
+def __getattr__(name: str):
+    if name == "MONITORED_CODES":  # derived on each use: rules registered later are monitored too
+        return monitored_codes()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
 
 CODE_PATTERN = re.compile(r"^CVC_[0-9]+[A-Za-z]?$")
 NPC_PATTERN = re.compile(r"^npc[1-9][0-9]*$")

@@ -12,7 +12,7 @@ from pathlib import Path
 from crashscene.dsl.errors import Diagnostic, DslError, Severity
 from crashscene.dsl.io import parse_yaml, from_raw
 from crashscene.dsl.model import Scenario
-from crashscene.dsl.tokens import MONITORED_CODES, CLASS_AREAS, Heading, RoadElement, RoadType, Sign, areas_fit_class
+from crashscene.dsl.tokens import CLASS_AREAS, Heading, RoadElement, RoadType, Sign, areas_fit_class, monitored_codes
 
 ERROR, WARNING = Severity.ERROR, Severity.WARNING
 _SIGN_REFERENCES = {RoadElement.STOP_SIGN: Sign.STOP_SIGN, RoadElement.YIELD_SIGN: Sign.YIELD_SIGN,
@@ -99,12 +99,13 @@ def _road_checks(s: Scenario) -> Iterator[Diagnostic]:
 
 def _oracle_checks(s: Scenario) -> Iterator[Diagnostic]:
     seen: set[tuple[str, str]] = set()
+    monitored = monitored_codes()
     for index, entry in enumerate(s.oracle):
         path = f"oracle[{index}]"
         if entry.actor not in s.actors:
             yield Diagnostic("oracle actor does not exist", f"{path}.actor", value=entry.actor,
                              allowed=list(s.actors))
-        expected = MONITORED_CODES.get(entry.code)
+        expected = monitored.get(entry.code)
         if expected is not None and entry.violation != expected:
             yield Diagnostic(f"{entry.code} is monitored under the violation token {expected!r}",
                              f"{path}.violation", value=entry.violation, allowed=[expected])

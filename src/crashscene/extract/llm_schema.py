@@ -27,7 +27,6 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from crashscene.dsl import DslError, Diagnostic, Scenario, from_raw
 from crashscene.dsl.tokens import (
-    MONITORED_CODES,
     ActorType,
     Behavior,
     CollisionClass,
@@ -42,6 +41,7 @@ from crashscene.dsl.tokens import (
     Sign,
     TimeOfDay,
     Weather,
+    monitored_codes,
 )
 
 MAX_NPCS = 9  # the closed role vocabulary: ego, npc1..npc9 (CIREN cases involve at most 5 vehicles)
@@ -194,7 +194,7 @@ def to_scenario(reply: LlmScenario, scenario_id: str | None = None, source: str 
     oracle = []
     for index, entry in enumerate(reply.oracle):
         # the monitored codes have a fixed token: a table lookup, not a judgement left to the model
-        violation = MONITORED_CODES.get(entry.code, entry.violation)
+        violation = monitored_codes().get(entry.code, entry.violation)
         oracle.append({"code": entry.code, "violation": violation, "actor": entry.actor.value,
                        "description": entry.description.strip()[:2000]})
         if entry.quote.strip():
@@ -253,7 +253,8 @@ def from_scenario(scenario: Scenario) -> LlmScenario:
                                     road_marker=road.road_marker, traffic_signs=road.traffic_signs,
                                     speed_limit_mph=road.speed_limit_mph, curve_direction=road.curve_direction),
         ego=ego_reply, npcs=[npc(name, actor) for name, actor in scenario.npcs.items()], oracle=oracle,
-        collisions=[LlmContact(quote=scenario.evidence.get("collisions", "") if index == 0 else "",
+        collisions=[LlmContact(quote=scenario.evidence.get(f"collisions[{index}]")
+                               or (scenario.evidence.get("collisions", "") if index == 0 else ""),
                                striking=c.striking, struck=c.struck, striking_area=c.striking_area,
                                struck_area=c.struck_area, collision_class=c.class_)
                     for index, c in enumerate(scenario.collisions or [])])

@@ -12,7 +12,8 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass, field
 
-KMH_PER_MPH = 1.609344
+from crashscene.units import KMH_PER_MPH
+
 NUMBERS = {"one": 1, "two": 2, "three": 3, "four": 4, "five": 5, "six": 6, "seven": 7, "eight": 8, "nine": 9,
            "ten": 10, "single": 1, "1": 1, "2": 2, "3": 3, "4": 4, "5": 5, "6": 6, "7": 7, "8": 8, "9": 9}
 NUM = r"(one|two|three|four|five|six|seven|eight|nine|ten|single|\d)"  # a lane or leg count in words or digits

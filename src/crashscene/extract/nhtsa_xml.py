@@ -14,7 +14,8 @@ import xml.etree.ElementTree as ET
 from pathlib import Path
 
 from crashscene.extract.errors import ReportError
-from crashscene.extract.sketch import KMH_PER_MPH, SketchFact
+from crashscene.extract.sketch import SketchFact
+from crashscene.units import KMH_PER_MPH
 
 MAX_XML_BYTES = 20_000_000  # [bytes] case files with images inlined stay far below
 SOURCE = "nhtsa:xml"

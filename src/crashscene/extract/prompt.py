@@ -2,8 +2,10 @@
 
 The system message states what the DSL is, enumerates every allowed token
 (read from `crashscene.dsl.tokens`, so the prompt cannot drift from the
-validator), and walks the model through four constrained decisions in order:
-environment, road network, actors, oracle. Each decision must rest on a quote
+validator), and walks the model through five constrained decisions in order:
+environment, road network, actors, the crash sequence (collisions), oracle; the
+oracle step derives each entry from the decided manoeuvres, devices and contacts
+(dsl.md convention 9). Each decision must rest on a quote
 from the narrative or on a sketch fact; quotes go into the per-section
 `evidence` lists that the structured-output schema places before the values.
 
@@ -29,11 +31,12 @@ from typing import Any
 
 from crashscene.dsl import Scenario, loads
 from crashscene.dsl.tokens import (
-    MONITORED_CODES,
     ActorType,
     Behavior,
+    CollisionClass,
     CurveDirection,
     Heading,
+    ImpactArea,
     Relation,
     RoadElement,
     RoadMarker,
@@ -42,26 +45,18 @@ from crashscene.dsl.tokens import (
     Sign,
     TimeOfDay,
     Weather,
+    monitored_codes,
 )
 
 DEFAULT_EXEMPLARS = 3
 EXEMPLAR_ORDER = ("100237", "103378", "120013", "3-C1-2018-005")  # intersection, head-on, rear-end, curve
 
-# When each monitored code applies (conventions, dsl.md section 5.9); the violation token comes from MONITORED_CODES.
-CODE_GUIDE: dict[str, str] = {
-    "CVC_21650": "drove on the wrong side: entered or drifted into the opposing lanes (crossed the centre line)",
-    "CVC_21460": "crossed a double solid centre line (add it beside CVC_21650 when road_marker is double_solid_line)",
-    "CVC_22350": "lost control, too fast for conditions, or struck a STOPPED vehicle ahead",
-    "CVC_21703": "struck a MOVING vehicle ahead in the same lane (following too closely)",
-    "CVC_21453": "entered against a red light",
-    "CVC_22450": "did not stop at a stop sign",
-    "CVC_21802": "stopped (or stop not stated) at a stop sign, then entered into cross traffic",
-    "CVC_21803": "did not yield at a yield sign",
-    "CVC_21801": "turned left across oncoming traffic that was too close",
-    "CVC_21800": "at an uncontrolled junction, did not yield to the vehicle with priority",
-    "CVC_22107": "changed lanes or merged into another vehicle",
-    "CVC_22349": "speeding above the posted limit is stated",
-}
+def code_guide() -> dict[str, str]:
+    """When each monitored code applies (conventions, dsl.md section 5.9), as its rule class words it
+    (`Rule.guide`), in rulebook order; the violation token comes from the same class."""
+    from crashscene.monitor.rules import registered_rules
+
+    return {code: cls.guide for code, cls in registered_rules().items() if cls.guide}
 
 
 @dataclass(frozen=True)
@@ -77,7 +72,8 @@ def system_prompt() -> str:
     def tokens(enum: Any) -> str:
         return ", ".join(member.value for member in enum)
 
-    codes = "\n".join(f"  - {code} ({MONITORED_CODES[code]}): {guide}" for code, guide in CODE_GUIDE.items())
+    monitored = monitored_codes()
+    codes = "\n".join(f"  - {code} ({monitored[code]}): {guide}" for code, guide in code_guide().items())
     return f"""\
 You convert a police/NHTSA CIREN crash report (a narrative and facts read from its sketch) into one \
 Extended Scenic DSL scenario: what happened, never coordinates. Reply with JSON that fits the given schema. \
@@ -119,8 +115,29 @@ STEP 3 actors: ego is V1 (the case vehicle); npcs are the other vehicles in repo
   Cross traffic at a junction references the junction element or its device, relation = the side it comes from, heading from_left/from_right, worked out from the travel directions (V1 eastbound, V2 northbound: V2 comes from V1's right).
 - speed_mph: only when the report states that vehicle's speed, else null.
 
-STEP 4 oracle: every California Vehicle Code violation the pre-crash sequence entails, attributed to the \
-actor that committed it, with a one-sentence description and a supporting quote. Monitored codes \
+STEP 4 collisions: the crash sequence, every contact between two actors in the order it happens (first \
+harmful event first; "(Event 2)" numbers give the order). Contacts with trees, poles, barriers, curbs or \
+animals are never listed; a run-off-road crash with no contact between actors has collisions []. For each \
+contact quote the impact sentence, then give:
+- striking and struck: the roles the report says struck and was struck ("the front of V2 struck the right side \
+of V1": striking npc1, struck ego; "V1 was struck by V3": striking npc2). When the report says "V1 struck V2" \
+keep that wording even if V2 moved into V1's path. A vehicle pushed into another by a first impact makes its \
+own later contact ("the impact pushed V1 into V3": striking ego, struck npc2).
+- striking_area, struck_area: {tokens(ImpactArea)}: the plane of each vehicle that touched ("frontal plane" \
+-> front, "back plane" -> rear, "left side" -> left). When the report names no area, use the damage it \
+describes, else the geometry: front into the rear of a vehicle ahead, front into the front of an oncoming one, \
+front into the side of a crossing one (a vehicle crossing from the striker's left is hit on its right side).
+- class: {tokens(CollisionClass)}: front into rear, same direction -> rear_end; front into front -> head_on; \
+front into a side (T-type, L-type, oblique) -> angle; side against side or a glancing corner -> sideswipe. \
+"head-on", "sideswiped", "rear-ended", "front-to-rear", "T-type" in the report settle it.
+
+STEP 5 oracle: every California Vehicle Code violation the pre-crash sequence entails, attributed to the \
+actor that committed it, with a one-sentence description and a supporting quote. Derive each entry from what \
+you decided: the behaviours (cross_centerline or overtake -> CVC_21650, and CVC_21460 too when road_marker is \
+double_solid_line; lose_control -> CVC_22350; a lane change into another vehicle -> CVC_22107), the devices \
+on each approach, the collisions (a vehicle that drove its front into the rear of a moving vehicle ahead -> \
+CVC_21703, of a stopped one -> CVC_22350; never for a contact it was pushed into) and the report's cause \
+statements ("failed to stop", "too fast for conditions", "ran the red light", "speeding"). Monitored codes \
 (code, violation token, when):
 {codes}
   Other codes are allowed when the report clearly supports them (e.g. CVC_21804 driveway_yield: left a \
@@ -149,7 +166,7 @@ def case_message(narrative: str, facts: list[str] | tuple[str, ...], image: dict
     fact_lines = "\n".join(f"- {fact}" for fact in facts) if facts else "- (no sketch facts)"
     text = (f"Crash report narrative:\n<<<\n{narrative.strip()}\n>>>\n\n"
             f"Sketch facts (read offline from the crash sketch; may be partial):\n{fact_lines}\n\n"
-            "Extract the scenario: environment, then road_network, then actors, then oracle.")
+            "Extract the scenario: environment, then road_network, then actors, then collisions, then oracle.")
     if image is None:
         return {"role": "user", "content": text}
     return {"role": "user", "content": [{"type": "text", "text": text},

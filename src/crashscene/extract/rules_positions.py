@@ -5,8 +5,9 @@ from __future__ import annotations
 
 import re
 
-from crashscene.extract.narrative import KMH_PER_MPH, around, label_at
+from crashscene.extract.narrative import around, label_at
 from crashscene.extract.rules_state import RulesState, Vehicle, has_cross_traffic, relative_heading
+from crashscene.units import KMH_PER_MPH
 
 
 def decide_actors(state: RulesState, road: dict) -> dict:

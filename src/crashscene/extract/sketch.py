@@ -26,10 +26,10 @@ from pathlib import Path
 from pydantic import BaseModel, ConfigDict
 
 from crashscene.extract.errors import SketchError
+from crashscene.units import KMH_PER_MPH
 
 OCR_CACHE_VERSION = 1  # bump when the raw OCR record format or engine settings change
 MIN_OCR_SCORE = 0.5  # rapidocr's own default text score threshold
-KMH_PER_MPH = 1.609344
 
 
 

@@ -13,7 +13,7 @@ from pathlib import Path
 
 from crashscene.convert import CARLA_TOWNS, RenderError, RenderPlan
 
-MAP_FORMAT_VERSION = "2"  # bump when generated maps change, to invalidate caches
+MAP_FORMAT_VERSION = "3"  # bump when generated maps change, to invalidate caches
 MAP_MODES = ("generated", "carla")
 
 

@@ -9,11 +9,16 @@ to the junction by its end, lanes linked one by one (lane -i -> lane i) so that
 Scenic sees exactly one manoeuvre per (incoming lane, exit) and no bogus U-turns:
 12 manoeuvres on a single-lane 4-way, 6 on a T.
 
-Signals: traffic light type 1000001 (country OpenDRIVE), stop sign 206 and
-yield sign 205 (country DE), on the controlled arm's end and on every
+Signals: traffic light type 1000001 (country OpenDRIVE), stop sign R1-1 and
+yield sign R1-2 (country US, MUTCD), on the controlled arm's end and on every
 connecting road leaving that arm (Scenic reads junction signals from the
-connecting roads); a stop line `roadMark` object on each controlled approach.
-Each road carries `<type><speed>` with the posted limit.
+connecting roads); a stop line (`<object type="roadMark" subtype="stopLine">`)
+on each controlled approach. Each road carries `<type><speed>` with the posted limit.
+
+Validity: the header declares OpenDRIVE 1.8 so that every checker of ASAM's bundle
+applies (13 of its 23 rules are defined from 1.7 on), and the content follows the 1.8
+schema (ISO 3166 alpha-2 country codes, an elevation record in every elevationProfile);
+`qc_opendrive` reports no error and skips nothing on any topology (tests/test_maps.py).
 """
 from __future__ import annotations
 
@@ -21,12 +26,28 @@ import math
 from pathlib import Path
 
 from scenariogeneration import xodr
+from scenariogeneration.helpers import printToFile
 
-from crashscene.convert import LANE_WIDTH, MapSpec
+from crashscene.convert import MapSpec
+from crashscene.geometry import LANE_WIDTH
 
 ARM_ANGLE = {"ego": math.pi, "left": math.pi / 2, "opposite": 0.0, "right": 3 * math.pi / 2}  # [rad] on the circle
-SIGNAL_TYPE = {"traffic_light": ("OpenDRIVE", "1000001"), "stop_sign": ("DE", "206"), "yield_sign": ("DE", "205")}
+OPENDRIVE_REVISION = ("1", "8")  # (major, minor) written to the header
+SIGNAL_TYPE = {"traffic_light": ("OpenDRIVE", "1000001"), "stop_sign": ("US", "R1-1"), "yield_sign": ("US", "R1-2")}
+SIGNAL_SIZE = {"traffic_light": (0.4, 1.0), "stop_sign": (0.75, 0.75), "yield_sign": (0.9, 0.8)}  # [m] width, height
+STOP_LINE_LENGTH = 0.3  # [m] along the road
+HEADER_DATE = "2026-01-01T00:00:00"  # fixed, so that the same spec gives the same bytes
 MPH_55 = 24.5872  # [m/s]
+
+
+class Signal(xodr.Signal):
+    """scenariogeneration's signal, with the country code written as given (it upper-cases it, and the
+    schema's generic catalogue is spelled `OpenDRIVE`)."""
+
+    def get_attributes(self) -> dict:
+        attributes = super().get_attributes()
+        attributes["country"] = self.country
+        return attributes
 
 
 def center_mark(token: str, two_way: bool) -> xodr.RoadMark:
@@ -47,13 +68,21 @@ def center_mark(token: str, two_way: bool) -> xodr.RoadMark:
 
 def build_map(spec: MapSpec, path: Path) -> Path:
     """Write the OpenDRIVE map for `spec` to `path`."""
-    odr = xodr.OpenDrive(f"crashscene_{spec.topology}")
+    odr = xodr.OpenDrive(f"crashscene_{spec.topology}", revMajor=OPENDRIVE_REVISION[0],
+                         revMinor=OPENDRIVE_REVISION[1])
     if spec.topology in ("straight", "curve"):
         _road_map(odr, spec)
     else:
         _junction_map(odr, spec)
     path.parent.mkdir(parents=True, exist_ok=True)
-    odr.write_xml(str(path))
+    for road in odr.roads.values():
+        road.add_elevation(s=0.0, a=0.0, b=0.0, c=0.0, d=0.0)  # flat; the schema wants an elevation record
+    element = odr.get_element()
+    element.find("header").set("date", HEADER_DATE)  # scenariogeneration writes the clock time
+    for tag in ("signal", "object"):  # scenariogeneration numbers them with a process-wide counter
+        for number, item in enumerate(element.iter(tag), 1):
+            item.set("id", str(number))
+    printToFile(element, str(path), True)
     return path
 
 
@@ -150,15 +179,17 @@ def _add_controls(spec: MapSpec, roads: dict[str, xodr.Road], creator: xodr.Comm
         length = spec.back_length if arm == "ego" else spec.ahead_length
         t_side = -(incoming * LANE_WIDTH + 1.0)  # [m] right of the incoming lanes
         dynamic = xodr.Dynamic.yes if device == "traffic_light" else xodr.Dynamic.no
-        road.add_signal(xodr.Signal(s=length - 1.0, t=t_side, country=country, Type=kind,
-                                    name=f"{device}_{arm}", dynamic=dynamic, orientation=xodr.Orientation.positive))
+        width, height = SIGNAL_SIZE[device]
+        road.add_signal(Signal(s=length - 1.0, t=t_side, country=country, Type=kind,
+                                    name=f"{device}_{arm}", dynamic=dynamic, orientation=xodr.Orientation.positive,
+                                    width=width, height=height))
         road.add_object(xodr.Object(s=length - 0.5, t=-incoming * LANE_WIDTH / 2, Type=xodr.ObjectType.roadMark,
                                     subtype="stopLine", name=f"stop_line_{arm}", width=incoming * LANE_WIDTH,
-                                    length=0.3, zOffset=0.0))
+                                    length=STOP_LINE_LENGTH, height=0.0, zOffset=0.0))
         for conn in creator.get_connecting_roads():
             if by_id.get(conn.predecessor.element_id) != arm:
                 continue
-            conn.add_signal(xodr.Signal(s=0.5, t=-LANE_WIDTH, country=country, Type=kind,
+            conn.add_signal(Signal(s=0.5, t=-LANE_WIDTH, country=country, Type=kind,
                                         name=f"{device}_{arm}", dynamic=dynamic,
-                                        orientation=xodr.Orientation.positive))
+                                        orientation=xodr.Orientation.positive, width=width, height=height))
     

@@ -1,11 +1,12 @@
-"""The monitor: 12 California Vehicle Code checks, collision classes and per-variation verdicts.
+"""The monitor: the California Vehicle Code rulebook, collision classes and per-variation verdicts.
 
 `evaluate(tables, scenario, rulebook)` works on the trace tables of
 `crashscene.traces` from any backend; `monitor_run(run_dir)` re-evaluates a
 stored run. Rules are small classes registered by code (`register_rule`);
 thresholds come from a `Rulebook` (defaults of rules.md, YAML overrides).
 """
-from crashscene.monitor.collisions import COLLISION_CLASSES, classify
+from crashscene.geometry import classify_contact as classify
+from crashscene.monitor.collisions import COLLISION_CLASSES
 from crashscene.monitor.context import EvalContext
 from crashscene.monitor.errors import (
            MonitorError,

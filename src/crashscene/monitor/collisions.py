@@ -21,14 +21,15 @@ import numpy as np
 import pyarrow as pa
 import shapely
 
-from crashscene.monitor.arrays import TraceArrays
-from crashscene.monitor.geometry import (
-    corners,
+from crashscene.geometry import (
+    classify_contact,
+    footprint_corners,
+    footprints_overlap,
+    heading_difference,
     pair_indices,
-    rectangles_overlap,
     relative_position,
 )
-from crashscene.monitor.timeseries import wrap_angle
+from crashscene.monitor.arrays import TraceArrays
 from crashscene.traces import COLLISION_SCHEMA
 
 COLLISION_CLASSES = ("rear_end", "head_on", "angle", "sideswipe")
@@ -47,23 +48,6 @@ CLASSIFIED_SCHEMA = pa.schema(list(COLLISION_SCHEMA) + [
     ("area_a", pa.string()),            # front | rear | left | right: the quarter of actor_a that touched
     ("area_b", pa.string()),
 ])
-
-
-def classify(rel_heading: np.ndarray, lon: np.ndarray, lat: np.ndarray, half_len: np.ndarray,
-             half_wid: np.ndarray) -> np.ndarray:
-    """Class names for contacts given the relative heading [rad] and b's offset in a's frame [m].
-
-    `half_len`/`half_wid` are the sums of the two half lengths / half widths:
-    a contact is end-on (rear-end or head-on) when the longitudinal gap is
-    closer to touching than the lateral one.
-    """
-    deg = np.degrees(rel_heading)
-    end_on = (np.abs(lon) - half_len) > (np.abs(lat) - half_wid)
-    out = np.full(deg.shape, "sideswipe", dtype=object)
-    out[(deg < 30) & end_on] = "rear_end"
-    out[(deg > 150) & end_on] = "head_on"
-    out[(deg >= 60) & (deg <= 120)] = "angle"
-    return out
 
 
 def area_of(lon: np.ndarray, lat: np.ndarray, length: np.ndarray, width: np.ndarray) -> np.ndarray:
@@ -91,9 +75,9 @@ def pair_overlaps(arrays: TraceArrays) -> tuple[np.ndarray, np.ndarray, np.ndarr
             near = np.hypot(x[:, a] - x[:, b], y[:, a] - y[:, b]) <= (diag[:, a] + diag[:, b])[:, None]
         if near.any():
             vv, tt = np.nonzero(near)
-            box_a = corners(x[vv, a, tt], y[vv, a, tt], yaw[vv, a, tt], arrays.length[vv, a], arrays.width[vv, a])
-            box_b = corners(x[vv, b, tt], y[vv, b, tt], yaw[vv, b, tt], arrays.length[vv, b], arrays.width[vv, b])
-            overlap[vv, p, tt] = rectangles_overlap(box_a, box_b, yaw[vv, a, tt], yaw[vv, b, tt])
+            overlap[vv, p, tt] = footprints_overlap(x[vv, a, tt], y[vv, a, tt], yaw[vv, a, tt], arrays.length[vv, a],
+                                                    arrays.width[vv, a], x[vv, b, tt], y[vv, b, tt], yaw[vv, b, tt],
+                                                    arrays.length[vv, b], arrays.width[vv, b])
     return ia, ib, overlap
 
 
@@ -190,10 +174,10 @@ def classify_collisions(arrays: TraceArrays, contacts: pa.Table | None, ads: np.
     xb, yb, yawb, vb = (f[c][vv, b_idx, step] for c in ("x", "y", "yaw", "speed"))
     la, wa = arrays.length[vv, a_idx], arrays.width[vv, a_idx]
     lb, wb = arrays.length[vv, b_idx], arrays.width[vv, b_idx]
-    rel = np.abs(wrap_angle(yawb - yawa))
+    rel = heading_difference(yawa, yawb)
     lon_ab, lat_ab = relative_position(xa, ya, yawa, xb, yb)
     lon_ba, lat_ba = relative_position(xb, yb, yawb, xa, ya)
-    cls = classify(rel, lon_ab, lat_ab, (la + lb) / 2, (wa + wb) / 2)
+    cls = classify_contact(rel, lon_ab, lat_ab, (la + lb) / 2, (wa + wb) / 2)
     # the striker has the other ahead of it: larger forward offset relative to its lateral offset
     a_strikes = (lon_ab - np.abs(lat_ab)) >= (lon_ba - np.abs(lat_ba))
     a_strikes = np.where(cls == "head_on", va >= vb, a_strikes)
@@ -236,7 +220,7 @@ def classify_collisions(arrays: TraceArrays, contacts: pa.Table | None, ads: np.
 def _overlap_centre(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Centroid of the overlap of two footprints, each given as rows (x, y, yaw, length, width); NaN when they
     do not overlap (a simulator-only contact)."""
-    boxes = [shapely.polygons(corners(*row[:3], row[3], row[4])) for row in (a, b)]
+    boxes = [shapely.polygons(footprint_corners(*row[:3], row[3], row[4])) for row in (a, b)]
     centre = shapely.centroid(shapely.intersection(*boxes))
     coords = np.full((len(centre), 2), np.nan)
     found = ~shapely.is_empty(centre) & ~shapely.is_missing(centre)

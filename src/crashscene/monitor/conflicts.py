@@ -20,8 +20,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from crashscene.geometry import heading_difference, pair_indices
 from crashscene.monitor.arrays import TraceArrays
-from crashscene.monitor.geometry import heading_difference, pair_indices
 from crashscene.monitor.timeseries import first_index, last_index
 
 NO_STEP = -1

@@ -15,8 +15,8 @@ from crashscene.dsl.model import Scenario
 from crashscene.monitor.arrays import TraceArrays, code_of
 from crashscene.monitor.conflicts import PathConflicts, path_conflicts
 from crashscene.monitor.timeseries import first_index, take
+from crashscene.units import MPH
 
-MPH = 0.44704  # [m/s] per mph
 
 
 @dataclass

@@ -21,7 +21,7 @@ import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from crashscene.monitor.errors import RulebookError
-from crashscene.monitor.rules import BUILTIN_ORDER, Rule, RuleParams, registered_rules
+from crashscene.monitor.rules import Rule, RuleParams, registered_rules
 
 TOP_LEVEL_KEYS = ("imports", "rules")
 
@@ -37,11 +37,8 @@ class Rulebook(BaseModel):
 
     def rules(self) -> list[Rule]:
         """Instances of every enabled registered rule, built-ins in rules.md order, then user rules."""
-        registry = registered_rules()
-        codes = [c for c in BUILTIN_ORDER if c in registry] + [c for c in registry if c not in BUILTIN_ORDER]
         out = []
-        for code in codes:
-            cls = registry[code]
+        for code, cls in registered_rules().items():
             params = self.params.get(code) or cls.Params()
             if params.enabled:
                 out.append(cls(params))
@@ -93,10 +90,7 @@ def rulebook_yaml(rulebook: Rulebook | None = None) -> str:
     lines = ["# crashscene rulebook: thresholds of the monitored California Vehicle Code checks.",
              "# Edit values, set enabled: false to skip a rule, list modules registering extra rules under imports.",
              f"imports: {yaml.safe_dump(rulebook.imports, default_flow_style=True).strip()}", "rules:"]
-    registry = registered_rules()
-    codes = [c for c in BUILTIN_ORDER if c in registry] + [c for c in registry if c not in BUILTIN_ORDER]
-    for code in codes:
-        cls = registry[code]
+    for code, cls in registered_rules().items():
         params = rulebook.params.get(code) or cls.Params()
         lines.append(f"  {code}:  # {cls.violation}: {cls.summary}".rstrip())
         for name, field in cls.Params.model_fields.items():

@@ -111,11 +111,6 @@ def runs(mask: np.ndarray) -> tuple[np.ndarray, int]:
     return np.where(mask, ids, -1), int(starts.sum())
 
 
-def wrap_angle(angle: np.ndarray) -> np.ndarray:
-    """Angle wrapped to (-pi, pi] [rad]."""
-    return (angle + np.pi) % (2 * np.pi) - np.pi
-
-
 def margin_in(primary_threshold: np.ndarray | float, margin: np.ndarray,
               threshold: np.ndarray | float) -> np.ndarray:
     """A secondary criterion's margin expressed in the primary threshold's unit (relative scaling).

@@ -18,6 +18,8 @@ from scenic.core.distributions import distributionFunction as _distributionFunct
 from scenic.core.vectors import Vector
 from scenic.domains.driving.roads import ManeuverType as _ManeuverType
 
+from crashscene.geometry import wrap_angle as _wrap_angle
+
 _MIN_LANE = 30.0  # [m] shortest lane an actor may start on
 _LEAD_IN = 60.0  # [m] route length wanted before a junction entry or curve start
 
@@ -70,10 +72,6 @@ def _end_heading(lane):
     pts = lane.centerline.lineString.coords
     (x0, y0), (x1, y1) = tuple(pts[-2])[:2], tuple(pts[-1])[:2]
     return _math.atan2(-(x1 - x0), y1 - y0)
-
-
-def _angle_diff(a, b):
-    return (a - b + _math.pi) % (2 * _math.pi) - _math.pi
 
 
 def _lead_in(lane, wanted=_LEAD_IN, connecting=frozenset()):
@@ -148,7 +146,7 @@ def _oncoming_lane(lane, s_local=0.0, index=None):
             continue
         t = oline.project(p)
         a, b = oline.interpolate(max(0.0, t - 1.0)), oline.interpolate(min(oline.length, t + 1.0))
-        if abs(_angle_diff(_math.atan2(-(b.x - a.x), b.y - a.y), own)) > 2.6:
+        if abs(_wrap_angle(_math.atan2(-(b.x - a.x), b.y - a.y) - own)) > 2.6:
             best, best_d = other, d
     return best
 
@@ -189,7 +187,7 @@ def _curve_start(lane, sign, min_turn, step=2.0):
     headings = [_math.atan2(-(b.x - a.x), b.y - a.y) for a, b in _itertools.pairwise(pts)]
     turn, start = 0.0, None
     for i in range(1, len(headings)):
-        d = _angle_diff(headings[i], headings[i - 1]) * sign
+        d = _wrap_angle(headings[i] - headings[i - 1]) * sign
         if start is None and d > 0.5 * step / 400.0:  # curvature above 1/800 [1/m] towards the side
             start = (i - 0.5) * step
         if start is not None:
@@ -414,8 +412,8 @@ def _junction_combos(network, actors, legs, ego_roads, cap=400):
         for lane in inter.incomingLanes:
             if lane is ego_lane:
                 continue
-            rel = _angle_diff(_end_heading(lane), _end_heading(ego_lane))
-            error = abs(_angle_diff(rel, actor["heading"]))
+            rel = _wrap_angle(_end_heading(lane) - _end_heading(ego_lane))
+            error = abs(_wrap_angle(rel - actor["heading"]))
             if error > 0.7:
                 continue
             for man in _maneuvers(lane, actor["maneuver"]) or list(lane.maneuvers):
@@ -479,7 +477,7 @@ def _plausible(combo, actors, topology, room):
         h0 = _r_heading(ego_route, ego_route.anchor)
         s = ego_route.anchor - room[0]
         while s <= ego_route.anchor + room[1]:
-            if abs(_angle_diff(_r_heading(ego_route, s), h0)) > _STRAIGHT_TOLERANCE:
+            if abs(_wrap_angle(_r_heading(ego_route, s) - h0)) > _STRAIGHT_TOLERANCE:
                 return False
             s += 5.0
     for end in (0, 1):
@@ -497,8 +495,8 @@ def _plausible(combo, actors, topology, room):
                     return False
             if topology == "curve":
                 continue  # headings change along a bend by design
-            rel = _angle_diff(_r_heading(route, s_of[actor["role"]]), ego_heading)
-            if abs(_angle_diff(rel, actor["heading"])) > _HEADING_TOLERANCE:
+            rel = _wrap_angle(_r_heading(route, s_of[actor["role"]]) - ego_heading)
+            if abs(_wrap_angle(rel - actor["heading"])) > _HEADING_TOLERANCE:
                 return False
     return True
 

@@ -25,7 +25,7 @@ from pydantic import BaseModel
 from crashscene.campaign.errors import CampaignError
 from crashscene.campaign.runner import summarize_runs
 from crashscene.campaign.store import DB_NAME, Store
-from crashscene.report import charts, contacts
+from crashscene.report import charts, contacts, search_section
 from crashscene.report.errors import ReportError
 from crashscene.report.shots import Shot, draw_shots, pick_still, plan_shots, shown_variations
 from crashscene.report.junit import junit_xml
@@ -269,12 +269,12 @@ class CaseCharts(BaseModel):
     verdicts: dict[str, dict[str, int]] = {}
     labels: dict[str, str] = {}
     scatter_rows: dict[str, list[dict]] = {}
-    criticality: dict[str, dict[str, list[float]]] = {}  # mode -> metric -> one value per variation
 
 
 def _case_figures(store: Store, case: dict, scenario_text: str | None) -> tuple[dict, CaseCharts]:
     """The case's text figures (narrative, DSL) and the inputs of its charts."""
     fig: dict = {"narrative": _narrative(Path(case["case_dir"] or "")), "dsl": scenario_text, "notes": []}
+    fig.update(search_section.case_figures(store, case))   # criticality and search sections
     modes = case["modes"]
     job = CaseCharts(case_dir=case["case_dir"] or "")
     if not modes:
@@ -290,28 +290,7 @@ def _case_figures(store: Store, case: dict, scenario_text: str | None) -> tuple[
         rows = store.query("SELECT verdict, params FROM variations WHERE scenario_hash=? AND mode=? ORDER BY variation",
                            [case["scenario_hash"], mode])
         job.scatter_rows[mode] = [{"verdict": r["verdict"], "params": json.loads(r["params"] or "{}")} for r in rows]
-    job.criticality = _criticality(store, case)
     return fig, job
-
-
-def _criticality(store: Store, case: dict) -> dict[str, dict[str, list[float]]]:
-    """Per mode and metric, one value per valid variation: the lowest over its pairs (the highest DRAC); in test
-    mode only the pairs with the ADS. Empty when the campaign has no `criticality` table."""
-    cols = _columns(store, "criticality")
-    metrics = [m for m in charts.CRITICALITY_METRICS if m in cols]
-    if not metrics or not {"variation", "involves_ads"} <= cols:
-        return {}
-    aggs = ", ".join(f"{'max' if m.startswith('max') else 'min'}(CASE WHEN isnan({m}) THEN NULL ELSE {m} END) "
-                     f"AS {m}" for m in metrics)
-    out: dict[str, dict[str, list[float]]] = {}
-    for mode in case["modes"]:
-        ads = "AND involves_ads" if mode == "test" else ""
-        rows = store.query(f"SELECT variation, {aggs} FROM criticality WHERE scenario_hash=? AND mode=? {ads} "
-                           f"AND variation IN (SELECT variation FROM variations WHERE scenario_hash=? AND mode=? "
-                           f"AND valid) GROUP BY variation ORDER BY variation",
-                           [case["scenario_hash"], mode, case["scenario_hash"], mode])
-        out[mode] = {m: [float("nan") if r[m] is None else float(r[m]) for r in rows] for m in metrics}
-    return out
 
 
 def draw_case(shots: list[Shot], job: CaseCharts) -> dict:
@@ -324,8 +303,6 @@ def draw_case(shots: list[Shot], job: CaseCharts) -> dict:
     fig["violations"] = data_uri(png, charts.MIME) if png else None
     png = charts.verdict_bar(job.verdicts)
     fig["verdicts"] = data_uri(png, charts.MIME) if png else None
-    png = charts.criticality_histograms(job.criticality) if job.criticality else None
-    fig["criticality"] = data_uri(png, charts.MIME) if png else None
     fig["scatter"] = {}
     for mode, rows in job.scatter_rows.items():
         png = charts.failing_scatter(rows, f"failing variations ({mode})")

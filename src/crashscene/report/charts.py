@@ -12,9 +12,6 @@ from crashscene.report.palette import color_of, label_of, label_sort_key
 MIME = "image/svg+xml"
 VERDICT_COLORS = {"pass": "#2ca02c", "violation": "#ff7f0e", "collision": "#d62728", "invalid": "#7f7f7f"}
 VERDICTS = ("pass", "violation", "collision", "invalid")
-CRITICALITY_METRICS = {"min_ttc": "minimum time to collision [s]", "pet": "post-encroachment time [s]",
-                       "min_thw": "minimum time headway [s]", "max_drac": "max. deceleration to avoid a crash [m/s2]"}
-MODE_COLORS = {"reproduce": "#7f7f7f", "test": "#1f4e9c"}
 PANEL_W, PANEL_H = 300, 210  # [px] one chart panel
 
 
@@ -122,33 +119,25 @@ def _label(key: str) -> str:
     return key
 
 
-def criticality_histograms(per_mode: dict[str, dict[str, list[float]]]) -> bytes | None:
-    """One histogram per criticality metric, the per-variation values of each mode overlaid.
+def _png(fig) -> bytes:
+    """PNG bytes of a matplotlib figure (for sections still drawn with matplotlib, e.g. `search_section`)."""
+    import io
 
-    `per_mode[mode][metric]` holds one value per variation (the lowest over its pairs; in test mode the pairs
-    with the ADS); NaN (never on a collision course, no crossing) is left out and counted in the legend."""
-    metrics = [m for m in CRITICALITY_METRICS
-               if any(v is not None and math.isfinite(v) for mode in per_mode for v in per_mode[mode].get(m, []))]
-    if not metrics:
-        return None
-    parts: list[str] = []
-    for k, metric in enumerate(metrics):
-        finite = {mode: [v for v in per_mode[mode].get(metric, []) if v is not None and math.isfinite(v)]
-                  for mode in per_mode}
-        pooled = [v for vs in finite.values() for v in vs]
-        edges = np.histogram_bin_edges(pooled, bins=20)
-        counts = {mode: np.histogram(values, bins=edges)[0] for mode, values in finite.items() if values}
-        top = max(int(c.max()) for c in counts.values())
-        yt = svg.nice_ticks(0, top)
-        plot = svg.Plot(50 + k * PANEL_W, 20, PANEL_W - 70, PANEL_H - 80, (float(edges[0]), float(edges[-1])),
-                        (0.0, yt[-1]))
-        for mode, c in counts.items():
-            for i, n in enumerate(c):
-                if n:
-                    plot.rect(edges[i], 0.0, edges[i + 1], float(n), MODE_COLORS.get(mode, "#555555"), 0.6)
-        plot.axes(CRITICALITY_METRICS[metric], "variations", svg.nice_ticks(edges[0], edges[-1], 4), yt)
-        parts += plot.parts
-        parts += svg.legend(plot.left, PANEL_H - 10, [(f"{mode} ({len(finite[mode])}/"
-                                                       f"{len(per_mode[mode].get(metric, []))})",
-                                                       MODE_COLORS.get(mode, "#555555")) for mode in per_mode])
-    return svg.document(PANEL_W * len(metrics), PANEL_H, parts)
+    buf = io.BytesIO()
+    fig.tight_layout()
+    fig.savefig(buf, format="png", dpi=100)
+    fig.clf()
+    __getattr__("plt").close(fig)
+    return buf.getvalue()
+
+
+def __getattr__(name: str):
+    """`charts.plt`: matplotlib's pyplot (Agg), imported only by the sections that still plot with it."""
+    if name == "plt":
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        return plt
+    raise AttributeError(name)

@@ -6,11 +6,16 @@ backend and options; `Simulator.simulate(request)` runs one batch of sampled
 scenes and returns an explicit `BatchResult` holding the four tables of
 `crashscene.traces` (traces, actors, collisions, variations).
 
-A backend implements `Simulator.simulate` (or, when it runs scenes one by one,
-`Simulator.simulate_scene` and lets the default `simulate` loop); everything
-else (which actor is the ADS, which dispositions an actor gets, table layout)
-is shared here and in `crashscene.simulate.tables`, so every backend yields
-rows the monitor reads the same way.
+A backend that runs scenes one by one implements `Simulator.run_scene`: it
+returns each actor's states (the state protocol of
+`crashscene.simulate.recorder`: x, y, yaw, speed per step) and the shared
+recorder fills every trace column from them, map columns included; a new
+backend is then one module (`crashscene.simulate.dummy` is the smallest).
+Batched engines override `Simulator.simulate`; `Simulator.simulate_scene`
+(raw trace columns) is still accepted, and its pose goes through the same
+recorder. Everything else (which actor is the ADS, which dispositions an
+actor gets, table layout) is shared here, in `crashscene.simulate.tables` and
+in the recorder, so every backend yields rows the monitor reads the same way.
 
 Backends are found by name (`get_simulator_class("embedded")`); optional ones
 (`carla`) are imported lazily so a missing extra only fails its own backend,
@@ -118,8 +123,10 @@ class SceneResult:
     """What a one-scene-at-a-time backend returns for one variation.
 
     `traces` maps TRACE_SCHEMA column names to equal-length lists or arrays
-    (one entry per actor and step); missing columns are filled with nulls/NaN,
-    so a backend fills what it knows. `variation` is taken from the scene.
+    (one entry per actor and step). When it holds every actor's x and y at
+    every step, the recorder derives the other columns (yaw and speed from the
+    motion when absent, map columns from the map); the columns given win.
+    Otherwise missing columns are NaN/null. `variation` is taken from the scene.
     """
 
     traces: dict[str, Sequence]
@@ -131,8 +138,8 @@ class SceneResult:
 class Simulator(ABC):
     """A long-lived simulator: create once, call `simulate` per batch, `close` at the end.
 
-    Subclasses set `name` and override `simulate` (batched engines), or implement
-    `simulate_scene` for engines that only run one scene at a time. Use
+    Subclasses set `name` and implement `run_scene` (one scene at a time: the
+    recorder fills every column), or override `simulate` (batched engines). Use
     `tables.is_ads(role, settings)` and `tables.driver_dispositions(actor, settings)`
     to decide who is the ADS and which oracle codes an actor's driver carries.
     """
@@ -148,23 +155,30 @@ class Simulator(ABC):
     def simulate(self, request: SimulationRequest) -> BatchResult:
         """Simulate every scene of `request` and return the four tables.
 
-        The default runs `simulate_scene` on each scene in turn; batched backends override it.
+        The default runs `run_scene` (or `simulate_scene`) on each scene in turn and records the
+        tables with the shared recorder; batched backends override it.
         """
-        from crashscene.simulate.tables import assemble_scene_results
+        from crashscene.simulate import recorder
 
         check_ego_role(request.scenario, self.settings)
+        if type(self).run_scene is not Simulator.run_scene:
+            return recorder.run_scenes(self.name, request, self.settings, self.run_scene)
         start = time.perf_counter()
         results = []
         for scene in request.scenes:
             results.append(self.simulate_scene(request, scene))
             if request.progress is not None:
                 request.progress(1)
-        tables = assemble_scene_results(request.scenes, results, self.settings)
+        tables = recorder.record_scene_results(request, results, self.settings)
         return BatchResult(backend=self.name, tables=tables, seconds=time.perf_counter() - start)
 
+    def run_scene(self, request: SimulationRequest, scene: SampledScene):
+        """Simulate one scene: a `recorder.SceneRun` with each actor's states (x, y, yaw, speed per step)."""
+        raise NotImplementedError(f"backend {self.name!r} implements none of run_scene, simulate_scene, simulate")
+
     def simulate_scene(self, request: SimulationRequest, scene: SampledScene) -> SceneResult:
-        """Simulate one scene (backends that run scenes one at a time implement this)."""
-        raise NotImplementedError(f"backend {self.name!r} implements neither simulate nor simulate_scene")
+        """Simulate one scene as raw trace columns (older interface; prefer `run_scene`)."""
+        raise NotImplementedError(f"backend {self.name!r} implements none of run_scene, simulate_scene, simulate")
 
     def close(self) -> None:
         """Release connections, pools, caches."""
@@ -181,6 +195,7 @@ _REGISTRY: dict[str, str] = {
     "embedded": "crashscene.simulate.embedded.simulator:EmbeddedSimulator",
     "newtonian": "crashscene.simulate.newtonian:NewtonianSimulator",
     "carla": "crashscene.simulate.carla:CarlaSimulator",
+    "dummy": "crashscene.simulate.dummy:DummySimulator",
 }
 
 

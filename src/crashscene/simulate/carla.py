@@ -11,7 +11,7 @@ Runs mirror the newtonian backend: the Scenic scene of each variation
 (checked to be the sampled one), each actor started at its sampled speed
 (CARLA cannot spawn a moving actor: the speed is given as a target velocity
 right after spawning), traces recorded every tick by
-`scenic_trace.StateRecorder` and laid out by `scenic_trace.record_tables`,
+`scenic_trace.StateRecorder` and laid out by `recorder.record_tables`,
 footprint contacts as collisions (CARLA's own physics handles the crash itself).
 
 World: a map file named after a CARLA town (`Town04.xodr`) loads that town;
@@ -37,7 +37,7 @@ from pathlib import Path
 from typing import Any, Protocol, runtime_checkable
 
 from crashscene.scene import SampledActor, SampledScene
-from crashscene.simulate import scenic_trace
+from crashscene.simulate import recorder, scenic_trace
 from crashscene.simulate.backend import (
     BackendUnavailable,
     BatchResult,
@@ -55,6 +55,7 @@ from crashscene.simulate.newtonian import (
     quiet_scenic,
     seeded_globals,
 )
+from crashscene.units import KMH_PER_MPS
 
 CARLA_MODEL = "scenic.simulators.carla.model"
 CARLA_CLIENT_PIN = "carla==0.9.16"
@@ -105,7 +106,7 @@ class CarlaBasicAgent:
             raise BackendUnavailable("CarlaBasicAgent needs CARLA's PythonAPI `agents` package: add "
                                      "<CARLA>/PythonAPI/carla to PYTHONPATH") from exc
         speed = self.target_speed if self.target_speed is not None else actor.speed
-        self.agent = BasicAgent(ego, target_speed=speed * 3.6)  # CARLA agents take km/h
+        self.agent = BasicAgent(ego, target_speed=speed * KMH_PER_MPS)  # CARLA agents take km/h
         start = world.get_map().get_waypoint(ego.get_location())
         ahead = start.next(self.horizon)
         self.agent.set_destination((ahead[0] if ahead else start).transform.location)
@@ -266,7 +267,7 @@ class CarlaSimulator(Simulator):
                                       f"got --mode {self.settings.mode}")
             load_agent(self.settings.ads, self.settings.ads_params)  # fail before connecting, not mid-batch
         self.check_available()
-        result = scenic_trace.run_scenes(self.name, request, self.settings, self.run_scene)
+        result = recorder.run_scenes(self.name, request, self.settings, self.run_scene)
         if self.settings.mode == "test" and self.settings.ads is None:
             result.notes.append(f"carla: no --ads given, the ADS role {self.settings.ego_role!r} runs the "
                                 f"program's Scenic behaviour")
@@ -305,7 +306,7 @@ class CarlaSimulator(Simulator):
             self._scenic_simulator.destroy()
             self._scenic_simulator, self._world_key = None, None
 
-    def run_scene(self, request: SimulationRequest, scene: SampledScene) -> scenic_trace.ScenicRun:
+    def run_scene(self, request: SimulationRequest, scene: SampledScene) -> recorder.SceneRun:
         """Run one scene in CARLA: its tracks and footprint contacts, or why it is invalid."""
         settings = self.settings
         steps = settings.steps
@@ -322,7 +323,7 @@ class CarlaSimulator(Simulator):
             drift = max(drift, math.hypot(float(obj.position[0]) - actor.x, float(obj.position[1]) - actor.y))
         mismatch = placement_mismatch(scenic_scene, scene, drift)
         if mismatch:
-            return scenic_trace.failed_run(scene, steps, mismatch)
+            return recorder.failed_run(scene, steps, mismatch)
         agent, agent_index = None, None
         if settings.ads is not None and settings.mode == "test":
             agent = load_agent(settings.ads, settings.ads_params)
@@ -338,13 +339,13 @@ class CarlaSimulator(Simulator):
             with seeded_globals(scene.seed, scene.index):
                 simulation = simulator.simulate(scenic_scene, maxSteps=steps, verbosity=0)
         except Exception as exc:  # noqa: BLE001 - a spawn or behaviour failure invalidates this variation only
-            return scenic_trace.failed_run(scene, steps, f"carla run failed: {type(exc).__name__}: {exc}")
+            return recorder.failed_run(scene, steps, f"carla run failed: {type(exc).__name__}: {exc}")
         finally:
             if agent is not None:
                 agent.teardown()
         if simulation is None:
-            return scenic_trace.failed_run(scene, steps, "scenic rejected the simulation (a requirement was violated)")
-        tracks = scenic_trace.pad_tracks(scenic_trace.tracks_from_trajectory(simulation.result.trajectory, roles),
+            return recorder.failed_run(scene, steps, "scenic rejected the simulation (a requirement was violated)")
+        tracks = recorder.pad_tracks(scenic_trace.tracks_from_trajectory(simulation.result.trajectory, roles),
                                          steps + 1)
         sizes = {actor.role: (actor.length, actor.width) for actor in scene.actors}
-        return scenic_trace.ScenicRun(tracks, contacts=scenic_trace.find_contacts(tracks, sizes, settings.dt))
+        return recorder.SceneRun(tracks, contacts=recorder.find_contacts(tracks, sizes, settings.dt))

@@ -16,7 +16,7 @@ What this backend adds around Scenic:
   first contact and come to rest there (no crash dynamics), as in the embedded
   backend, and the first contact of each pair is a collision row;
 - traces: per step x, y, yaw, speed through `scenic_trace.StateRecorder`, laid
-  out with the embedded backend's routes and recorder (`scenic_trace.record_tables`);
+  out by the backend-neutral recorder (`recorder.record_tables`: every column filled);
 - determinism: Scenic's behaviours draw from Python's `random` and numpy's
   global generator; both are seeded from (seed, variation) for the run and
   restored afterwards, so nothing leaks between runs or into the caller.
@@ -39,8 +39,9 @@ from pathlib import Path
 
 import numpy as np
 
+from crashscene.geometry import footprints_overlap, wrap_angle
 from crashscene.scene import SampledActor, SampledScene
-from crashscene.simulate import scenic_trace
+from crashscene.simulate import recorder, scenic_trace
 from crashscene.simulate.backend import (
     BatchResult,
     SimulationError,
@@ -189,11 +190,11 @@ def _tracing_classes():
             touched = {(a, b) for a, b, _, _ in self.contacts} | self._spawn_overlaps
             for i in range(len(after)):
                 for j in range(i + 1, len(after)):
-                    if (i, j) in touched or not scenic_trace.footprints_overlap(
-                            after[i], self._sizes[i], after[j], self._sizes[j]):
+                    if (i, j) in touched or not footprints_overlap(*after[i], *self._sizes[i], *after[j],
+                                                                   *self._sizes[j]):
                         continue
-                    if self.currentTime == 0 and scenic_trace.footprints_overlap(
-                            before[i], self._sizes[i], before[j], self._sizes[j]):
+                    if self.currentTime == 0 and footprints_overlap(*before[i], *self._sizes[i], *before[j],
+                                                                    *self._sizes[j]):
                         self._spawn_overlaps.add((i, j))  # an invalid variation, not a crash: nobody halts
                         continue
                     frac = 1.0
@@ -208,14 +209,14 @@ def _tracing_classes():
             def pose(k, f):
                 (x0, y0, t0), (x1, y1, t1) = before[k], after[k]
                 return (x0 + f * (x1 - x0), y0 + f * (y1 - y0),
-                        t0 + f * float(scenic_trace.wrap_angle(t1 - t0)))
+                        t0 + f * float(wrap_angle(t1 - t0)))
 
             lo, hi = 0.0, 1.0
-            if scenic_trace.footprints_overlap(pose(i, 0.0), self._sizes[i], pose(j, 0.0), self._sizes[j]):
+            if footprints_overlap(*pose(i, 0.0), *self._sizes[i], *pose(j, 0.0), *self._sizes[j]):
                 return 1.0  # already touching before the step (a graze): leave them where they are
             for _ in range(10):
                 mid = (lo + hi) / 2
-                if scenic_trace.footprints_overlap(pose(i, mid), self._sizes[i], pose(j, mid), self._sizes[j]):
+                if footprints_overlap(*pose(i, mid), *self._sizes[i], *pose(j, mid), *self._sizes[j]):
                     hi = mid
                 else:
                     lo = mid
@@ -252,7 +253,7 @@ class NewtonianSimulator(Simulator):
     """Runs rendered Scenic programs in Scenic's Newtonian simulator, one scene at a time.
 
     Compiles each (program, map) once per simulator and reuses it for every
-    scene; the traces of a batch are then recorded together (`scenic_trace.record_tables`).
+    scene; the traces of a batch are then recorded together (`recorder.record_tables`).
     In `test` mode the ADS role still runs the program's Scenic behaviour: a user
     ADS (`--ads`) cannot be plugged into Scenic behaviours, so asking for one is an error.
     """
@@ -273,7 +274,7 @@ class NewtonianSimulator(Simulator):
         if not request.program:
             raise SimulationError("the newtonian backend needs the rendered Scenic program "
                                   "(SimulationRequest.program is empty)")
-        result = scenic_trace.run_scenes(self.name, request, self.settings, self.run_scene)
+        result = recorder.run_scenes(self.name, request, self.settings, self.run_scene)
         result.notes.extend(NOTES)
         if self.settings.mode == "test":
             result.notes.append(f"newtonian: the ADS role {self.settings.ego_role!r} runs the program's "
@@ -287,7 +288,7 @@ class NewtonianSimulator(Simulator):
             self._compiled[key] = compile_program(program, map_file)
         return self._compiled[key]
 
-    def run_scene(self, request: SimulationRequest, scene: SampledScene) -> scenic_trace.ScenicRun:
+    def run_scene(self, request: SimulationRequest, scene: SampledScene) -> recorder.SceneRun:
         """Run one scene in the Newtonian simulator: its tracks and contacts, or why it is invalid."""
         scenario = self.compiled(request.program or "", request.map_file)
         steps, dt = self.settings.steps, self.settings.dt
@@ -295,7 +296,7 @@ class NewtonianSimulator(Simulator):
             try:
                 scenic_scene = generate_scenic_scene(scenario, scene.seed, scene.index)
             except Exception as exc:  # noqa: BLE001 - RejectionException when no scene satisfies the requirements
-                return scenic_trace.failed_run(scene, steps, f"scenic could not place the scene: "
+                return recorder.failed_run(scene, steps, f"scenic could not place the scene: "
                                                              f"{type(exc).__name__}: {exc}")
             roles = scenic_trace.object_roles(scenic_scene.objects, scene)
             by_role = {actor.role: actor for actor in scene.actors}
@@ -307,7 +308,7 @@ class NewtonianSimulator(Simulator):
                 drift = max(drift, math.hypot(float(obj.position[0]) - actor.x, float(obj.position[1]) - actor.y))
             mismatch = placement_mismatch(scenic_scene, scene, drift)
             if mismatch:
-                return scenic_trace.failed_run(scene, steps, mismatch)
+                return recorder.failed_run(scene, steps, mismatch)
             simulator = _tracing_classes()(pins, sizes)
             try:
                 with seeded_globals(scene.seed, scene.index):
@@ -319,17 +320,17 @@ class NewtonianSimulator(Simulator):
                 trajectory = partial.trajectory if partial is not None else []
                 reason = f"scenic rejected the run at t={max(len(trajectory) - 1, 0) * dt:.1f} s: {exc}"
                 if not trajectory:
-                    return scenic_trace.failed_run(scene, steps, reason)
+                    return recorder.failed_run(scene, steps, reason)
                 tracks = scenic_trace.tracks_from_trajectory(trajectory, roles)
-                return scenic_trace.ScenicRun(scenic_trace.pad_tracks(tracks, steps + 1), invalid_reason=reason,
+                return recorder.SceneRun(recorder.pad_tracks(tracks, steps + 1), invalid_reason=reason,
                                               contacts=_contacts(partial, roles))
             except Exception as exc:  # noqa: BLE001 - a behaviour failing at run time invalidates this variation only
-                return scenic_trace.failed_run(scene, steps, f"newtonian run failed: {type(exc).__name__}: {exc}")
+                return recorder.failed_run(scene, steps, f"newtonian run failed: {type(exc).__name__}: {exc}")
             finally:
                 simulator.destroy()
         tracks = scenic_trace.tracks_from_trajectory(simulation.result.trajectory, roles)
-        tracks = scenic_trace.pad_tracks(tracks, steps + 1)
-        return scenic_trace.ScenicRun(tracks, contacts=_contacts(simulation, roles))
+        tracks = recorder.pad_tracks(tracks, steps + 1)
+        return recorder.SceneRun(tracks, contacts=_contacts(simulation, roles))
 
 
 def _contacts(simulation, roles: list[str]) -> list[dict]:

@@ -3,7 +3,7 @@
 Run directory layout: scenario.yaml (canonical DSL), scenario.scenic, map.xodr,
 render.json, scenes.jsonl, traces.parquet, actors.parquet, collisions.parquet,
 variations.parquet, summary.json, and the monitor's outputs (rule_results.parquet,
-collisions_classified.parquet, verdicts.parquet, monitor.json) when
+collisions_classified.parquet, verdicts.parquet, monitor.json, criticality.parquet) when
 `crashscene.monitor` is installed.
 """
 from __future__ import annotations
@@ -22,6 +22,7 @@ from typing import Any
 import pyarrow as pa
 
 from crashscene.dsl import Scenario, dump_file
+from crashscene.geometry import classify_contact, heading_difference
 from crashscene.simulate.backend import (
     DEFAULT_DT,
     BatchResult,
@@ -34,7 +35,6 @@ from crashscene.simulate.backend import (
     create_simulator,
     get_simulator_class,
 )
-from crashscene.simulate.embedded.collisions import classify
 from crashscene.traces import write_table
 
 
@@ -96,7 +96,8 @@ def simulate_scenario(scenario: Scenario, out_dir: Path, n: int, seed: int, firs
         write_table(out_dir, name, table)
 
     summary = summarize(result.tables)
-    summary.update({"backend": result.backend, "mode": mode, "ego_role": ego_role, "seed": seed, "first": first,
+    summary.update({"backend": result.backend, "sampler": sampler, "workers": workers, "mode": mode,
+                    "ego_role": ego_role, "seed": seed, "first": first,
                     "ads": ads or ("reference" if mode == "test" else None)})
     if result.notes:
         summary["notes"] = result.notes
@@ -176,7 +177,7 @@ def summarize(tables: dict[str, pa.Table]) -> dict[str, Any]:
     for row in coll:
         if row["variation"] not in valid:
             continue
-        klass = classify(row["yaw_a"], row["yaw_b"])
+        klass = classify_contact(heading_difference(row["yaw_a"], row["yaw_b"])).item()
         by_class[klass] += 1
         by_pair.setdefault(f"{row['actor_a']}-{row['actor_b']}", Counter())[klass] += 1
     collided = {row["variation"] for row in coll if row["variation"] in valid}
@@ -197,8 +198,11 @@ def _monitor(tables: dict[str, pa.Table], scenario: Scenario, out_dir: Path) -> 
         from crashscene.monitor.run import write_results
     except ImportError:
         return None
+    from crashscene.monitor.criticality import write_criticality
+
     result = evaluate(tables, scenario)
     write_results(out_dir, result)
+    criticality = write_criticality(out_dir, tables, result.collisions)
     s = result.summary()
     by_class = {k: v for k, v in s.get("collisions", {}).items() if v}
     return {
@@ -214,4 +218,5 @@ def _monitor(tables: dict[str, pa.Table], scenario: Scenario, out_dir: Path) -> 
                                "total": sum(by_class.values())},
         "expected_collision": s.get("expected_collision"),
         "expected_sequence": s.get("expected_sequence"),
+        "criticality": criticality,
     }

@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 import shapely
 
+from crashscene.geometry import LANE_WIDTH
 from crashscene.simulate.backend import SimulationError
 
 ROUTE_DS = 0.5  # [m] spacing of route samples
@@ -96,19 +97,26 @@ class Route:
     def length(self) -> float:
         return (len(self.xy) - 1) * ROUTE_DS
 
-    def project(self, x: float, y: float) -> tuple[float, float]:
-        """(s, d) of a point: station [m] and signed lateral offset [m], left positive."""
-        seg = self.xy[1:] - self.xy[:-1]
-        rel = np.array([x, y]) - self.xy[:-1]
-        seg_len2 = np.maximum(np.einsum("ij,ij->i", seg, seg), 1e-12)
-        u = np.clip(np.einsum("ij,ij->i", rel, seg) / seg_len2, 0.0, 1.0)
-        foot = self.xy[:-1] + seg * u[:, None]
-        dist = np.hypot(*(np.array([x, y]) - foot).T)
-        k = int(np.argmin(dist))
-        s = (k + u[k]) * ROUTE_DS
-        cross = seg[k, 0] * rel[k, 1] - seg[k, 1] * rel[k, 0]
-        d = math.copysign(dist[k], cross) if cross != 0 else 0.0
-        return float(s), float(d)
+    def local_coordinates(self, x: np.ndarray, y: np.ndarray, first_lane: bool = False
+                          ) -> tuple[np.ndarray, np.ndarray]:
+        """(s, d) of world points: station [m] along the route (its nearest point) and signed lateral
+        offset [m], left positive. `first_lane` projects onto the route's first lane only (an actor
+        starts there, and routes run for hundreds of metres, so a later piece could be nearer)."""
+        end = len(self.xy)
+        if first_lane:
+            first = np.flatnonzero(self.lane != self.lane[0])
+            end = int(first[0]) + 2 if len(first) else end
+        line = shapely.LineString(self.xy[:max(end, 2)])
+        s = shapely.line_locate_point(line, shapely.points(x, y))
+        s = np.minimum(s, self.length)
+        k = np.minimum((s / ROUTE_DS).astype(np.int64), len(self.xy) - 2)
+        u = s / ROUTE_DS - k
+        p0, p1 = self.xy[k], self.xy[k + 1]
+        foot = p0 + (p1 - p0) * u[..., None]
+        tangent = p1 - p0
+        norm = np.maximum(np.hypot(tangent[..., 0], tangent[..., 1]), 1e-12)
+        d = (tangent[..., 0] * (y - foot[..., 1]) - tangent[..., 1] * (x - foot[..., 0])) / norm
+        return s, d
 
 
 class RoadMap:
@@ -163,7 +171,7 @@ class RoadMap:
             pts = _dedupe(pts)
             poly_area = float(lane.polygon.area)
             length = float(np.sum(np.hypot(*np.diff(pts, axis=0).T))) if len(pts) > 1 else 0.0
-            width = poly_area / length if length > 0 else 3.5
+            width = poly_area / length if length > 0 else LANE_WIDTH
             succ = lane._successor.uid if lane._successor is not None else None
             mans = [(MANEUVER_TOKENS.get(m.type.name, "straight"), m.connectingLane.uid, m.endLane.uid,
                      m.intersection.uid) for m in lane.maneuvers if m.connectingLane is not None]

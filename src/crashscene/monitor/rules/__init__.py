@@ -1,21 +1,32 @@
-"""The built-in rulebook: importing this package registers the 12 checks of rules.md.
+"""The built-in rulebook: importing this package registers every rule module in it.
 
-User rules register themselves the same way (`@register_rule`) from any module;
-a rulebook file can name such modules under `imports:`.
+Each module of this package declares its rules (`@register_rule`); they are
+imported here by discovery, so a new rule is one new module. User rules
+register themselves the same way from any module; a rulebook file can name
+such modules under `imports:`.
 """
-from crashscene.monitor.rules import following, lanes, right_of_way, signals, speed  # noqa: F401  (register)
+import importlib
+import pkgutil
+
 from crashscene.monitor.rules.base import (
+                                           Disposition,
                                            Rule,
                                            RuleOutcome,
                                            RuleParams,
+                                           codes_with,
+                                           dispositions_of,
+                                           monitored_codes,
                                            register_rule,
                                            registered_rules,
                                            rule_class,
                                            unregister_rule,
 )
 
-BUILTIN_ORDER = ("CVC_21453", "CVC_22450", "CVC_21800", "CVC_21801", "CVC_21802", "CVC_22350", "CVC_22349",
-                 "CVC_21460", "CVC_21650", "CVC_22107", "CVC_21703", "CVC_21803")
+for _module in sorted(m.name for m in pkgutil.iter_modules(__path__)):
+    importlib.import_module(f"{__name__}.{_module}")
 
-__all__ = ["BUILTIN_ORDER", "Rule", "RuleOutcome", "RuleParams", "register_rule", "registered_rules", "rule_class",
-           "unregister_rule"]
+# The built-in codes in rulebook order (rules.md), as declared by the rule classes (`rank`).
+BUILTIN_ORDER = tuple(code for code, cls in registered_rules().items() if cls.__module__.startswith(__name__ + "."))
+
+__all__ = ["BUILTIN_ORDER", "Disposition", "Rule", "RuleOutcome", "RuleParams", "codes_with", "dispositions_of",
+           "monitored_codes", "register_rule", "registered_rules", "rule_class", "unregister_rule"]

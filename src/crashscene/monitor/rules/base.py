@@ -1,12 +1,17 @@
 """The rule interface and the registry of rules by code.
 
-A rule is a small class: its CVC code, violation token, unit, a pydantic
+A rule is a small class, the one declaration of everything about its code:
+its CVC code and violation token, its unit, its place in the rulebook
+(`rank`, the rules.md row), the trace columns it reads (`columns`), the
+guidance the extraction prompt shows (`guide`), the driver traits that inject
+it in reproduce mode (`disposition`, a set of `Disposition`), a pydantic
 `Params` model holding its thresholds (defaults from rules.md), and an
 `evaluate(ctx)` returning one `RuleOutcome` of (variation, actor) arrays.
 Registering a class by its code is all it takes to add a rule: the rulebook
-(YAML overrides, `crashscene rules`), the monitor and the reports pick it up
-without touching the other rules. For example, CVC 22108 (signal for 100 ft
-before turning), assuming a backend that records a `turn_signal` flag::
+(YAML overrides, `crashscene rules`), the monitor, the reports, the DSL's
+monitored codes, the extraction prompt and the reproduce-mode drivers all
+derive their lists from this registry. For example, CVC 22108 (signal for
+100 ft before turning), assuming a backend that records a `turn_signal` flag::
 
     from pydantic import Field
     from crashscene.monitor import Rule, RuleOutcome, RuleParams, register_rule
@@ -18,6 +23,7 @@ before turning), assuming a backend that records a `turn_signal` flag::
     class TurnSignal(Rule):
         code, violation, unit = "CVC_22108", "no_turn_signal", "m"
         summary = "turn signal on for the last 100 ft before a turn"
+        columns = ("t", "maneuver", "stop_line_dist", "turn_signal")
         Params = SignalParams
 
         def evaluate(self, ctx):
@@ -30,21 +36,37 @@ rulebook file (`crashscene monitor RUN --rules rules.yaml`).
 """
 from __future__ import annotations
 
+import math
 import re
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
+from enum import StrEnum
 from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 from crashscene.monitor.errors import RegistryError
+from crashscene.traces import TRACE_SCHEMA
 
 if TYPE_CHECKING:
     from crashscene.monitor.context import EvalContext
 
 CODE_RE = re.compile(r"^CVC_[0-9]+[A-Za-z]?$")
 TOKEN_RE = re.compile(r"^[a-z][a-z0-9_]*$")
+
+
+class Disposition(StrEnum):
+    """What a reproduce-mode driver charged with a rule's code does (the traits a rule injects)."""
+
+    NO_YIELD = "no_yield"            # takes the right of way: enters junctions without yielding
+    RUNS_RED = "runs_red"            # does not stop for a red signal
+    RUNS_STOP = "runs_stop"          # does not stop at a stop sign
+    SPEEDING = "speeding"            # cruises above the (condition-adjusted) limit
+    CARELESS = "careless"            # too fast for the conditions: ignores curve speed and weather
+    INATTENTIVE = "inattentive"      # reacts late to the vehicle ahead
+    TAILGATES = "tailgates"          # keeps a short headway and closes in on the vehicle ahead
+    NO_GAP_CHECK = "no_gap_check"    # changes lanes without checking the gap in the target lane
 
 
 class RuleParams(BaseModel):
@@ -94,6 +116,10 @@ class Rule(ABC):
     violation: ClassVar[str]
     unit: ClassVar[str]
     summary: ClassVar[str] = ""
+    rank: ClassVar[float] = math.inf  # place in the rulebook (rules.md row); user rules follow in registration order
+    columns: ClassVar[tuple[str, ...]] = ()  # trace columns (traces.TRACE_SCHEMA) evaluate reads
+    guide: ClassVar[str] = ""  # when the code applies, in the words of the extraction prompt ("" = not prompted)
+    disposition: ClassVar[frozenset[Disposition]] = frozenset()  # traits injected in reproduce mode
     Params: ClassVar[type[RuleParams]] = RuleParams
 
     def __init__(self, params: RuleParams | None = None):
@@ -121,6 +147,14 @@ def register_rule(cls: type[Rule] | None = None, *, replace: bool = False):
             raise RegistryError(f"{rule_cls.__qualname__}: missing `unit` (e.g. 's', 'm/s', 'm')")
         if not (isinstance(rule_cls.Params, type) and issubclass(rule_cls.Params, RuleParams)):
             raise RegistryError(f"{rule_cls.__qualname__}: Params must subclass RuleParams")
+        columns = rule_cls.columns
+        if not isinstance(columns, tuple) or not all(isinstance(c, str) and TOKEN_RE.match(c) for c in columns):
+            raise RegistryError(f"{rule_cls.__qualname__}: columns must be a tuple of trace column names "
+                                f"(e.g. {', '.join(TRACE_SCHEMA.names[3:6])}), got {columns!r}")
+        bad = [d for d in rule_cls.disposition if not isinstance(d, Disposition)]
+        if bad:
+            raise RegistryError(f"{rule_cls.__qualname__}: disposition {bad} is not a set of Disposition "
+                                f"({', '.join(d.value for d in Disposition)})")
         existing = _REGISTRY.get(code)
         if existing is not None and existing is not rule_cls and not replace:
             same = existing.__module__ == rule_cls.__module__ and existing.__qualname__ == rule_cls.__qualname__
@@ -139,8 +173,28 @@ def unregister_rule(code: str) -> None:
 
 
 def registered_rules() -> dict[str, type[Rule]]:
-    """Code -> rule class, built-ins first in rulebook order, then user rules in registration order."""
-    return dict(_REGISTRY)
+    """Code -> rule class, built-ins first in rulebook order (`rank`), then user rules in registration order."""
+    return dict(sorted(_REGISTRY.items(), key=lambda item: item[1].rank))
+
+
+def monitored_codes() -> dict[str, str]:
+    """Code -> violation token of every registered rule, in rulebook order."""
+    return {code: cls.violation for code, cls in registered_rules().items()}
+
+
+def dispositions_of(codes) -> frozenset[Disposition]:
+    """The driver traits injected by these oracle codes (codes of no registered rule inject none)."""
+    out: set[Disposition] = set()
+    for code in codes:
+        cls = _REGISTRY.get(code)
+        if cls is not None:
+            out |= cls.disposition
+    return frozenset(out)
+
+
+def codes_with(trait: Disposition) -> frozenset[str]:
+    """Codes whose rule injects `trait`."""
+    return frozenset(code for code, cls in _REGISTRY.items() if trait in cls.disposition)
 
 
 def rule_class(code: str) -> type[Rule]:

@@ -5,7 +5,7 @@ import numpy as np
 from pydantic import Field
 
 from crashscene.monitor.context import EvalContext
-from crashscene.monitor.rules.base import Rule, RuleOutcome, RuleParams, register_rule
+from crashscene.monitor.rules.base import Disposition, Rule, RuleOutcome, RuleParams, register_rule
 from crashscene.monitor.timeseries import first_index, steps_for, window_max
 
 
@@ -26,6 +26,10 @@ class FollowingTooClosely(Rule):
     violation = "following_too_closely"
     unit = "s"
     summary = "time headway to a moving same-lane leader below the minimum for the minimum duration"
+    rank = 11
+    columns = ("t", "x", "y", "yaw", "speed", "lane_id")
+    guide = "struck a MOVING vehicle ahead in the same lane (following too closely)"
+    disposition = frozenset({Disposition.TAILGATES, Disposition.INATTENTIVE})
     Params = FollowingParams
 
     def evaluate(self, ctx: EvalContext) -> RuleOutcome:

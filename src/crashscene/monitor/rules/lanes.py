@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 from pydantic import Field
 
+from crashscene.geometry import heading_difference, relative_position
 from crashscene.monitor.context import EvalContext
-from crashscene.monitor.geometry import heading_difference, relative_position
-from crashscene.monitor.rules.base import Rule, RuleOutcome, RuleParams, register_rule
+from crashscene.monitor.rules.base import Disposition, Rule, RuleOutcome, RuleParams, register_rule
 from crashscene.monitor.timeseries import first_index, margin_in, runs, steps_for
 
 
@@ -33,6 +33,10 @@ class DoubleLine(Rule):
     violation = "double_line_crossing"
     unit = "m"
     summary = "a footprint corner beyond a double solid centre line; left/U turn at a junction exempt"
+    rank = 8
+    columns = ("t", "x", "y", "yaw", "speed", "centerline_marker", "centerline_intrusion", "in_junction", "maneuver",
+               "stop_line_dist")
+    guide = "crossed a double solid centre line (add it beside CVC_21650 when road_marker is double_solid_line)"
     Params = DoubleLineParams
 
     def evaluate(self, ctx: EvalContext) -> RuleOutcome:
@@ -73,6 +77,9 @@ class WrongSide(Rule):
     unit = "s"
     summary = ("centre in an opposing lane outside junctions for the minimum duration (or until a crash ends it), "
                "outside a permitted overtake")
+    rank = 9
+    columns = ("t", "x", "y", "yaw", "speed", "lane_id", "opposing_lane", "in_junction")
+    guide = "drove on the wrong side: entered or drifted into the opposing lanes (crossed the centre line)"
     Params = WrongSideParams
 
     def evaluate(self, ctx: EvalContext) -> RuleOutcome:
@@ -157,6 +164,10 @@ class UnsafeLaneChange(Rule):
     unit = "m"
     summary = ("a target-lane vehicle behind or alongside ends closer than its safe gap or must brake harder than "
                "the limit")
+    rank = 10
+    columns = ("t", "x", "y", "yaw", "speed", "accel", "lane_id", "lane_change", "target_lane_id")
+    guide = "changed lanes or merged into another vehicle"
+    disposition = frozenset({Disposition.NO_GAP_CHECK})
     Params = LaneChangeParams
 
     def evaluate(self, ctx: EvalContext) -> RuleOutcome:

@@ -13,10 +13,11 @@ from dataclasses import dataclass
 import numpy as np
 from pydantic import Field
 
+from crashscene.geometry import heading_difference, wrap_angle
 from crashscene.monitor.arrays import code_of
 from crashscene.monitor.context import EvalContext
-from crashscene.monitor.rules.base import Rule, RuleOutcome, RuleParams, register_rule
-from crashscene.monitor.timeseries import first_index, margin_in, take, wrap_angle
+from crashscene.monitor.rules.base import Disposition, Rule, RuleOutcome, RuleParams, register_rule
+from crashscene.monitor.timeseries import first_index, margin_in, take
 
 
 @dataclass
@@ -102,6 +103,10 @@ class LeftTurnYield(Rule):
     violation = "left_turn_yield"
     unit = "s"
     summary = "a left-turning actor enters an oncoming vehicle's path while that one is less than the TTR away"
+    rank = 4
+    columns = ("t", "x", "y", "yaw", "speed", "in_junction", "maneuver", "control")
+    guide = "turned left across oncoming traffic that was too close"
+    disposition = frozenset({Disposition.NO_YIELD})
     Params = YieldParams
 
     def evaluate(self, ctx: EvalContext) -> RuleOutcome:
@@ -133,7 +138,7 @@ class LeftTurnYield(Rule):
                 step = np.where(ref[:, i] >= 0, ref[:, i], np.maximum(s.enter_a[:, i, j] - back, 0))
                 step = np.where(s.enter_a[:, i, j] >= 0, np.minimum(step, s.enter_a[:, i, j]), -1)
                 step = np.clip(step, -1, n_steps - 1)
-                diff = np.abs(wrap_angle(take(yaw[:, j], step) - take(yaw[:, i], step)))
+                diff = heading_difference(take(yaw[:, i], step), take(yaw[:, j], step))
                 out[:, i, j] = diff > np.radians(135)
         return out
 
@@ -144,6 +149,10 @@ class StopSignYield(Rule):
     violation = "stop_sign_yield"
     unit = "s"
     summary = "leaving a stop-controlled approach into a through vehicle's path less than the TTR away"
+    rank = 5
+    columns = ("t", "x", "y", "yaw", "speed", "in_junction", "maneuver", "control")
+    guide = "stopped (or stop not stated) at a stop sign, then entered into cross traffic"
+    disposition = frozenset({Disposition.NO_YIELD})
     Params = YieldParams
 
     def evaluate(self, ctx: EvalContext) -> RuleOutcome:
@@ -160,6 +169,10 @@ class YieldSign(Rule):
     violation = "yield_sign"
     unit = "s"
     summary = "entering from a yield-controlled approach into a through vehicle's path less than the TTR away"
+    rank = 12
+    columns = ("t", "x", "y", "yaw", "speed", "in_junction", "maneuver", "control")
+    guide = "did not yield at a yield sign"
+    disposition = frozenset({Disposition.NO_YIELD})
     Params = YieldParams
 
     def evaluate(self, ctx: EvalContext) -> RuleOutcome:
@@ -189,6 +202,10 @@ class IntersectionRightOfWay(Rule):
     unit = "s"
     summary = ("at an uncontrolled or all-way-stop junction, entering ahead of a vehicle with priority "
                "(entered first, or arrived together on the right) with PET below the minimum or forcing it to brake")
+    rank = 3
+    columns = ("t", "x", "y", "yaw", "speed", "accel", "in_junction", "maneuver", "control", "stop_line_dist")
+    guide = "at an uncontrolled junction, did not yield to the vehicle with priority"
+    disposition = frozenset({Disposition.NO_YIELD})
     Params = IntersectionParams
 
     def evaluate(self, ctx: EvalContext) -> RuleOutcome:

@@ -11,7 +11,7 @@ import numpy as np
 from pydantic import Field
 
 from crashscene.monitor.context import EvalContext
-from crashscene.monitor.rules.base import Rule, RuleOutcome, RuleParams, register_rule
+from crashscene.monitor.rules.base import Disposition, Rule, RuleOutcome, RuleParams, register_rule
 from crashscene.monitor.timeseries import (
     crossings,
     first_index,
@@ -53,6 +53,10 @@ class RedLight(Rule):
     violation = "red_light"
     unit = "s"  # measured: red time at the crossing (negative: crossed that long before red)
     summary = "front bumper crosses the stop line on a steady red (after the grace time); right turn after a stop exempt"
+    rank = 1
+    columns = ("t", "x", "y", "yaw", "speed", "in_junction", "maneuver", "control", "signal", "stop_line_dist")
+    guide = "entered against a red light"
+    disposition = frozenset({Disposition.RUNS_RED})
     Params = RedLightParams
 
     def evaluate(self, ctx: EvalContext) -> RuleOutcome:
@@ -101,6 +105,10 @@ class StopSign(Rule):
     violation = "stop_sign"
     unit = "m/s"
     summary = "crosses a stop-controlled line without a full stop within the last metres before it"
+    rank = 2
+    columns = ("t", "x", "y", "yaw", "speed", "in_junction", "maneuver", "control", "stop_line_dist")
+    guide = "did not stop at a stop sign"
+    disposition = frozenset({Disposition.RUNS_STOP, Disposition.NO_YIELD})
     Params = StopSignParams
 
     def evaluate(self, ctx: EvalContext) -> RuleOutcome:

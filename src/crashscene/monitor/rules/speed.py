@@ -12,16 +12,16 @@ from typing import Literal
 import numpy as np
 from pydantic import Field
 
-from crashscene.monitor.context import MPH, EvalContext
-from crashscene.monitor.rules.base import Rule, RuleOutcome, RuleParams, register_rule
+from crashscene.monitor.context import EvalContext
+from crashscene.monitor.rules.base import Disposition, Rule, RuleOutcome, RuleParams, register_rule
 from crashscene.monitor.timeseries import (
     first_index,
     margin_in,
     steps_for,
     window_min,
 )
+from crashscene.units import G, MPH
 
-G = 9.81  # [m/s2]
 
 
 class LimitParams(RuleParams):
@@ -67,6 +67,10 @@ class SpeedLimit(Rule):
     violation = "speed_limit"
     unit = "m/s"
     summary = "speed above the posted limit + tolerance for the minimum duration"
+    rank = 7
+    columns = ("t", "x", "y", "yaw", "speed", "in_junction", "speed_limit")
+    guide = "speeding above the posted limit is stated"
+    disposition = frozenset({Disposition.SPEEDING})
     Params = SpeedLimitParams
 
     def evaluate(self, ctx: EvalContext) -> RuleOutcome:
@@ -147,6 +151,10 @@ class UnsafeSpeed(Rule):
     unit = "m/s"
     summary = ("speed above the limit times the condition factor for the minimum duration, loss of control, "
                "or rear-ending a stopped vehicle")
+    rank = 6
+    columns = ("t", "x", "y", "yaw", "speed", "lat_accel", "in_junction", "speed_limit", "lost_control")
+    guide = "lost control, too fast for conditions, or struck a STOPPED vehicle ahead"
+    disposition = frozenset({Disposition.SPEEDING, Disposition.CARELESS, Disposition.INATTENTIVE})
     Params = UnsafeSpeedParams
 
     def evaluate(self, ctx: EvalContext) -> RuleOutcome:

@@ -22,6 +22,7 @@ from crashscene.simulate.drivers.longitudinal import (
     desired_speed,
     longitudinal_accel,
 )
+from crashscene.units import G
 
 
 class ReferenceAdsParams(BaseModel):
@@ -64,7 +65,7 @@ class ReferenceADS(Driver):
         c = self.config
         self.rules = LongitudinalRules(headway=c.headway, min_gap=c.min_gap, gap_time=c.gap_acceptance,
                                        yellow_decel=c.yellow_decel, brake_comfort=c.brake_comfort,
-                                       lat_accel=min(c.lat_accel, 0.4 * ctx.friction * 9.81))
+                                       lat_accel=min(c.lat_accel, 0.4 * ctx.friction * G))
         self.state = LongitudinalState(ctx.n_variations)
         self.commands: deque = deque(maxlen=max(1, int(round(c.reaction_time / ctx.dt)) + 1))
         self.lane_changed = np.zeros(ctx.n_variations, dtype=bool)

@@ -1,12 +1,12 @@
 """NPC drivers: each executes its actor's DSL behaviour, with oracle codes injected as dispositions.
 
 Dispositions (reproduce mode injects them into every actor, test mode into the NPCs):
-CVC_21453 ignores red lights; CVC_22450 does not stop at stop signs; CVC_21703
-follows too closely and reacts late; CVC_22350 drives too fast for conditions,
-reacts late and does not slow for curves (and loses control when its behaviour
-says so); CVC_22349 exceeds the limit; CVC_21650 / CVC_21460 cross the centre
-line; CVC_21800 / 21801 / 21802 / 21803 / 21804 (driveway) do not yield; CVC_22107 changes lanes
-without checking the gap.
+each oracle code injects the traits its rule class declares (`Rule.disposition`,
+`crashscene.monitor.rules.Disposition`): a driver charged with a right-of-way
+code does not yield, one charged with CVC_21453 runs red lights, with CVC_22350
+drives too fast for conditions, reacts late and does not slow for curves (and
+loses control when its behaviour says so), and so on. Centre-line codes
+(CVC_21650, CVC_21460) inject nothing: the DSL behaviour crosses the line.
 """
 from __future__ import annotations
 
@@ -14,6 +14,7 @@ from collections import deque
 
 import numpy as np
 
+from crashscene.monitor.rules import Disposition, codes_with, dispositions_of
 from crashscene.simulate.drivers.base import (
     Action,
     Driver,
@@ -27,9 +28,9 @@ from crashscene.simulate.drivers.longitudinal import (
     desired_speed,
     longitudinal_accel,
 )
+from crashscene.units import G
 
-NO_YIELD_CODES = frozenset({"CVC_21800", "CVC_21801", "CVC_21802", "CVC_21803", "CVC_21804", "CVC_22450"})
-CLOSE_HEADWAY = 0.5  # [s] CVC_21703
+CLOSE_HEADWAY = 0.5  # [s] a tailgater's time headway
 REACTION = 1.0  # [s] perception-reaction time of an ordinary human driver
 TAILGATE_RANGE = 80.0  # [m] a tailgater matches the speed of a car ahead closer than this
 PULL_OUT_BEHAVIORS = ("change_lane_left", "change_lane_right", "cross_centerline", "overtake")
@@ -37,8 +38,8 @@ PULL_OUT_GAP = 2.0  # [m] a tailgater about to pass pulls out when this close to
 PULL_OUT_TIME = 0.25  # [s] ...or this close in time
 CLOSING_SPEED = 3.0  # [m/s] how much faster than the car ahead a tailgater about to pass drives
 CROSSING_YAW = 0.7  # [rad] a lead more than this off the route's heading is crossing, not followed
-LATE_REACTION = 1.8  # [s] perception delay of an inattentive driver (CVC_21703, CVC_22350)
-OVERSPEED = 1.25  # [-] CVC_22350 / CVC_22349: cruise speed factor
+LATE_REACTION = 1.8  # [s] perception delay of an inattentive driver
+OVERSPEED = 1.25  # [-] a speeding driver's cruise speed factor
 DECELERATE_TO = 0.25  # [-] decelerate: fraction of cruise speed it slows to
 DECELERATE_RATE = 4.0  # [m/s2]
 SPIN_RATE = 0.35  # [rad/s] yaw rate of a vehicle out of control
@@ -47,26 +48,27 @@ DRIFTING = ("cross_centerline", "overtake", "lose_control", "leave_road")
 LANE_CHANGE_GAP = 1.0  # [s] time gap a careful driver needs in the target lane
 
 
-SPEEDING_CODES = frozenset({"CVC_22350", "CVC_22349"})
+# The oracle codes a driver carries inject the traits their rule classes declare (`Rule.disposition`).
+SPEEDING_CODES = codes_with(Disposition.SPEEDING)  # the built-in rules' speeding codes
+NO_YIELD_CODES = codes_with(Disposition.NO_YIELD)  # the built-in rules' codes of drivers who take the right of way
 OVER_LIMIT = 3.0  # [m/s] a speeding driver's margin above the (condition-adjusted) limit
-G = 9.81  # [m/s2]
 
 
 def speed_factor(dispositions: frozenset[str]) -> float:
     """Factor on the sampled speed of a speeding driver (also its initial speed)."""
-    return OVERSPEED if dispositions & SPEEDING_CODES else 1.0
+    return OVERSPEED if Disposition.SPEEDING in dispositions_of(dispositions) else 1.0
 
 
 def rules_for(dispositions: frozenset[str], friction: float = 0.8) -> LongitudinalRules:
     """The longitudinal rules of a driver carrying these oracle codes."""
-    careless = bool(dispositions & {"CVC_22350"})
+    traits = dispositions_of(dispositions)
     return LongitudinalRules(
         lat_accel=min(2.5, 0.4 * friction * G),
-        headway=CLOSE_HEADWAY if "CVC_21703" in dispositions else 1.5,
-        obey_red="CVC_21453" not in dispositions,
-        obey_stop="CVC_22450" not in dispositions,
-        yields=not (dispositions & NO_YIELD_CODES),
-        curve_speed=not careless,
+        headway=CLOSE_HEADWAY if Disposition.TAILGATES in traits else 1.5,
+        obey_red=Disposition.RUNS_RED not in traits,
+        obey_stop=Disposition.RUNS_STOP not in traits,
+        yields=Disposition.NO_YIELD not in traits,
+        curve_speed=Disposition.CARELESS not in traits,
     )
 
 
@@ -92,16 +94,16 @@ class BehaviorDriver(Driver):
 
     def reset(self, ctx: DriverContext) -> None:
         super().reset(ctx)
-        disp = ctx.dispositions
-        self.rules = rules_for(disp, ctx.friction)
-        self.speeding = bool(disp & SPEEDING_CODES)
-        self.careless = "CVC_22350" in disp
+        traits = dispositions_of(ctx.dispositions)
+        self.rules = rules_for(ctx.dispositions, ctx.friction)
+        self.speeding = Disposition.SPEEDING in traits
+        self.careless = Disposition.CARELESS in traits
         self.state = LongitudinalState(ctx.n_variations)
-        inattentive = bool(disp & {"CVC_21703", "CVC_22350"})
+        inattentive = Disposition.INATTENTIVE in traits
         self.perception = DelayedPerception(LATE_REACTION if inattentive else REACTION, ctx.dt)
         self.cruise = ctx.cruise_speed  # already includes the speeding factor (embedded.setup plans with it)
-        self.check_gap = "CVC_22107" not in disp
-        self.tailgater = "CVC_21703" in disp
+        self.check_gap = Disposition.NO_GAP_CHECK not in traits
+        self.tailgater = Disposition.TAILGATES in traits
         self.pulled_out = np.zeros(ctx.n_variations, dtype=bool)
         self.lane_changed = np.zeros(ctx.n_variations, dtype=bool)
         self.stopping = np.zeros(ctx.n_variations, dtype=bool)

@@ -11,6 +11,7 @@ import math
 import numpy as np
 
 from crashscene.dsl import Scenario
+from crashscene.geometry import wrap_angle
 from crashscene.scene import SampledScene
 from crashscene.simulate.embedded.world import RouteArrays
 from crashscene.simulate.roads import ROUTE_DS
@@ -124,7 +125,7 @@ def _must_yield(arrays: RouteArrays, ra: int, rb: int, entry_control: np.ndarray
         return minor_a
     ha = heading_at(arrays, ra, arrays.entry_s[ra, ja] - 2.0)
     hb = heading_at(arrays, rb, arrays.entry_s[rb, jb] - 2.0)
-    rel = math.remainder(hb - ha, 2 * math.pi)
+    rel = wrap_angle(hb - ha)
     oncoming = abs(rel) > 2.4
     a_left = arrays.entry_maneuver[ra, ja] in (2, 4)
     b_left = arrays.entry_maneuver[rb, jb] in (2, 4)

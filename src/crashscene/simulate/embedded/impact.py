@@ -15,7 +15,8 @@ from __future__ import annotations
 
 import numpy as np
 
-G = 9.81  # [m/s2]
+from crashscene.units import G
+
 RESTITUTION = 0.15  # [-] vehicle-to-vehicle impacts are nearly plastic (reconstruction practice: 0.1-0.3)
 MU_CONTACT = 0.4  # [-] friction between the two bodies along the contact face
 ROLL_FRACTION = 0.35  # [-] rolling deceleration after an impact, as a fraction of mu*g

@@ -19,11 +19,11 @@ from crashscene.simulate.embedded import skid as skid_plan
 from crashscene.simulate.embedded.control import entry_before
 from crashscene.simulate.embedded.world import RouteArrays
 from crashscene.simulate.roads import ROUTE_DS
+from crashscene.units import MPH
 
 if TYPE_CHECKING:
     from crashscene.simulate.embedded.setup import ActorColumn
 
-MPH = 0.44704  # [m/s] per mph
 VEER_BEHAVIORS = ("change_lane_left", "change_lane_right", "cross_centerline", "overtake")
 LATERAL_BEHAVIORS = ("change_lane_left", "change_lane_right", "cross_centerline", "overtake", "lose_control",
                      "leave_road")

@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pyarrow as pa
 
+from crashscene.geometry import LANE_WIDTH
 from crashscene.scene import SampledScene
 from crashscene.simulate.backend import SimulationSettings
 from crashscene.simulate.roads import MARKERS, RoadMap
@@ -127,7 +128,7 @@ class Recorder:
         d = flat(f["d"])
         route_lane = flat(i["route_lane"])
         grid_lane, grid_junction = roadmap.lookup(x, y)
-        lane_w = np.where(route_lane >= 0, batch.lane_width_table[np.maximum(route_lane, 0)], 3.5)
+        lane_w = np.where(route_lane >= 0, batch.lane_width_table[np.maximum(route_lane, 0)], LANE_WIDTH)
         on_route_lane = (route_lane >= 0) & (np.abs(d) < lane_w / 2)
         lane = np.where(on_route_lane, route_lane, grid_lane)
         in_junction = grid_junction >= 0

@@ -11,21 +11,22 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-import shapely
 
 from crashscene.dsl import Scenario
+from crashscene.geometry import LANE_WIDTH
 from crashscene.scene import SampledActor, SampledScene
 from crashscene.simulate.backend import SimulationError, SimulationSettings
 from crashscene.simulate.drivers.behaviors import NO_YIELD_CODES
 from crashscene.simulate.embedded import timing
 from crashscene.simulate.embedded.control import control_tables, entry_before, priorities
-from crashscene.simulate.embedded.plan import MPH, mph, plan_variation, stop_dist
+from crashscene.simulate.embedded.plan import mph, plan_variation, stop_dist
 from crashscene.simulate.embedded.pullout import PullOut, line_station
 from crashscene.simulate.embedded.sync import Meeting
 from crashscene.simulate.embedded.vehicles import VehicleLimits, limits_for
 from crashscene.simulate.embedded.world import RouteArrays
 from crashscene.simulate.roads import ROUTE_DS, Lane, RoadMap, Route
 from crashscene.simulate.tables import driver_dispositions, is_ads
+from crashscene.units import MPH
 
 JUNCTION_INTENTS = {"straight": "straight", "left": "left", "right": "right", "u_turn": "u_turn"}
 BEHAVIOR_INTENTS = {"turn_left": "left", "turn_right": "right", "u_turn": "u_turn"}
@@ -180,7 +181,7 @@ def build(scenario: Scenario, scenes: list[SampledScene], roadmap: RoadMap,
     for r, rt in enumerate(routes):
         mask = route == r
         if mask.any():
-            s0[mask], d0[mask] = _project_many(rt, x[mask], y[mask])
+            s0[mask], d0[mask] = rt.local_coordinates(x[mask], y[mask], first_lane=True)
 
     if relocated.any():
         # an actor placed in another lane of its approach starts on that lane's centre
@@ -189,7 +190,7 @@ def build(scenario: Scenario, scenes: list[SampledScene], roadmap: RoadMap,
         d0[vv, aa] = 0.0
     lane_width_table = np.array([lane.width for lane in roadmap.lanes])
     start_lane_idx = arrays.lane[route, np.clip((s0 / ROUTE_DS).astype(int), 0, arrays.lane.shape[1] - 1)]
-    lane_width = np.where(start_lane_idx >= 0, lane_width_table[np.maximum(start_lane_idx, 0)], 3.5)
+    lane_width = np.where(start_lane_idx >= 0, lane_width_table[np.maximum(start_lane_idx, 0)], LANE_WIDTH)
     co = arrays.sample(arrays.centerline_offset, route, s0)
     for a, col in enumerate(columns):
         if col.behavior == "leave_road":
@@ -529,7 +530,7 @@ def _lateral_target(behavior: str, current: np.ndarray, centre_offset: np.ndarra
     if behavior in ("cross_centerline", "overtake"):
         return across
     if behavior == "leave_road":
-        return -(lane_width / 2.0 + 3.5)
+        return -(lane_width / 2.0 + LANE_WIDTH)  # one lane's width beyond the road's edge
     if behavior in ("change_lane_left", "change_lane_right"):
         return np.where(np.isnan(current), across, current)
     return np.nan_to_num(current)
@@ -541,24 +542,6 @@ def _straight_route(key: tuple, actor: SampledActor, length: float) -> Route:
     n = len(s)
     return Route(key, xy, np.full(n, actor.yaw), np.zeros(n), np.full(n, -1, dtype=np.int32),
                  np.full(n, -1, dtype=np.int32), np.full(n, np.nan), np.full(n, np.nan), [])
-
-
-def _project_many(route: Route, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(s, d) of many points on one route (s along the stitched polyline, d left positive)."""
-    # actors start on the route's first lane: project onto that piece only (routes run for hundreds of metres)
-    first = np.flatnonzero(route.lane != route.lane[0])
-    end = int(first[0]) + 2 if len(first) else len(route.xy)
-    line = shapely.LineString(route.xy[:max(end, 2)])
-    s = shapely.line_locate_point(line, shapely.points(x, y))
-    s = np.minimum(s, route.length)
-    k = np.minimum((s / ROUTE_DS).astype(np.int64), len(route.xy) - 2)
-    u = s / ROUTE_DS - k
-    p0, p1 = route.xy[k], route.xy[k + 1]
-    foot = p0 + (p1 - p0) * u[:, None]
-    tangent = p1 - p0
-    norm = np.maximum(np.hypot(tangent[:, 0], tangent[:, 1]), 1e-12)
-    d = (tangent[:, 0] * (y - foot[:, 1]) - tangent[:, 1] * (x - foot[:, 0])) / norm
-    return s, d
 
 
 def condition_factor(scenario: Scenario) -> float:

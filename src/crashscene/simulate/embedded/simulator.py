@@ -17,6 +17,7 @@ import time
 
 import numpy as np
 
+from crashscene.geometry import LANE_WIDTH, footprints_overlap, wrap_angle
 from crashscene.simulate.backend import (
     BatchResult,
     SimulationRequest,
@@ -35,7 +36,6 @@ from crashscene.simulate.drivers.base import (
 from crashscene.simulate.drivers.behaviors import BehaviorDriver
 from crashscene.simulate.embedded import setup as batch_setup
 from crashscene.simulate.embedded import impact, signals
-from crashscene.simulate.embedded.collisions import rectangles_overlap
 from crashscene.simulate.embedded.record import Recorder
 from crashscene.simulate.roads import STOP_LINE_SETBACK, RoadMap
 
@@ -255,7 +255,8 @@ def _geometry(batch: batch_setup.BatchSetup, state: State, t: float) -> Geometry
     g.signal = np.where(g.control == CONTROL_SIGNAL, sig, SIGNAL_NONE).astype(np.int8)
     limit = routes.speed_limit[r, k]
     g.speed_limit = np.where(np.isnan(limit), batch.default_speed_limit, limit)
-    g.lane_width = np.where(g.route_lane >= 0, batch.lane_width_table[np.maximum(g.route_lane, 0)], 3.5)
+    g.lane_width = np.where(g.route_lane >= 0, batch.lane_width_table[np.maximum(g.route_lane, 0)],
+                            LANE_WIDTH)
     return g
 
 
@@ -309,7 +310,7 @@ def _observe(batch: batch_setup.BatchSetup, state: State, geo: Geometry, a: int,
         lb, wb = batch.length[:, b], batch.width[:, b]
         ds, lat, qyaw = _relative_on_route(batch, state, a, b, here)
         near_route = np.abs(ds) < 150.0
-        rel_yaw = np.remainder(state.yaw[:, b] - qyaw + np.pi, 2 * np.pi) - np.pi
+        rel_yaw = wrap_angle(state.yaw[:, b] - qyaw)
         speed_along = state.v[:, b] * np.cos(rel_yaw)
         # an inattentive striker (setup.unseen_partners) does not see what it strikes in its path
         in_path = visible & near_route & (np.abs(lat - state.d[:, a]) < (wa + wb) / 2 + 0.3) & (ds > 0) \
@@ -385,7 +386,7 @@ def _move(batch: batch_setup.BatchSetup, state: State, accel_cmd: np.ndarray, la
     px = tx - np.sin(tyaw) * state.d_ref
     py = ty + np.cos(tyaw) * state.d_ref
     alpha = np.arctan2(py - state.y, px - state.x) - state.yaw
-    alpha = np.remainder(alpha + np.pi, 2 * np.pi) - np.pi
+    alpha = wrap_angle(alpha)
     steer_cmd = np.arctan2(2.0 * wheelbase * np.sin(alpha), lookahead)
     state.steer += np.clip(steer_cmd - state.steer, -steer_rate * dt, steer_rate * dt)
     state.steer = np.clip(state.steer, -steer_max, steer_max)
@@ -418,7 +419,7 @@ def _move(batch: batch_setup.BatchSetup, state: State, accel_cmd: np.ndarray, la
         state.vx, state.vy = np.where(sliding, vx, 0.0), np.where(sliding, vy, 0.0)
     step_len = np.hypot(x_new - state.x, y_new - state.y)
     state.x, state.y = x_new, y_new
-    state.yaw = np.remainder(yaw_new + np.pi, 2 * np.pi) - np.pi
+    state.yaw = wrap_angle(yaw_new)
     state.moved += step_len
     state.v = v_new
     state.a = accel
@@ -427,14 +428,7 @@ def _move(batch: batch_setup.BatchSetup, state: State, accel_cmd: np.ndarray, la
     # project back onto the route: predict with the route heading, then correct along the tangent
     _, _, ryaw = routes.point(r, state.s)
     s_pred = state.s + (state.x - state.prev_x) * np.cos(ryaw) + (state.y - state.prev_y) * np.sin(ryaw)
-    for _ in range(2):
-        qx, qy, qyaw = routes.point(r, s_pred)
-        ex, ey = state.x - qx, state.y - qy
-        s_pred = s_pred + ex * np.cos(qyaw) + ey * np.sin(qyaw)
-    s_pred = np.clip(s_pred, 0.0, routes.length[r])
-    qx, qy, qyaw = routes.point(r, s_pred)
-    state.d = -(state.x - qx) * np.sin(qyaw) + (state.y - qy) * np.cos(qyaw)
-    state.s = s_pred
+    state.s, state.d, _ = routes.local_coordinates(r, state.x, state.y, s_pred)
     newly_gone = ~state.gone & (state.s >= routes.length[r] - batch.length / 2 - 0.5) & ~state.lost & ~state.free
     state.gone_time = np.where(newly_gone, t_next, state.gone_time)
     state.gone |= newly_gone
@@ -448,7 +442,7 @@ def _check_collisions(batch: batch_setup.BatchSetup, state: State, recorder: Rec
     for a in range(n_a):
         for b in range(a + 1, n_a):
             active = ~(state.gone[:, a] | state.gone[:, b])
-            overlap = active & rectangles_overlap(state.x[:, a], state.y[:, a], state.yaw[:, a], batch.length[:, a],
+            overlap = active & footprints_overlap(state.x[:, a], state.y[:, a], state.yaw[:, a], batch.length[:, a],
                                                   batch.width[:, a], state.x[:, b], state.y[:, b], state.yaw[:, b],
                                                   batch.length[:, b], batch.width[:, b])
             onset = overlap & ~state.touching[:, a, b]
@@ -509,7 +503,7 @@ def _back_to_contact(batch: batch_setup.BatchSetup, state: State, hit: np.ndarra
 
     def pose(actor: int, f: np.ndarray):
         yaw0, yaw1 = state.prev_yaw[idx, actor], state.yaw[idx, actor]
-        dyaw = np.remainder(yaw1 - yaw0 + np.pi, 2 * np.pi) - np.pi
+        dyaw = wrap_angle(yaw1 - yaw0)
         return (state.prev_x[idx, actor] + f * (state.x[idx, actor] - state.prev_x[idx, actor]),
                 state.prev_y[idx, actor] + f * (state.y[idx, actor] - state.prev_y[idx, actor]), yaw0 + f * dyaw)
 
@@ -517,7 +511,7 @@ def _back_to_contact(batch: batch_setup.BatchSetup, state: State, hit: np.ndarra
         mid = (lo + hi) / 2
         xa, ya, ta = pose(a, mid)
         xb, yb, tb = pose(b, mid)
-        touching = rectangles_overlap(xa, ya, ta, batch.length[idx, a], batch.width[idx, a], xb, yb, tb,
+        touching = footprints_overlap(xa, ya, ta, batch.length[idx, a], batch.width[idx, a], xb, yb, tb,
                                       batch.length[idx, b], batch.width[idx, b])
         hi = np.where(touching, mid, hi)
         lo = np.where(touching, lo, mid)

@@ -7,12 +7,12 @@ gather over (V, A).
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 import shapely
 
+from crashscene.geometry import wrap_angle
 from crashscene.simulate.roads import MANEUVER_CODES, ROUTE_DS, Route
 
 CONTROL_CODES = {"none": 0, "signal": 1, "stop": 2, "yield": 3}
@@ -99,6 +99,22 @@ class RouteArrays:
         x = x0 + (self._flat_x[flat + 1] - x0) * u
         y = y0 + (self._flat_y[flat + 1] - y0) * u
         return x, y, self._flat_yaw[flat]
+
+    def local_coordinates(self, r: np.ndarray, x: np.ndarray, y: np.ndarray, s: np.ndarray,
+                          iterations: int = 2) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(s, d, yaw): station [m], lateral offset [m] (left > 0) and route heading [rad] of the world
+        point (x, y) on route r; the inverse of `point` (`point(r, s)` offset by d across it is (x, y)).
+
+        Local: starting from a station guess `s` near the answer (the last station, moved by the
+        distance travelled), each iteration corrects it along the route's tangent; the station is then
+        clipped to the route and d measured across it.
+        """
+        for _ in range(iterations):
+            qx, qy, qyaw = self.point(r, s)
+            s = s + (x - qx) * np.cos(qyaw) + (y - qy) * np.sin(qyaw)
+        s = np.clip(s, 0.0, self.length[r])
+        qx, qy, qyaw = self.point(r, s)
+        return s, -(x - qx) * np.sin(qyaw) + (y - qy) * np.cos(qyaw), qyaw
 
     def sample(self, table: np.ndarray, r: np.ndarray, s: np.ndarray) -> np.ndarray:
         k, _ = self.index(s)
@@ -193,7 +209,7 @@ def _conflicts(routes: list[Route]) -> tuple[np.ndarray, np.ndarray]:
             conflict_s[i, j] = s_i[k]
             yi = routes[i].yaw[min(int(s_i[k] / ROUTE_DS), len(routes[i].yaw) - 1)]
             yj = routes[j].yaw[min(int(s_j / ROUTE_DS), len(routes[j].yaw) - 1)]
-            angle[i, j] = math.remainder(yj - yi, 2 * math.pi)
+            angle[i, j] = wrap_angle(yj - yi)
     return conflict_s, angle
 
 

@@ -1,0 +1,121 @@
+"""The small geometric vocabulary every stage builds on: angles, footprints, contacts, lanes.
+
+Conventions: yaw 0 = +x (OpenDRIVE), counter-clockwise [rad]; an actor's
+footprint is an oriented rectangle centred on (x, y) with its length along
+its yaw and its width across it [m]; "b in a's frame" is (longitudinal,
+ahead > 0; lateral, left > 0) [m]. Everything is vectorised: arrays of any
+shape broadcast together. Route geometry (station s and lateral offset d along
+a route) lives on the routes themselves: `RouteArrays.point` /
+`RouteArrays.local_coordinates` and `Route.local_coordinates`
+(`crashscene.simulate`).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+LANE_WIDTH = 3.5  # [m] lane width of generated maps, and the fallback where a map gives none
+TAU = 2.0 * math.pi  # [rad] one turn
+
+# collision classes by relative heading (rules.md): bounds [deg]
+REAR_END_MAX = 30.0  # [deg] below: same direction (rear-end, or sideswipe when side to side)
+HEAD_ON_MIN = 150.0  # [deg] above: opposite directions (head-on, or sideswipe when side to side)
+ANGLE_RANGE = (60.0, 120.0)  # [deg] within: an angle (T-bone) collision; anything else is a sideswipe
+
+
+def wrap_angle(angle, exact: bool = False):
+    """Angle [rad] wrapped to [-pi, pi].
+
+    A scalar is wrapped exactly (IEEE remainder, `math.remainder`) and comes
+    back as a float; so is an array with `exact=True` (element by element).
+    Otherwise an array is wrapped as (angle + pi) mod 2 pi - pi, in [-pi, pi),
+    which can differ from the exact value in the last bit: the simulator's
+    state has always been wrapped that way, and seeded runs keep their bytes.
+    Use `exact=True` where values must agree with scalars wrapped elsewhere
+    (a recorded yaw with the sampled scene's yaw).
+    """
+    if np.ndim(angle) == 0 and not isinstance(angle, np.ndarray):
+        return math.remainder(float(angle), TAU)
+    angle = np.asarray(angle, dtype=float)
+    if exact:
+        # fmod is exact, and so is the one-turn correction (Sterbenz): the IEEE remainder, vectorised
+        r = np.fmod(angle, TAU)
+        r = np.where(r > np.pi, r - TAU, np.where(r < -np.pi, r + TAU, r))
+        # halfway (+-pi): the remainder takes the even number of turns
+        odd = (np.abs(r) == np.pi) & (np.round((angle - r) / TAU) % 2 == 1)
+        return np.where(odd, -r, r)
+    return np.remainder(angle + np.pi, TAU) - np.pi
+
+
+def heading_difference(yaw_a, yaw_b):
+    """Unsigned angle between two headings [rad], in [0, pi]."""
+    return np.abs(wrap_angle(np.asarray(yaw_b) - np.asarray(yaw_a)))
+
+
+def relative_position(x_a, y_a, yaw_a, x_b, y_b) -> tuple[np.ndarray, np.ndarray]:
+    """Position of b in a's frame: (longitudinal ahead > 0, lateral left > 0) [m]."""
+    dx, dy = x_b - x_a, y_b - y_a
+    c, s = np.cos(yaw_a), np.sin(yaw_a)
+    return dx * c + dy * s, -dx * s + dy * c
+
+
+def footprint_corners(x, y, yaw, length, width) -> np.ndarray:
+    """(..., 4, 2) footprint corners [m]: front-left, front-right, rear-right, rear-left."""
+    x, y, yaw = np.broadcast_arrays(np.asarray(x, float), np.asarray(y, float), np.asarray(yaw, float))
+    c, s = np.cos(yaw), np.sin(yaw)
+    hl, hw = np.asarray(length, float) / 2, np.asarray(width, float) / 2
+    signs = np.array([[1, 1], [1, -1], [-1, -1], [-1, 1]], dtype=float)
+    lon = signs[:, 0] * hl[..., None]
+    lat = signs[:, 1] * hw[..., None]
+    cx = x[..., None] + lon * c[..., None] - lat * s[..., None]
+    cy = y[..., None] + lon * s[..., None] + lat * c[..., None]
+    return np.stack([cx, cy], axis=-1)
+
+
+def footprints_overlap(xa, ya, yawa, la, wa, xb, yb, yawb, lb, wb) -> np.ndarray:
+    """True where footprint a (centre, yaw, length, width [m, rad]) overlaps or touches footprint b.
+
+    The separating-axis test on the four candidate axes (a's and b's long and
+    lateral axes); a NaN pose never overlaps.
+    """
+    dx, dy = xb - xa, yb - ya
+    ca, sa = np.cos(yawa), np.sin(yawa)
+    cb, sb = np.cos(yawb), np.sin(yawb)
+    axes = ((ca, sa), (-sa, ca), (cb, sb), (-sb, cb))
+    overlap = np.ones(np.broadcast(dx, dy, ca, cb).shape, dtype=bool)
+    for ux, uy in axes:
+        dist = np.abs(dx * ux + dy * uy)
+        # half extent of each rectangle projected on the axis
+        ra = la / 2 * np.abs(ca * ux + sa * uy) + wa / 2 * np.abs(-sa * ux + ca * uy)
+        rb = lb / 2 * np.abs(cb * ux + sb * uy) + wb / 2 * np.abs(-sb * ux + cb * uy)
+        overlap &= dist <= ra + rb
+    return overlap
+
+
+def classify_contact(rel_heading, lon=None, lat=None, half_len=None, half_wid=None) -> np.ndarray:
+    """Collision class names (rules.md) for contacts, given their relative heading [rad].
+
+    `rear_end` under 30 deg, `head_on` over 150 deg, `angle` within 60-120 deg,
+    `sideswipe` otherwise. Given b's offset in a's frame (`lon`, `lat` [m]) and
+    the sums of the two half lengths / half widths [m], a near-parallel contact
+    is end-on (rear-end or head-on) only when the longitudinal gap is closer to
+    touching than the lateral one, and a sideswipe when side to side; without
+    them every contact counts as end-on.
+    """
+    deg = np.degrees(np.asarray(rel_heading, dtype=float))
+    if lon is None:
+        end_on = np.ones(deg.shape, dtype=bool)
+    else:
+        end_on = (np.abs(lon) - half_len) > (np.abs(lat) - half_wid)
+    out = np.full(deg.shape, "sideswipe", dtype=object)
+    out[(deg < REAR_END_MAX) & end_on] = "rear_end"
+    out[(deg > HEAD_ON_MIN) & end_on] = "head_on"
+    out[(deg >= ANGLE_RANGE[0]) & (deg <= ANGLE_RANGE[1])] = "angle"
+    return out
+
+
+def pair_indices(n_actors: int) -> tuple[np.ndarray, np.ndarray]:
+    """Unordered actor pairs (i < j) as two index arrays."""
+    i, j = np.triu_indices(n_actors, k=1)
+    return i, j

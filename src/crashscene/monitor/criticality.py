@@ -1,0 +1,361 @@
+"""Criticality metrics per variation and actor pair, from the trace alone (any backend).
+
+For every unordered pair of actors (a, b) of every variation:
+
+- `min_ttc` [s]: minimum time to collision. At each step both footprints
+  (oriented rectangles) are moved at their current velocity, headings held, and
+  the first time they would overlap is found exactly with the separating-axis
+  test on the four axes of the two rectangles (continuous SAT). 0 from the
+  first contact on; NaN when the pair is never on a collision course.
+- `pet` [s]: post-encroachment time at the conflict point, the first point
+  where the two centre paths cross at an angle between 20 and 160 deg: the time
+  from the first actor's rear leaving the point to the second actor's front
+  reaching it (entry and exit interpolated between steps); 0 when both
+  footprints cover it at once; NaN when the paths do not cross or one actor
+  never reaches the point.
+- `min_thw` [s]: minimum time headway, the bumper-to-bumper gap to an actor
+  ahead in the follower's path (heading difference under 30 deg, lateral
+  offset under the two half widths) divided by the follower's speed.
+- `max_drac` [m/s2]: maximum deceleration rate to avoid the crash: the
+  relative speed |v_b - v_a| that must be cancelled over the distance it closes
+  before contact, |v_rel| / (2 TTC) (for a car closing on a stopped one:
+  v^2 / (2 gap)).
+- `impact_speed` [m/s], `delta_v_a`, `delta_v_b` [m/s] at the first contact:
+  the relative speed of the two velocity vectors at contact and each vehicle's
+  velocity change. Delta-v is what the simulator recorded (`delta_v_a/b` in
+  the collisions table) when it did; otherwise the perfectly plastic
+  (common-velocity) estimate of crash reconstruction, momentum conserved:
+  delta_v_a = m_b / (m_a + m_b) * impact_speed, with masses by actor type.
+
+Everything is vectorised over (variation, step); the only Python loops are
+over actor pairs and chunks of variations.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.compute as pc
+
+from crashscene.geometry import heading_difference, relative_position
+from crashscene.monitor.arrays import TraceArrays
+from crashscene.monitor.collisions import pair_overlaps
+from crashscene.monitor.timeseries import first_index, last_index
+
+MASS = {"car": 1500.0, "truck": 9000.0, "motorcycle": 250.0}  # [kg] by DSL actor type, for delta-v
+DEFAULT_MASS = 1500.0  # [kg]
+CROSSING_MIN_ANGLE = np.radians(20.0)  # [rad] paths meeting flatter than this follow or oppose, not cross
+FOLLOW_MAX_ANGLE = np.radians(30.0)  # [rad] heading difference of a car-following pair
+MIN_FOLLOWER_SPEED = 0.1  # [m/s] slower followers have no meaningful headway
+PATH_STRIDE = 4  # steps between path samples when looking for the crossing point
+CHUNK = 512  # variations per vectorised block (bounds memory)
+
+METRICS = ("min_ttc", "pet", "min_thw", "max_drac", "impact_speed", "delta_v_a", "delta_v_b")
+
+CRITICALITY_SCHEMA = pa.schema([
+    ("variation", pa.int32()),
+    ("actor_a", pa.string()),         # role order, ego first
+    ("actor_b", pa.string()),
+    ("involves_ads", pa.bool_()),     # one of the two is under test (is_ads)
+    ("min_ttc", pa.float64()),        # [s] NaN: never on a collision course
+    ("min_ttc_t", pa.float64()),      # [s] when the minimum occurred
+    ("pet", pa.float64()),            # [s] NaN: no crossing conflict
+    ("min_thw", pa.float64()),        # [s] NaN: never following
+    ("max_drac", pa.float64()),       # [m/s2] NaN: never closing
+    ("collided", pa.bool_()),
+    ("impact_speed", pa.float64()),   # [m/s] NaN without contact
+    ("delta_v_a", pa.float64()),      # [m/s]
+    ("delta_v_b", pa.float64()),      # [m/s]
+    ("delta_v_source", pa.string()),  # simulator | momentum | null
+])
+
+
+def time_to_collision(pa_: np.ndarray, pb_: np.ndarray, yaw_a: np.ndarray, yaw_b: np.ndarray,
+                      half_a: np.ndarray, half_b: np.ndarray, va: np.ndarray, vb: np.ndarray) -> np.ndarray:
+    """First time [s] >= 0 at which two translating oriented rectangles overlap; inf if never.
+
+    `pa_`, `pb_` (..., 2) centres [m]; `yaw_*` (...) [rad]; `half_*` (..., 2) half length and half width [m];
+    `va`, `vb` (..., 2) velocities [m/s]. Separating-axis test swept in time: on each of the four axes the
+    projections overlap during an interval; the rectangles overlap while all four intervals do.
+    """
+    d = pb_ - pa_
+    w = vb - va
+    ua = np.stack([np.cos(yaw_a), np.sin(yaw_a)], axis=-1)
+    ub = np.stack([np.cos(yaw_b), np.sin(yaw_b)], axis=-1)
+    perp = lambda u: np.stack([-u[..., 1], u[..., 0]], axis=-1)
+    dot = lambda p, q: (p * q).sum(-1)
+    t_in = np.zeros(d.shape[:-1])
+    t_out = np.full(d.shape[:-1], np.inf)
+    for axis in (ua, perp(ua), ub, perp(ub)):
+        radius = (half_a[..., 0] * np.abs(dot(ua, axis)) + half_a[..., 1] * np.abs(dot(perp(ua), axis))
+                  + half_b[..., 0] * np.abs(dot(ub, axis)) + half_b[..., 1] * np.abs(dot(perp(ub), axis)))
+        gap, s = dot(d, axis), dot(w, axis)   # overlap on this axis while |gap + s t| <= radius
+        with np.errstate(divide="ignore", invalid="ignore"):
+            lo, hi = (-radius - gap) / s, (radius - gap) / s
+        still = s == 0
+        inside = np.abs(gap) <= radius
+        enter = np.where(still, np.where(inside, -np.inf, np.inf), np.minimum(lo, hi))
+        leave = np.where(still, np.where(inside, np.inf, -np.inf), np.maximum(lo, hi))
+        t_in = np.maximum(t_in, enter)
+        t_out = np.minimum(t_out, leave)
+    hit = (t_in <= t_out) & np.isfinite(t_in)
+    return np.where(hit, t_in, np.inf)
+
+
+def _velocity(speed: np.ndarray, yaw: np.ndarray) -> np.ndarray:
+    return np.stack([speed * np.cos(yaw), speed * np.sin(yaw)], axis=-1)
+
+
+def _pair_ttc(arrays: TraceArrays, sl: slice, a: int, b: int, contact: np.ndarray):
+    """(min TTC, its time, max DRAC) for pair (a, b) over variations `sl`; `contact` first contact step."""
+    f = arrays.floats
+    n_steps = arrays.shape[2]
+    both = arrays.alive[sl, a] & arrays.alive[sl, b]
+    before = np.arange(n_steps)[None, :] < np.where(contact >= 0, contact, n_steps)[:, None]
+    use = both & before
+    get = lambda name, i: np.nan_to_num(f[name][sl, i])
+    half = lambda i: np.broadcast_to(np.stack([arrays.length[sl, i], arrays.width[sl, i]], axis=-1)[:, None] / 2,
+                                     (sl.stop - sl.start, n_steps, 2))
+    centre = lambda i: np.stack([get("x", i), get("y", i)], axis=-1)
+    va = _velocity(get("speed", a), get("yaw", a))
+    vb = _velocity(get("speed", b), get("yaw", b))
+    ttc = time_to_collision(centre(a), centre(b), get("yaw", a), get("yaw", b), half(a), half(b), va, vb)
+    ttc = np.where(use, ttc, np.inf)
+    rel = np.linalg.norm(vb - va, axis=-1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        drac = np.where(np.isfinite(ttc) & (ttc > 0), rel / (2 * ttc), np.nan)
+    at = np.argmin(ttc, axis=1)
+    min_ttc = ttc[np.arange(len(at)), at]
+    t = arrays.time()[sl, a]
+    min_t = np.where(np.isfinite(min_ttc), t[np.arange(len(at)), at], np.nan)
+    collided = contact >= 0
+    min_ttc = np.where(collided, 0.0, np.where(np.isfinite(min_ttc), min_ttc, np.nan))
+    min_t = np.where(collided, t[np.arange(len(at)), np.clip(contact, 0, n_steps - 1)], min_t)
+    with np.errstate(all="ignore"):
+        max_drac = np.where(np.isfinite(drac).any(axis=1), np.nanmax(np.where(np.isfinite(drac), drac, -1), axis=1),
+                            np.nan)
+    return min_ttc, min_t, max_drac
+
+
+def _pair_thw(arrays: TraceArrays, sl: slice, a: int, b: int) -> np.ndarray:
+    """Minimum time headway [s] of either actor following the other, over variations `sl`."""
+    f = arrays.floats
+    best = np.full(sl.stop - sl.start, np.inf)
+    for me, other in ((a, b), (b, a)):
+        lon, lat = relative_position(f["x"][sl, me], f["y"][sl, me], f["yaw"][sl, me], f["x"][sl, other],
+                                     f["y"][sl, other])
+        same_way = heading_difference(f["yaw"][sl, me], f["yaw"][sl, other]) < FOLLOW_MAX_ANGLE
+        half_w = ((arrays.width[sl, me] + arrays.width[sl, other]) / 2)[:, None]
+        gap = lon - ((arrays.length[sl, me] + arrays.length[sl, other]) / 2)[:, None]
+        speed = f["speed"][sl, me]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            following = same_way & (np.abs(lat) < half_w) & (gap > 0) & (speed > MIN_FOLLOWER_SPEED)
+            thw = np.where(following, gap / speed, np.inf)
+        best = np.minimum(best, thw.min(axis=1))
+    return np.where(np.isfinite(best), best, np.nan)
+
+
+def _crossing_point(px_a, py_a, px_b, py_b, yaw_a, yaw_b):
+    """First crossing (along a's path) of two polylines (V, N) with a crossing angle; (x, y) or NaN."""
+    ax0, ay0, ax1, ay1 = px_a[:, :-1, None], py_a[:, :-1, None], px_a[:, 1:, None], py_a[:, 1:, None]
+    bx0, by0, bx1, by1 = px_b[:, None, :-1], py_b[:, None, :-1], px_b[:, None, 1:], py_b[:, None, 1:]
+    rx, ry = ax1 - ax0, ay1 - ay0
+    sx, sy = bx1 - bx0, by1 - by0
+    denom = rx * sy - ry * sx
+    qx, qy = bx0 - ax0, by0 - ay0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        u = (qx * sy - qy * sx) / denom
+        v = (qx * ry - qy * rx) / denom
+        hit = (u >= 0) & (u <= 1) & (v >= 0) & (v <= 1) & (denom != 0)
+    angle = heading_difference(yaw_a[:, :-1, None], yaw_b[:, None, :-1])
+    hit &= (angle >= CROSSING_MIN_ANGLE) & (angle <= np.pi - CROSSING_MIN_ANGLE)
+    n_b = hit.shape[2]
+    flat = hit.reshape(len(hit), -1)
+    any_hit = flat.any(axis=1)
+    k = np.argmax(flat, axis=1)
+    i, j = k // n_b, k % n_b
+    rows = np.arange(len(hit))
+    with np.errstate(invalid="ignore"):
+        x = ax0[rows, i, 0] + u[rows, i, j] * rx[rows, i, 0]
+        y = ay0[rows, i, 0] + u[rows, i, j] * ry[rows, i, 0]
+    return np.where(any_hit, x, np.nan), np.where(any_hit, y, np.nan)
+
+
+def _occupancy(arrays: TraceArrays, sl: slice, me: int, px: np.ndarray, py: np.ndarray):
+    """Times [s] the actor's front reaches and its rear leaves the point (px, py); NaN when never."""
+    f = arrays.floats
+    lon, lat = relative_position(f["x"][sl, me], f["y"][sl, me], f["yaw"][sl, me], px[:, None], py[:, None])
+    half_l = (arrays.length[sl, me] / 2)[:, None]
+    half_w = (arrays.width[sl, me] / 2)[:, None]
+    with np.errstate(invalid="ignore"):
+        inside = (np.abs(lon) <= half_l) & (np.abs(lat) <= half_w)
+    t = arrays.time()[sl, me]
+    rows = np.arange(inside.shape[0])
+    n = inside.shape[1]
+    first, last = first_index(inside), last_index(inside)
+    prev = np.clip(first - 1, 0, n - 1)
+    nxt = np.clip(last + 1, 0, n - 1)
+    h = half_l[:, 0]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        frac_in = (lon[rows, prev] - h) / (lon[rows, prev] - lon[rows, first])
+        frac_out = (lon[rows, last] + h) / (lon[rows, last] - lon[rows, nxt])
+    frac_in = np.where(np.isfinite(frac_in) & (first > 0), np.clip(frac_in, 0, 1), 1.0)
+    frac_out = np.where(np.isfinite(frac_out) & (last < n - 1), np.clip(frac_out, 0, 1), 0.0)
+    t_in = np.where(first > 0, t[rows, prev] + frac_in * (t[rows, first] - t[rows, prev]), t[rows, 0])
+    t_out = t[rows, last] + frac_out * (t[rows, nxt] - t[rows, last])
+    never = first < 0
+    return np.where(never, np.nan, t_in), np.where(never, np.nan, t_out)
+
+
+def _pair_pet(arrays: TraceArrays, sl: slice, a: int, b: int) -> np.ndarray:
+    """Post-encroachment time [s] at the pair's first path crossing, over variations `sl`."""
+    f = arrays.floats
+    steps = np.arange(0, arrays.shape[2], PATH_STRIDE)
+    if steps[-1] != arrays.shape[2] - 1:
+        steps = np.append(steps, arrays.shape[2] - 1)
+    if len(steps) < 2:
+        return np.full(sl.stop - sl.start, np.nan)
+    path = lambda name, i: np.where(arrays.alive[sl, i][:, steps], f[name][sl, i][:, steps], np.nan)
+    px, py = _crossing_point(path("x", a), path("y", a), path("x", b), path("y", b), path("yaw", a),
+                             path("yaw", b))
+    a_in, a_out = _occupancy(arrays, sl, a, px, py)
+    b_in, b_out = _occupancy(arrays, sl, b, px, py)
+    a_first = a_in <= b_in
+    with np.errstate(invalid="ignore"):
+        pet = np.where(a_first, b_in - a_out, a_in - b_out)
+    return np.where(np.isfinite(pet), np.maximum(pet, 0.0), np.nan)
+
+
+def criticality_table(arrays: TraceArrays, collisions: pa.Table | None = None) -> pa.Table:
+    """One CRITICALITY_SCHEMA row per (variation, unordered actor pair) where both actors are present.
+
+    `collisions` (the monitor's classified collisions, or the simulator's) supplies recorded delta-v.
+    """
+    n_var, n_act, _ = arrays.shape
+    if n_act < 2:
+        return CRITICALITY_SCHEMA.empty_table()
+    ia, ib, overlap = pair_overlaps(arrays)
+    contact = first_index(overlap)   # (V, P) first overlapping step, -1 none
+    recorded = _recorded_delta_v(arrays, collisions)
+    parts = []
+    for p, (a, b) in enumerate(zip(ia, ib)):
+        cols: dict[str, list[np.ndarray]] = {m: [] for m in ("min_ttc", "min_ttc_t", "max_drac", "min_thw", "pet")}
+        for lo in range(0, n_var, CHUNK):
+            sl = slice(lo, min(n_var, lo + CHUNK))
+            ttc, ttc_t, drac = _pair_ttc(arrays, sl, a, b, contact[sl, p])
+            cols["min_ttc"].append(ttc)
+            cols["min_ttc_t"].append(ttc_t)
+            cols["max_drac"].append(drac)
+            cols["min_thw"].append(_pair_thw(arrays, sl, a, b))
+            cols["pet"].append(_pair_pet(arrays, sl, a, b))
+        merged = {k: np.concatenate(v) for k, v in cols.items()}
+        impact, dva, dvb, source = _impact(arrays, a, b, contact[:, p], recorded.get((arrays.roles[a],
+                                                                                       arrays.roles[b])))
+        present = arrays.present[:, a] & arrays.present[:, b]
+        rows = np.nonzero(present)[0]
+        n = len(rows)
+        parts.append(pa.table({
+            "variation": pa.array(arrays.variations[rows].astype(np.int32)),
+            "actor_a": pa.array([arrays.roles[a]] * n, type=pa.string()),
+            "actor_b": pa.array([arrays.roles[b]] * n, type=pa.string()),
+            "involves_ads": pa.array((arrays.is_ads[rows, a] | arrays.is_ads[rows, b])),
+            "min_ttc": pa.array(merged["min_ttc"][rows]),
+            "min_ttc_t": pa.array(merged["min_ttc_t"][rows]),
+            "pet": pa.array(merged["pet"][rows]),
+            "min_thw": pa.array(merged["min_thw"][rows]),
+            "max_drac": pa.array(merged["max_drac"][rows]),
+            "collided": pa.array(contact[rows, p] >= 0),
+            "impact_speed": pa.array(impact[rows]),
+            "delta_v_a": pa.array(dva[rows]),
+            "delta_v_b": pa.array(dvb[rows]),
+            "delta_v_source": pa.array(source[rows].tolist(), type=pa.string()),
+        }, schema=CRITICALITY_SCHEMA))
+    table = pa.concat_tables(parts)
+    order = pc.sort_indices(table, sort_keys=[("variation", "ascending")])  # stable: pair order within
+    return table.take(order)
+
+
+def _recorded_delta_v(arrays: TraceArrays, collisions: pa.Table | None) -> dict:
+    """(actor_a, actor_b) -> {variation: (delta_v_a, delta_v_b)} of the first recorded contact, when recorded."""
+    if collisions is None or not collisions.num_rows or "delta_v_a" not in collisions.column_names:
+        return {}
+    out: dict = {}
+    cols = collisions.select(["variation", "t", "actor_a", "actor_b", "delta_v_a", "delta_v_b"]).to_pylist()
+    for row in sorted(cols, key=lambda r: (r["variation"], r["t"] if r["t"] is not None else np.inf)):
+        if row["delta_v_a"] is None or row["delta_v_b"] is None:
+            continue
+        if not (np.isfinite(row["delta_v_a"]) and np.isfinite(row["delta_v_b"])):
+            continue
+        key, dv = (row["actor_a"], row["actor_b"]), (row["delta_v_a"], row["delta_v_b"])
+        if key not in out and (row["actor_b"], row["actor_a"]) in out:
+            key, dv = (row["actor_b"], row["actor_a"]), dv[::-1]
+        out.setdefault(key, {}).setdefault(int(row["variation"]), dv)
+    return out
+
+
+def _mass(types: np.ndarray) -> np.ndarray:
+    return np.array([MASS.get(str(t), DEFAULT_MASS) for t in types])
+
+
+def _impact(arrays: TraceArrays, a: int, b: int, contact: np.ndarray, recorded: dict | None):
+    """Impact speed and delta-v per variation at the pair's first contact step (NaN without contact)."""
+    f = arrays.floats
+    n_var = arrays.shape[0]
+    rows = np.arange(n_var)
+    step = np.clip(contact, 0, arrays.shape[2] - 1)
+    va = _velocity(f["speed"][rows, a, step], f["yaw"][rows, a, step])
+    vb = _velocity(f["speed"][rows, b, step], f["yaw"][rows, b, step])
+    impact = np.linalg.norm(va - vb, axis=-1)
+    ma, mb = _mass(arrays.actor_type[:, a]), _mass(arrays.actor_type[:, b])
+    dva, dvb = mb / (ma + mb) * impact, ma / (ma + mb) * impact
+    source = np.where(contact >= 0, "momentum", None).astype(object)
+    for v, (ra, rb) in (recorded or {}).items():
+        i = int(np.searchsorted(arrays.variations, v))
+        if i < n_var and arrays.variations[i] == v and contact[i] >= 0:
+            dva[i], dvb[i], source[i] = ra, rb, "simulator"
+    hit = contact >= 0
+    return (np.where(hit, impact, np.nan), np.where(hit, dva, np.nan), np.where(hit, dvb, np.nan), source)
+
+
+def ads_objectives(table: pa.Table) -> dict[int, dict[str, float]]:
+    """Per variation, over pairs involving an actor under test: min TTC (0 at contact), min PET, min THW,
+    max DRAC, max impact speed (NaN where none)."""
+    out: dict[int, dict[str, float]] = {}
+    if not table.num_rows:
+        return out
+    rows = table.filter(table["involves_ads"]).to_pydict()
+    for i, v in enumerate(rows["variation"]):
+        cur = out.setdefault(int(v), {"min_ttc": np.nan, "pet": np.nan, "min_thw": np.nan, "max_drac": np.nan,
+                                      "impact_speed": np.nan})
+        for key, pick in (("min_ttc", np.fmin), ("pet", np.fmin), ("min_thw", np.fmin), ("max_drac", np.fmax),
+                          ("impact_speed", np.fmax)):
+            value = rows[key][i]
+            cur[key] = float(pick(cur[key], np.nan if value is None else value))
+    return out
+
+
+def summarize(table: pa.Table) -> dict[str, dict[str, float | int | None]]:
+    """min, p5, median (and the number of finite values) per metric over the table's pair rows."""
+    out: dict[str, dict[str, float | int | None]] = {}
+    for metric in METRICS:
+        values = table.column(metric).to_numpy(zero_copy_only=False).astype(float) if table.num_rows else np.zeros(0)
+        values = values[np.isfinite(values)]
+        if not len(values):
+            out[metric] = {"n": 0, "min": None, "p5": None, "median": None}
+            continue
+        out[metric] = {"n": int(len(values)), "min": round(float(values.min()), 4),
+                       "p5": round(float(np.percentile(values, 5)), 4),
+                       "median": round(float(np.median(values)), 4)}
+    return out
+
+
+def write_criticality(run_dir, tables: dict[str, pa.Table], collisions: pa.Table | None = None) -> dict:
+    """Compute the metrics of a batch, write `run_dir/criticality.parquet`, return `summarize` of it."""
+    from pathlib import Path
+
+    import pyarrow.parquet as pq
+
+    from crashscene.monitor.arrays import build_arrays
+
+    table = criticality_table(build_arrays(tables), collisions)
+    pq.write_table(table, Path(run_dir) / "criticality.parquet", compression="zstd")
+    return summarize(table)
