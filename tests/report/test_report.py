@@ -107,3 +107,17 @@ def test_incomplete_run_is_an_error_in_junit_and_the_report(tmp_path, monkeypatc
     error = ET.parse(written.junit).getroot().find("testcase/error")
     assert error is not None and error.get("type") == "IncompleteRun"
     assert "Incomplete:" in written.html.read_text()
+
+
+def test_a_campaign_older_than_the_criticality_tables_still_reports(fake_campaign, tmp_path):
+    import shutil
+
+    import duckdb
+
+    out = tmp_path / "old"
+    shutil.copytree(fake_campaign, out, ignore=shutil.ignore_patterns("report.html", "results.json", "junit.xml"))
+    con = duckdb.connect(str(out / "campaign.duckdb"))
+    for table in ("criticality", "searches", "search_evaluations"):
+        con.execute(f"DROP TABLE IF EXISTS {table}")
+    con.close()
+    assert write_report(out, gifs=False).html.stat().st_size > 10_000

@@ -274,7 +274,9 @@ class CaseCharts(BaseModel):
 def _case_figures(store: Store, case: dict, scenario_text: str | None) -> tuple[dict, CaseCharts]:
     """The case's text figures (narrative, DSL) and the inputs of its charts."""
     fig: dict = {"narrative": _narrative(Path(case["case_dir"] or "")), "dsl": scenario_text, "notes": []}
-    fig.update(search_section.case_figures(store, case))   # criticality and search sections
+    if {"criticality", "searches"} <= {r["table_name"] for r in store.query(
+            "SELECT table_name FROM information_schema.tables")}:  # a campaign older than them has neither
+        fig.update(search_section.case_figures(store, case))   # criticality and search sections
     modes = case["modes"]
     job = CaseCharts(case_dir=case["case_dir"] or "")
     if not modes:
