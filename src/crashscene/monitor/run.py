@@ -50,10 +50,11 @@ def write_results(run_dir: Path, result: MonitorResult) -> None:
     (run_dir / "monitor.json").write_text(json.dumps(summary, indent=2, sort_keys=False) + "\n", encoding="utf-8")
 
 
-def monitor_run(run_dir: Path, rules_file: Path | None = None) -> MonitorResult:
+def monitor_run(run_dir: Path, rules_file: Path | None = None, allow_imports: bool = False) -> MonitorResult:
     """Evaluate the run directory's traces (scenario.yaml + Parquet tables) and write
-    rule_results.parquet, collisions_classified.parquet, verdicts.parquet and monitor.json into it."""
-    rulebook = load_rulebook(rules_file) if rules_file is not None else Rulebook()
+    rule_results.parquet, collisions_classified.parquet, verdicts.parquet and monitor.json into it.
+    The rulebook's `imports` run only with `allow_imports`."""
+    rulebook = load_rulebook(rules_file, allow_imports) if rules_file is not None else Rulebook()
     tables, scenario = read_run(Path(run_dir))
     result = evaluate(tables, scenario, rulebook)
     write_results(Path(run_dir), result)
