@@ -43,6 +43,10 @@ class SimulationError(Exception):
     """Any failure of the simulate stage; the message says what, where and what is allowed."""
 
 
+class AdsError(SimulationError):
+    """The ADS under test failed (raised in `step`, or returned a bad action): its fault, not the scenario's."""
+
+
 class BackendUnavailable(SimulationError):
     """A backend whose optional dependency or server is missing (e.g. `carla`)."""
 
