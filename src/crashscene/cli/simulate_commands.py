@@ -58,7 +58,7 @@ def simulate(
 ) -> None:
     """Render, sample and simulate FILE; write traces, the monitor's verdicts and summary.json into --out."""
     from crashscene.dsl import DslError, load_file
-    from crashscene.simulate.backend import SimulationError
+    from crashscene.simulate.backend import AdsError, SimulationError
     from crashscene.simulate.pipeline import simulate_scenario
 
     try:
@@ -93,6 +93,9 @@ def simulate(
                 scenario, out, n=n, seed=seed, first=first, mode=mode, backend=backend, ego_role=ego,
                 map_mode=map_mode, carla_maps=carla_maps, ads=ads, ads_params=params, dt=dt, horizon=horizon,
                 carla_host=carla_host, carla_port=carla_port, sample_workers=workers)
+    except AdsError as exc:  # the ADS under test failed, not the scenario file
+        typer.echo(f"error: {exc}", err=True)
+        raise typer.Exit(2) from None
     except SimulationError as exc:
         typer.echo(f"error: {file}: {exc}", err=True)
         raise typer.Exit(2) from None

@@ -11,7 +11,7 @@ from crashscene.monitor.errors import MonitorError, TraceError
 from crashscene.monitor.evaluate import evaluate
 from crashscene.monitor.result import MonitorResult
 from crashscene.monitor.rulebook import Rulebook, load_rulebook
-from crashscene.traces import read_table
+from crashscene.traces import read_table, scenario_digest, stored_digest
 
 OUTPUT_FILES = ("rule_results.parquet", "collisions_classified.parquet", "verdicts.parquet", "monitor.json")
 
@@ -28,6 +28,12 @@ def read_run(run_dir: Path) -> tuple[dict, object]:
         scenario = load_file(scenario_path)
     except DslError as exc:
         raise MonitorError(f"{scenario_path}: invalid scenario:\n{exc}") from exc
+    if (run_dir / "traces.parquet").exists():
+        stored = stored_digest(run_dir)
+        if stored is not None and stored != scenario_digest(scenario):
+            raise MonitorError(f"{scenario_path}: is not the scenario the traces in {run_dir} were simulated "
+                               f"from (scenario sha256 {scenario_digest(scenario)[:12]}, traces {stored[:12]}); "
+                               f"simulate it again, or restore the scenario.yaml of that run")
     tables = {}
     for name in ("traces", "actors", "collisions", "variations"):
         try:

@@ -9,6 +9,7 @@ collisions_classified.parquet, verdicts.parquet, monitor.json) when
 from __future__ import annotations
 
 import json
+import shutil
 import time
 from collections import Counter
 from collections.abc import Callable
@@ -29,17 +30,45 @@ from crashscene.simulate.backend import (
     create_simulator,
 )
 from crashscene.simulate.embedded.collisions import classify
-from crashscene.traces import write_table
+from crashscene.traces import SCENARIO_DIGEST_KEY, scenario_digest, write_table
 
 
-def simulate_scenario(scenario: Scenario, out_dir: Path, n: int, seed: int, first: int = 0, mode: str = "test",
-                      backend: str = "embedded", ego_role: str = "ego", map_mode: str = "generated",
-                      carla_maps: Path | None = None, ads: str | None = None,
-                      ads_params: dict[str, Any] | None = None, dt: float = DEFAULT_DT,
-                      horizon: float = DEFAULT_HORIZON, carla_host: str = "127.0.0.1", carla_port: int = 2000,
-                      monitor: bool = True, progress: Callable[[int], None] | None = None,
-                      sample_workers: int = 1) -> dict[str, Any]:
-    """Simulate variations [first, first + n) of `scenario` and write the run directory `out_dir`.
+def simulate_scenario(scenario: Scenario, out_dir: Path, n: int, seed: int, **options: Any) -> dict[str, Any]:
+    """Simulate variations [first, first + n) of `scenario` and write the run directory `out_dir` atomically.
+
+    Everything is written into a temporary sibling folder that replaces `out_dir` only when the run
+    succeeded, so a failed run never leaves new files beside old traces (options: see `_write_run`).
+    """
+    out_dir = Path(out_dir)
+    if out_dir.exists() and not out_dir.is_dir():
+        raise SimulationError(f"--out {out_dir}: is a file; give a folder (created if missing, replaced when the "
+                              f"run succeeds)")
+    work = out_dir.with_name(f".{out_dir.name}.partial")
+    old = out_dir.with_name(f".{out_dir.name}.old")
+    for leftover in (work, old):
+        if leftover.exists():
+            shutil.rmtree(leftover)
+    try:
+        summary = _write_run(scenario, work, n, seed, final_dir=out_dir, **options)
+    except BaseException:
+        shutil.rmtree(work, ignore_errors=True)
+        raise
+    if out_dir.exists():
+        out_dir.rename(old)
+    work.rename(out_dir)
+    shutil.rmtree(old, ignore_errors=True)
+    return summary
+
+
+def _write_run(scenario: Scenario, out_dir: Path, n: int, seed: int, first: int = 0, mode: str = "test",
+               backend: str = "embedded", ego_role: str = "ego", map_mode: str = "generated",
+               carla_maps: Path | None = None, ads: str | None = None,
+               ads_params: dict[str, Any] | None = None, dt: float = DEFAULT_DT,
+               horizon: float = DEFAULT_HORIZON, carla_host: str = "127.0.0.1", carla_port: int = 2000,
+               monitor: bool = True, progress: Callable[[int], None] | None = None,
+               sample_workers: int = 1, final_dir: Path | None = None) -> dict[str, Any]:
+    """Simulate variations [first, first + n) of `scenario` into `out_dir` (paths in scenes.jsonl name
+    `final_dir`, where the folder will live).
 
     `sample_workers` > 1 samples scenes in that many forked processes (same scenes as 1); keep 1 when the
     caller already runs in a process pool.
@@ -72,6 +101,9 @@ def simulate_scenario(scenario: Scenario, out_dir: Path, n: int, seed: int, firs
         timings["sample"] = time.perf_counter() - t0
     except RenderError as exc:
         raise SimulationError(f"render/sample failed: {exc}") from exc
+    if final_dir is not None:
+        scenes = [scene.model_copy(update={"map_file": _moved(scene.map_file, out_dir, Path(final_dir))})
+                  for scene in scenes]
     with open(out_dir / "scenes.jsonl", "w", encoding="utf-8") as fh:
         fh.writelines(scene.model_dump_json() + "\n" for scene in scenes)
 
@@ -81,8 +113,9 @@ def simulate_scenario(scenario: Scenario, out_dir: Path, n: int, seed: int, firs
     with create_simulator(backend, settings) as simulator:
         result = simulator.simulate(request)
     timings["simulate"] = time.perf_counter() - t0
+    digest = scenario_digest(scenario)
     for name, table in result.tables.items():
-        write_table(out_dir, name, table)
+        write_table(out_dir, name, table.replace_schema_metadata({SCENARIO_DIGEST_KEY: digest}))
 
     summary = summarize(result.tables)
     summary.update({"backend": result.backend, "mode": mode, "ego_role": ego_role, "seed": seed, "first": first,
@@ -101,6 +134,13 @@ def simulate_scenario(scenario: Scenario, out_dir: Path, n: int, seed: int, firs
     summary["timings"] = {k: round(v, 3) for k, v in timings.items()}
     (out_dir / "summary.json").write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
     return summary
+
+
+def _moved(path: str, work: Path, final: Path) -> str:
+    try:
+        return str(final / Path(path).relative_to(work))
+    except ValueError:  # a map outside the run folder (a CARLA town): unchanged
+        return path
 
 
 def summarize(tables: dict[str, pa.Table]) -> dict[str, Any]:
