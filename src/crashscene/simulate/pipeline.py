@@ -66,9 +66,14 @@ def _write_run(scenario: Scenario, out_dir: Path, n: int, seed: int, first: int 
                ads_params: dict[str, Any] | None = None, dt: float = DEFAULT_DT,
                horizon: float = DEFAULT_HORIZON, carla_host: str = "127.0.0.1", carla_port: int = 2000,
                monitor: bool = True, progress: Callable[[int], None] | None = None,
-               sample_workers: int = 1, final_dir: Path | None = None) -> dict[str, Any]:
+               sample_workers: int = 1, final_dir: Path | None = None, rules_file: Path | None = None,
+               allow_imports: bool = False, rendered_dir: Path | None = None) -> dict[str, Any]:
     """Simulate variations [first, first + n) of `scenario` into `out_dir` (paths in scenes.jsonl name
     `final_dir`, where the folder will live).
+
+    `rules_file` is the monitor's rulebook (its `imports` only with `allow_imports`); its CVC_22350 condition
+    factors and friction coefficients also reach the drivers. `rendered_dir` holds this scenario's rendered
+    program and map (a campaign renders each case once): they are copied instead of rendered again.
 
     `sample_workers` > 1 samples scenes in that many forked processes (same scenes as 1); keep 1 when the
     caller already runs in a process pool.
@@ -82,8 +87,14 @@ def _write_run(scenario: Scenario, out_dir: Path, n: int, seed: int, first: int 
         raise SimulationError(f"mode {mode!r} is not allowed; allowed: {', '.join(MODES)}")
     if n < 1 or first < 0:
         raise SimulationError(f"n must be >= 1 and first >= 0 (got n={n}, first={first})")
+    rulebook = None
+    if rules_file is not None:
+        from crashscene.monitor.rulebook import load_rulebook
+
+        rulebook = load_rulebook(rules_file, allow_imports)
     settings = SimulationSettings(dt=dt, horizon=horizon, mode=mode, ego_role=ego_role, ads=ads,
-                                  ads_params=ads_params or {}, carla_host=carla_host, carla_port=carla_port)
+                                  ads_params=ads_params or {}, carla_host=carla_host, carla_port=carla_port,
+                                  conditions=_conditions(rulebook))
     check_ego_role(scenario, settings)
     from crashscene.render import RenderError, render
     from crashscene.sample import sample_scenes
@@ -94,7 +105,10 @@ def _write_run(scenario: Scenario, out_dir: Path, n: int, seed: int, first: int 
     start = time.perf_counter()
     dump_file(scenario, out_dir / "scenario.yaml")
     try:
-        rendered = render(scenario, out_dir, map_mode=map_mode, carla_maps=carla_maps)
+        if rendered_dir is not None:
+            rendered = _copy_render(Path(rendered_dir), out_dir)
+        else:
+            rendered = render(scenario, out_dir, map_mode=map_mode, carla_maps=carla_maps)
         timings["render"] = time.perf_counter() - start
         t0 = time.perf_counter()
         scenes = sample_scenes(rendered.program, n, seed, first=first, workers=sample_workers)
@@ -122,9 +136,11 @@ def _write_run(scenario: Scenario, out_dir: Path, n: int, seed: int, first: int 
                     "ads": ads or ("reference" if mode == "test" else None)})
     if result.notes:
         summary["notes"] = result.notes
+    if rendered_dir is not None:
+        summary["rendered_from"] = str(rendered_dir)  # a campaign's case render, copied rather than redone
     if monitor:
         t0 = time.perf_counter()
-        monitored = _monitor(result.tables, scenario, out_dir)
+        monitored = _monitor(result.tables, scenario, out_dir, rulebook)
         if monitored is not None:
             mc = monitored.pop("monitor_collisions")
             summary["collisions"].update(by_class=mc["by_class"], by_pair=mc["by_pair"])
@@ -168,14 +184,36 @@ def summarize(tables: dict[str, pa.Table]) -> dict[str, Any]:
     }
 
 
-def _monitor(tables: dict[str, pa.Table], scenario: Scenario, out_dir: Path) -> dict[str, Any] | None:
+def _conditions(rulebook) -> dict[str, float]:
+    """The rulebook's CVC_22350 condition factors and friction coefficients, for the drivers ({}: defaults)."""
+    params = rulebook.params.get("CVC_22350") if rulebook is not None else None
+    if params is None:
+        return {}
+    return {k: float(v) for k, v in params.model_dump().items()
+            if k.startswith(("factor_", "friction_")) and isinstance(v, (int, float))}
+
+
+def _copy_render(src: Path, out_dir: Path):
+    """The rendered program, map and render.json of `src`, copied into `out_dir` (no second render)."""
+    from crashscene.render import Rendered
+
+    out_dir.mkdir(parents=True, exist_ok=True)
+    meta = json.loads((src / "render.json").read_text(encoding="utf-8"))
+    for name in (meta["program"], meta["map"], "render.json"):
+        shutil.copyfile(src / name, out_dir / name)
+    return Rendered(program=out_dir / meta["program"], map=out_dir / meta["map"],
+                    scenario_hash=meta["scenario_hash"], town=meta.get("town"))
+
+
+def _monitor(tables: dict[str, pa.Table], scenario: Scenario, out_dir: Path,
+             rulebook=None) -> dict[str, Any] | None:
     """Run `crashscene.monitor` when installed; write its outputs; the summary keys it contributes."""
     try:
         from crashscene.monitor import evaluate
         from crashscene.monitor.run import write_results
     except ImportError:
         return None
-    result = evaluate(tables, scenario)
+    result = evaluate(tables, scenario, rulebook) if rulebook is not None else evaluate(tables, scenario)
     write_results(out_dir, result)
     s = result.summary()
     by_class = {k: v for k, v in s.get("collisions", {}).items() if v}

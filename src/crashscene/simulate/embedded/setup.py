@@ -198,11 +198,12 @@ def build(scenario: Scenario, scenes: list[SampledScene], roadmap: RoadMap,
     start_cap = np.full((n_v, n_a), np.inf)  # [m/s] highest initial speed (curve right ahead)
     drifted = np.zeros((n_v, n_a))  # [m] lateral head start of a swerve that began before t = 0
     runs_red = "CVC_21453" in columns[anchor].dispositions
+    factor = condition_factor(scenario, settings.conditions)
     for v, scene in enumerate(scenes):
         rng = variation_rng(scene.seed, scene.index)
         plan_variation(v, scene, rng, columns, anchor, arrays, route, s0, d0, speed, length, tables[v][0],
                         lateral_target, hold, trigger, scale, phase, conflict_time, runs_red,
-                        condition_factor(scenario), mph(scenario.road_network.speed_limit_mph), planned, moved,
+                        factor, mph(scenario.road_network.speed_limit_mph), planned, moved,
                         settings.mode == "reproduce", drifted)
     if drifted.any():
         vv, aa = np.nonzero(drifted)
@@ -237,7 +238,7 @@ def build(scenario: Scenario, scenes: list[SampledScene], roadmap: RoadMap,
         routes=arrays, route=route, x=x, y=y, yaw=yaw, speed=speed0, cruise=cruise, length=length, width=width,
         s0=s0, d0=d0, lane_width=lane_width, entry_control=entry_control, entry_group=entry_group,
         priority=priority, phase=phase, hold_until=hold, trigger_time=trigger, lateral_target=lateral_target,
-        condition_factor=condition_factor(scenario), friction=friction(scenario),
+        condition_factor=factor, friction=friction(scenario, settings.conditions),
         invalid=invalid, conflict_time=conflict_time, default_speed_limit=limit * MPH if limit else math.nan,
         lane_width_table=lane_width_table,
         lane_road=np.array([road_names.index(lane.road) for lane in roadmap.lanes]),
@@ -360,30 +361,19 @@ def _project_many(route: Route, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarra
     return s, d
 
 
-def condition_factor(scenario: Scenario) -> float:
-    """Safe-speed factor on the posted limit (rules.md rule 6): wet 0.85, fog 0.70, snow/ice 0.60, night 0.90."""
+def condition_factor(scenario: Scenario, conditions: dict[str, float] | None = None) -> float:
+    """Safe-speed factor on the posted limit (rules.md rule 6; the monitor's CVC_22350 parameters, overridden
+    by `conditions` from a rulebook)."""
+    from crashscene.monitor.rules.speed import UnsafeSpeedParams, environment_factor
+
     env = scenario.environment
-    weather, surface, light = str(env.weather), str(env.road_surface), str(env.time_of_day)
-    factor = 1.0
-    if surface == "wet" or weather == "rainy":
-        factor *= 0.85
-    if weather == "foggy":
-        factor *= 0.70
-    if weather == "snowy" or surface in ("snowy", "icy"):
-        factor *= 0.60
-    if light == "nighttime":
-        factor *= 0.90
-    return factor
+    params = UnsafeSpeedParams(**(conditions or {}))
+    return environment_factor(str(env.weather), str(env.road_surface), str(env.time_of_day), params)[0]
 
 
-def friction(scenario: Scenario) -> float:
-    """Tyre-road friction coefficient [-] of the scenario's surface."""
+def friction(scenario: Scenario, conditions: dict[str, float] | None = None) -> float:
+    """Tyre-road friction coefficient [-] of the scenario's surface (as the monitor's CVC_22350 has it)."""
+    from crashscene.monitor.rules.speed import UnsafeSpeedParams, surface_friction
+
     env = scenario.environment
-    weather, surface = str(env.weather), str(env.road_surface)
-    if surface == "icy":
-        return 0.15
-    if surface == "snowy" or weather == "snowy":
-        return 0.3
-    if surface == "wet" or weather == "rainy":
-        return 0.5
-    return 0.8
+    return surface_friction(str(env.weather), str(env.road_surface), UnsafeSpeedParams(**(conditions or {})))
