@@ -101,3 +101,18 @@ def test_cli_json_and_errors(tmp_path):
     assert set(data["components"]) == {"environment", "road_network", "actors", "oracle"}
     out = runner.invoke(app, ["eval", "--gold", str(CIREN), "--pred", str(tmp_path / "nope")])
     assert out.exit_code == 2 and "not a directory" in out.output
+
+
+def test_collisions_are_scored_in_order_as_an_extension_with_areas_apart():
+    gold = load_file(CIREN / "105203" / "golden.yaml")  # two contacts: ego->npc1 sideswipe, ego->npc2 angle
+    pred = gold.model_copy(deep=True)
+    pred.collisions = [pred.collisions[0].model_copy(update={"striking_area": "front"})]  # areas wrong, 2nd missing
+    result = evaluate({"105203": (gold, pred)})
+    assert (result.extensions["collisions"].correct, result.extensions["collisions"].total) == (1, 2)
+    assert (result.extensions["collision_areas"].correct, result.extensions["collision_areas"].total) == (0, 2)
+    assert result.overall.accuracy == 1.0  # extensions stay out of the overall figure
+    swapped = gold.model_copy(deep=True)
+    swapped.collisions = list(reversed(swapped.collisions))  # the right contacts in the wrong order
+    assert evaluate({"105203": (gold, swapped)}).extensions["collisions"].correct == 0
+    untouched = gold.model_copy(update={"collisions": None})  # a golden file without the field scores nothing
+    assert evaluate({"105203": (untouched, pred)}).extensions["collisions"].total == 0

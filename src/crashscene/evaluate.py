@@ -2,7 +2,8 @@
 
 Every scored field is one `FieldCheck` (case, component, field, gold, pred,
 correct). From the checks come per-component and overall accuracy, the
-extensions (road_surface, curve_direction, speed_mph) reported apart, a
+extensions (road_surface, curve_direction, speed_mph, collisions and
+collision_areas) reported apart, a
 per-field confusion table (gold value -> predicted value -> count) and the
 per-case diffs. Oracle precision counts predicted entries (code, actor) that
 match no golden entry as errors.
@@ -26,7 +27,7 @@ from pydantic import BaseModel, Field
 from crashscene.dsl import DslError, Scenario, load_file
 
 COMPONENTS = ("environment", "road_network", "actors", "oracle")
-EXTENSIONS = ("road_surface", "curve_direction", "speed_mph")
+EXTENSIONS = ("road_surface", "curve_direction", "speed_mph", "collisions", "collision_areas")
 ACTOR_FIELDS = ("type", "behavior", "position.reference", "position.relation", "position.heading")
 CASE_FILE_NAMES = ("golden.yaml", "scenario.yaml")
 
@@ -158,7 +159,30 @@ def score_case(case: str, gold: Scenario, pred: Scenario | None) -> tuple[list[F
         other = pred.actors.get(role) if pred else None
         if actor.speed_mph is not None or (other is not None and other.speed_mph is not None):
             check("extension", f"actors.{role}.speed_mph", actor.speed_mph, other.speed_mph if other else None)
+    if gold.collisions is not None:
+        predicted = (pred.collisions or []) if pred else []
+        for index, contact in enumerate(gold.collisions):
+            other = predicted[index] if index < len(predicted) else None
+            check("extension", f"collisions[{index}]", _contact(contact), _contact(other) if other else None)
+            check("extension", f"collisions[{index}].collision_areas", _areas(contact),
+                  _areas(other) if other else None)
     return checks, precision
+
+
+def _contact(contact: Any) -> str:
+    """A contact as dsl.md section 4 scores it: the same striking and struck actors and the same class."""
+    return f"{contact.striking}->{contact.struck}:{_token(contact.class_)}"
+
+
+def _areas(contact: Any) -> str:
+    return f"{_token(contact.striking_area)}->{_token(contact.struck_area)}"
+
+
+def _extension_name(field: str) -> str:
+    """`actors.npc1.speed_mph` -> speed_mph, `collisions[0]` -> collisions, `collisions[0].collision_areas` ->
+    collision_areas."""
+    last = field.rsplit(".", 1)[-1]
+    return "collisions" if last.startswith("collisions[") else last
 
 
 def _attr(obj: Any, dotted: str) -> Any:
@@ -197,7 +221,7 @@ def evaluate(pairs: dict[str, tuple[Scenario, Scenario | None]],
         result = CaseResult(case=case, error=errors.get(case))
         for item in checks:
             if item.component == "extension":
-                extensions[item.field.rsplit(".", 1)[-1]].add(item.correct)
+                extensions[_extension_name(item.field)].add(item.correct)
             else:
                 components[item.component].add(item.correct)
                 overall.add(item.correct)
@@ -218,6 +242,8 @@ def evaluate(pairs: dict[str, tuple[Scenario, Scenario | None]],
 
 def _confusion_key(field: str) -> str:
     parts = field.split(".")
+    if parts[0].startswith("collisions["):
+        return "collisions" + ("." + parts[1] if len(parts) > 1 else "")  # pooled over positions
     if parts[0] == "actors" and len(parts) > 2:
         return "actors." + ".".join(parts[2:])  # pooled over roles: actors.behavior, actors.position.heading
     return field

@@ -3,7 +3,8 @@
 A run directory holds, as Parquet (pyarrow):
 - `traces.parquet`: one row per (variation, actor, step), columns TRACE_SCHEMA.
 - `actors.parquet`: one row per (variation, actor), columns ACTOR_SCHEMA.
-- `collisions.parquet`: one row per contact event, columns COLLISION_SCHEMA
+- `collisions.parquet`: one row per contact event (each onset of contact of a
+  pair; a re-contact after separation is a new row), columns COLLISION_SCHEMA
   (the simulator reports contact; the monitor classifies it).
 - `variations.parquet`: one row per variation, columns VARIATION_SCHEMA.
 Units are SI, angles yaw [rad] (0 = +x, counter-clockwise), as in `crashscene.scene`.
@@ -67,7 +68,7 @@ ACTOR_SCHEMA = pa.schema([
 
 COLLISION_SCHEMA = pa.schema([
     ("variation", pa.int32()),
-    ("t", pa.float64()),             # [s] first contact
+    ("t", pa.float64()),             # [s] onset of the contact
     ("actor_a", pa.string()),
     ("actor_b", pa.string()),
     ("speed_a", pa.float64()),       # [m/s]
@@ -76,6 +77,8 @@ COLLISION_SCHEMA = pa.schema([
     ("yaw_b", pa.float64()),
     ("x", pa.float64()),             # [m] contact point estimate
     ("y", pa.float64()),
+    ("delta_v_a", pa.float64()),     # [m/s] change of actor_a's velocity vector in the contact (null: not known)
+    ("delta_v_b", pa.float64()),
 ])
 
 VARIATION_SCHEMA = pa.schema([

@@ -45,7 +45,7 @@ def _kill_after_chunks(cmd: list[str], env: dict, chunks: int, timeout: float = 
 
 
 def test_sigkill_then_resume_completes_with_one_row_per_variation(tmp_path, two_cases):
-    env = {**os.environ, "CRASHSCENE_FAKE_SLEEP": "0.15", "PYTHONPATH": str(REPO)}
+    env = {**os.environ, "CRASHSCENE_FAKE_SLEEP": "0.15", "PYTHONPATH": os.pathsep.join([str(REPO / "src"), str(REPO)])}
     out = tmp_path / "killed"
     seen = _kill_after_chunks([sys.executable, "-c", DRIVER, *map(str, two_cases), str(out)], env, chunks=5)
     assert len(seen) >= 5

@@ -99,3 +99,19 @@ def test_worker_rows_outside_its_chunk_fail_that_chunk(tmp_path, two_cases):
 def shifted_chunk(task):
     """A broken worker: returns the rows of the next chunk."""
     return fake_chunk(task.model_copy(update={"first": task.first + task.count}))
+
+
+def test_a_database_from_before_the_crash_sequence_gains_its_columns(tmp_path):
+    import duckdb
+
+    from crashscene.campaign.store import DB_NAME
+
+    old = duckdb.connect(str(tmp_path / DB_NAME))
+    old.execute("CREATE TABLE variations (scenario_hash VARCHAR, seed BIGINT, mode VARCHAR, variation INTEGER, "
+                "valid BOOLEAN, invalid_reason VARCHAR, verdict VARCHAR, reproduced BOOLEAN, collided BOOLEAN, "
+                "params VARCHAR, PRIMARY KEY (scenario_hash, seed, mode, variation))")
+    old.execute("INSERT INTO variations VALUES ('h', 1, 'reproduce', 0, true, null, 'pass', true, false, '{}')")
+    old.close()
+    with Store(tmp_path) as store:
+        [row] = store.query("SELECT * FROM variations")
+    assert row["reproduced"] is True and (row["first_contact"], row["sequence"], row["area_match"]) == (None,) * 3

@@ -102,7 +102,8 @@ def test_strict_schema_keeps_every_dsl_vocabulary() -> None:
 
 def test_strict_schema_orders_decisions_and_puts_evidence_first() -> None:
     schema = strict_json_schema()
-    assert list(schema["properties"]) == ["summary", "environment", "road_network", "ego", "npcs", "oracle"]
+    assert list(schema["properties"]) == ["summary", "environment", "road_network", "ego", "npcs", "collisions",
+                                          "oracle"]
     for name in ("LlmEnvironment", "LlmRoadNetwork"):
         assert next(iter(schema["$defs"][name]["properties"])) == "evidence"
 

@@ -22,9 +22,12 @@ VARIATION_ROWS = pa.schema([
     ("valid", pa.bool_()),
     ("invalid_reason", pa.string()),
     ("verdict", pa.string()),        # violation | collision | pass | invalid
-    ("reproduced", pa.bool_()),      # every oracle entry (and the report's collision) observed
+    ("reproduced", pa.bool_()),      # every oracle entry observed and the crash sequence happened
     ("collided", pa.bool_()),        # any collision in this variation
     ("params", pa.string()),         # JSON object: sampled parameters and per-actor start values [SI]
+    ("first_contact", pa.bool_()),   # the first contact is the reported one (monitor verdicts)
+    ("sequence", pa.bool_()),        # the reported crash sequence happened, in order
+    ("area_match", pa.bool_()),      # ... with the reported areas (null without a written sequence)
 ])
 VIOLATION_ROWS = pa.schema([
     ("variation", pa.int32()),
@@ -48,6 +51,11 @@ COLLISION_ROWS = pa.schema([
     ("speed_b", pa.float64()),
     ("x", pa.float64()),             # [m]
     ("y", pa.float64()),
+    ("contact_index", pa.int32()),   # order of the contact in its variation, from 0
+    ("area_a", pa.string()),         # front | rear | left | right of actor_a that touched
+    ("area_b", pa.string()),
+    ("delta_v_a", pa.float64()),     # [m/s] when the simulator records it
+    ("delta_v_b", pa.float64()),
 ])
 ROW_SCHEMAS = {"variations": VARIATION_ROWS, "violations": VIOLATION_ROWS, "collisions": COLLISION_ROWS}
 

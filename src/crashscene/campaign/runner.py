@@ -59,6 +59,9 @@ class RunSummary(BaseModel):
     verdicts: dict[str, int]
     reproduced: int
     reproduction_rate: float | None
+    first_contact_rate: float | None = None  # share of valid variations whose first contact is the reported one
+    sequence_rate: float | None = None  # ... in which the whole reported crash sequence happened
+    area_match_rate: float | None = None  # ... with the reported areas (None without a written sequence)
     violations: dict[str, dict[str, int]]  # code -> actor -> variations
     collisions: dict[str, int]  # class -> count
     invalid_reasons: dict[str, int] = {}  # reason -> count of invalid variations
@@ -250,7 +253,12 @@ def summarize_runs(store: Store) -> list[RunSummary]:
         key = [run["scenario_hash"], run["seed"], run["mode"]]
         where = "scenario_hash=? AND seed=? AND mode=?"
         counts = store.query(f"SELECT count(*) AS n, count(*) FILTER (WHERE valid) AS valid, "
-                             f"count(*) FILTER (WHERE reproduced) AS reproduced FROM variations WHERE {where}", key)[0]
+                             f"count(*) FILTER (WHERE reproduced) AS reproduced, "
+                             f"count(*) FILTER (WHERE valid AND first_contact) AS first_contact, "
+                             f"count(*) FILTER (WHERE valid AND sequence) AS sequence, "
+                             f"count(*) FILTER (WHERE valid AND area_match) AS area_match, "
+                             f"count(*) FILTER (WHERE valid AND area_match IS NOT NULL) AS area_known "
+                             f"FROM variations WHERE {where}", key)[0]
         verdicts = {r["verdict"]: r["c"] for r in store.query(
             f"SELECT verdict, count(*) AS c FROM variations WHERE {where} GROUP BY verdict ORDER BY verdict", key)}
         violations: dict[str, dict[str, int]] = {}
@@ -269,8 +277,16 @@ def summarize_runs(store: Store) -> list[RunSummary]:
                               n=run["n"], variations=counts["n"], valid=counts["valid"], verdicts=verdicts,
                               reproduced=counts["reproduced"],
                               reproduction_rate=None if rate is None else round(rate, 4),
+                              first_contact_rate=_rate(counts["first_contact"], counts["valid"]),
+                              sequence_rate=_rate(counts["sequence"], counts["valid"]),
+                              area_match_rate=(_rate(counts["area_match"], counts["valid"])
+                                               if counts["area_known"] else None),
                               violations=violations, collisions=collisions, invalid_reasons=invalid))
     return out
+
+
+def _rate(count: int, valid: int) -> float | None:
+    return round(count / valid, 4) if valid else None
 
 
 def summary_json(summary: CampaignSummary) -> str:

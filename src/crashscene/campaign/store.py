@@ -45,14 +45,25 @@ CREATE TABLE IF NOT EXISTS chunk_errors (
     {KEYS}, first INTEGER, count INTEGER, session INTEGER, error VARCHAR, failed_at TIMESTAMP);
 CREATE TABLE IF NOT EXISTS variations (
     {KEYS}, variation INTEGER NOT NULL, valid BOOLEAN, invalid_reason VARCHAR, verdict VARCHAR,
-    reproduced BOOLEAN, collided BOOLEAN, params VARCHAR, PRIMARY KEY (scenario_hash, seed, mode, variation));
+    reproduced BOOLEAN, collided BOOLEAN, params VARCHAR, first_contact BOOLEAN, sequence BOOLEAN,
+    area_match BOOLEAN, PRIMARY KEY (scenario_hash, seed, mode, variation));
 CREATE TABLE IF NOT EXISTS violations (
     {KEYS}, variation INTEGER NOT NULL, actor VARCHAR, is_ads BOOLEAN, code VARCHAR, violation VARCHAR,
     t_first DOUBLE, value DOUBLE, threshold DOUBLE, unit VARCHAR, robustness DOUBLE);
 CREATE TABLE IF NOT EXISTS settings (name VARCHAR PRIMARY KEY, value VARCHAR);
 CREATE TABLE IF NOT EXISTS collisions (
     {KEYS}, variation INTEGER NOT NULL, t DOUBLE, actor_a VARCHAR, actor_b VARCHAR, collision_class VARCHAR,
-    speed_a DOUBLE, speed_b DOUBLE, x DOUBLE, y DOUBLE);
+    speed_a DOUBLE, speed_b DOUBLE, x DOUBLE, y DOUBLE, contact_index INTEGER, area_a VARCHAR, area_b VARCHAR,
+    delta_v_a DOUBLE, delta_v_b DOUBLE);
+-- databases written before the crash sequence was judged gain its columns (NULL in their old rows)
+ALTER TABLE variations ADD COLUMN IF NOT EXISTS first_contact BOOLEAN;
+ALTER TABLE variations ADD COLUMN IF NOT EXISTS sequence BOOLEAN;
+ALTER TABLE variations ADD COLUMN IF NOT EXISTS area_match BOOLEAN;
+ALTER TABLE collisions ADD COLUMN IF NOT EXISTS contact_index INTEGER;
+ALTER TABLE collisions ADD COLUMN IF NOT EXISTS area_a VARCHAR;
+ALTER TABLE collisions ADD COLUMN IF NOT EXISTS area_b VARCHAR;
+ALTER TABLE collisions ADD COLUMN IF NOT EXISTS delta_v_a DOUBLE;
+ALTER TABLE collisions ADD COLUMN IF NOT EXISTS delta_v_b DOUBLE;
 """
 
 

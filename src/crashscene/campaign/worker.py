@@ -79,7 +79,8 @@ def rows_from(tables: dict[str, pa.Table], monitored: dict[str, pa.Table]) -> Ch
                                                                      else None),
                              verdict=verdict.get("verdict") or ("pass" if row["valid"] else "invalid"),
                              reproduced=bool(verdict.get("reproduced")), collided=i in collided,
-                             params=json.dumps(params, sort_keys=True)))
+                             params=json.dumps(params, sort_keys=True), first_contact=verdict.get("first_contact"),
+                             sequence=verdict.get("sequence"), area_match=verdict.get("area_match")))
     rules = monitored["rule_results"]
     violated = rules.filter(pc.equal(rules.column("verdict"), "violated")).to_pylist()
     viol_rows = [dict(variation=r["variation"], actor=r["actor"], is_ads=bool(r["is_ads"]), code=r["code"],
@@ -87,7 +88,9 @@ def rows_from(tables: dict[str, pa.Table], monitored: dict[str, pa.Table]) -> Ch
                       threshold=r["threshold"], unit=r["unit"], robustness=r["robustness"]) for r in violated]
     coll_rows = [dict(variation=r["variation"], t=r["t"], actor_a=r["actor_a"], actor_b=r["actor_b"],
                       collision_class=r["class"], speed_a=r.get("speed_a"), speed_b=r.get("speed_b"),
-                      x=r.get("x"), y=r.get("y")) for r in collisions]
+                      x=r.get("x"), y=r.get("y"), contact_index=r.get("contact_index"), area_a=r.get("area_a"),
+                      area_b=r.get("area_b"), delta_v_a=r.get("delta_v_a"), delta_v_b=r.get("delta_v_b"))
+                 for r in collisions]
     return ChunkResult(variations=pa.Table.from_pylist(var_rows, VARIATION_ROWS),
                        violations=pa.Table.from_pylist(viol_rows, VIOLATION_ROWS),
                        collisions=pa.Table.from_pylist(coll_rows, COLLISION_ROWS))

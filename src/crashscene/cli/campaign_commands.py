@@ -87,13 +87,15 @@ def print_summary(summary, as_json: bool) -> None:
         return
     console = Console(width=None if Console().is_terminal else 120)
     table = Table(title=f"crashscene campaign: {summary.out_dir}")
-    for col in ("case", "mode", "variations", "valid", "pass", "violation", "collision", "invalid", "reproduced"):
+    for col in ("case", "mode", "variations", "valid", "pass", "violation", "collision", "invalid", "reproduced",
+                "first contact"):
         table.add_column(col, justify="left" if col in ("case", "mode") else "right")
     for run in summary.runs:
         rate = f"{run.reproduced} ({run.reproduction_rate:.0%})" if run.reproduction_rate is not None else "-"
         v = run.verdicts
         table.add_row(run.case_id, run.mode, str(run.variations), str(run.valid), str(v.get("pass", 0)),
-                      str(v.get("violation", 0)), str(v.get("collision", 0)), str(v.get("invalid", 0)), rate)
+                      str(v.get("violation", 0)), str(v.get("collision", 0)), str(v.get("invalid", 0)), rate,
+                      f"{run.first_contact_rate:.0%}" if run.first_contact_rate is not None else "-")
     console.print(table)
     for failure in summary.failures[:20]:
         console.print(f"[red]chunk {failure['chunk']} failed:[/red] {failure['error'].splitlines()[0]}", soft_wrap=True)

@@ -47,6 +47,10 @@ def _print_summary(run_dir: Path, summary: dict) -> None:
     console.print(f"verdicts: {verdicts}")
     rate = summary["reproduction_rate"]
     console.print(f"reproduced: {summary['reproduced']}" + (f" ({rate:.1%} of valid)" if rate is not None else ""))
+    rates = [f"{name.replace('_rate', '').replace('_', ' ')} {summary[name]:.1%}"
+             for name in ("first_contact_rate", "sequence_rate", "area_match_rate") if summary.get(name) is not None]
+    if rates:
+        console.print("crash sequence: " + ", ".join(rates))
     if summary["violations"]:
         table = Table(title="violations", caption="(variations)")
         table.add_column("code")

@@ -94,6 +94,7 @@ def simulate(
         typer.echo(f"  invalid x{count}: {reason}")
     typer.echo(f"  collisions: {coll['variations_with_collision']} variations; by class {coll['by_class']}")
     if "verdicts" in summary:
-        typer.echo(f"  verdicts: {summary['verdicts']}; reproduced: {summary.get('reproduced')}")
+        typer.echo(f"  verdicts: {summary['verdicts']}; reproduced: {summary.get('reproduced')}; first contact "
+                   f"rate: {summary.get('first_contact_rate')}")
         for code, actors in summary.get("violations", {}).items():
             typer.echo(f"  {code}: {actors}")

@@ -17,7 +17,7 @@ import yaml
 from pydantic import BaseModel, ValidationError
 
 from crashscene.dsl.errors import Diagnostic, DslError
-from crashscene.dsl.model import Actor, Environment, OracleEntry, Position, RoadNetwork, Scenario
+from crashscene.dsl.model import Actor, Contact, Environment, OracleEntry, Position, RoadNetwork, Scenario
 from crashscene.dsl.normalize import canonical_key
 from crashscene.dsl.tokens import fold
 
@@ -122,7 +122,9 @@ def _check_size(root: yaml.Node, source: str | None) -> None:
 
 _CHILD_SECTION = {("top", "environment"): "environment", ("top", "road_network"): "road_network",
                   ("top", "actors"): "actors", ("actors", "*"): "actor", ("actor", "position"): "position",
-                  ("top", "oracle"): "oracle_list", ("oracle_list", "*"): "oracle"}
+                  ("top", "oracle"): "oracle_list", ("oracle_list", "*"): "oracle",
+                  ("top", "collisions"): "contact_list", ("contact_list", "*"): "contact"}
+_LIST_ITEMS = {"oracle_list": "oracle", "contact_list": "contact"}
 
 
 def _line_map(node: yaml.Node, path: str, section: str, out: dict[str, int], source: str | None = None) -> None:
@@ -133,7 +135,7 @@ def _line_map(node: yaml.Node, path: str, section: str, out: dict[str, int], sou
         seen: dict[Any, int] = {}
         for key_node, value_node in node.value:
             key = key_node.value if isinstance(key_node, yaml.ScalarNode) else "?"
-            if section in ("top", "environment", "road_network", "actors", "actor", "position", "oracle"):
+            if section in ("top", "environment", "road_network", "actors", "actor", "position", "oracle", "contact"):
                 key = canonical_key(section, key)
             child = f"{path}.{key}" if path else str(key)
             line = key_node.start_mark.line + 1
@@ -146,7 +148,7 @@ def _line_map(node: yaml.Node, path: str, section: str, out: dict[str, int], sou
             _line_map(value_node, child, next_section, out, source)
     elif isinstance(node, yaml.SequenceNode):
         for index, item in enumerate(node.value):
-            next_section = "oracle" if section == "oracle_list" else ""
+            next_section = _LIST_ITEMS.get(section, "")
             _line_map(item, f"{path}[{index}]", next_section, out, source)
 
 
@@ -180,9 +182,11 @@ def _model_at(loc: tuple[Any, ...]) -> type[BaseModel] | None:
             model = Actor
         elif loc[index - 1:index] == ("oracle",) and isinstance(item, int):
             model = OracleEntry
+        elif loc[index - 1:index] == ("collisions",) and isinstance(item, int):
+            model = Contact
         elif isinstance(item, int) or loc[index - 1:index] == ("actors",):
             continue
-        elif item != "actors" and item != "oracle":
+        elif item not in ("actors", "oracle", "collisions"):
             model = None
     return model
 
@@ -204,7 +208,7 @@ def _diagnostic(err: dict[str, Any], source: str | None, lines: dict[str, int]) 
         value = None
     elif kind == "extra_forbidden":
         model = _model_at(loc)
-        allowed = list(model.model_fields) if model else []
+        allowed = [field.alias or name for name, field in model.model_fields.items()] if model else []
         message = "unknown field"
         value = loc[-1]
     elif kind == "value_error":
@@ -297,6 +301,12 @@ def dumps(scenario: Scenario) -> str:
         for entry in scenario.oracle:
             out += [f"  - code: {entry.code}", f"    violation: {entry.violation}", f"    actor: {entry.actor}",
                     f"    description: {_quoted(entry.description)}"]
+    if scenario.collisions is not None:
+        out.append("collisions:" + ("" if scenario.collisions else " []"))
+        for contact in scenario.collisions:
+            out.append(f"  - {{striking: {contact.striking}, struck: {contact.struck}, "
+                       f"striking_area: {contact.striking_area.value}, struck_area: {contact.struck_area.value}, "
+                       f"class: {contact.class_.value}}}")
     if scenario.evidence:
         out.append("evidence:")
         for key, quote in scenario.evidence.items():

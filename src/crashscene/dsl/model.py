@@ -17,8 +17,10 @@ from crashscene.dsl.tokens import (
     VIOLATION_PATTERN,
     ActorType,
     Behavior,
+    CollisionClass,
     CurveDirection,
     Heading,
+    ImpactArea,
     Relation,
     RoadElement,
     RoadMarker,
@@ -123,9 +125,30 @@ class OracleEntry(BaseModel):
     @field_validator("actor")
     @classmethod
     def _actor_form(cls, value: str) -> str:
-        if value == "ego" or NPC_PATTERN.match(value):
-            return value
-        raise ValueError(f"actor {value!r} is not an actor name; allowed: {actor_names_allowed()}")
+        return _actor_name(value)
+
+
+def _actor_name(value: str) -> str:
+    if value == "ego" or NPC_PATTERN.match(value):
+        return value
+    raise ValueError(f"actor {value!r} is not an actor name; allowed: {actor_names_allowed()}")
+
+
+class Contact(BaseModel):
+    """One contact between two actors in the crash sequence (dsl.md `collisions`)."""
+
+    model_config = ConfigDict(extra="forbid", validate_default=True, populate_by_name=True)
+
+    striking: str = Field(description="the actor whose striking_area meets the other: ego or npcN")
+    struck: str = Field(description="the other actor: ego or npcN")
+    striking_area: ImpactArea
+    struck_area: ImpactArea
+    class_: CollisionClass = Field(alias="class", description="rear_end | head_on | angle | sideswipe")
+
+    @field_validator("striking", "struck")
+    @classmethod
+    def _actor_form(cls, value: str) -> str:
+        return _actor_name(value)
 
 
 class Scenario(BaseModel):
@@ -140,6 +163,8 @@ class Scenario(BaseModel):
     road_network: RoadNetwork
     actors: dict[str, Actor]
     oracle: list[OracleEntry] = Field(description="required (dsl.md section 2); [] when the report supports no violation")
+    collisions: list[Contact] | None = Field(default=None, description="the crash sequence, first contact first; "
+                                             "absent = not written, [] = no contact between actors")
     evidence: dict[str, str] = Field(default_factory=dict)
 
     @model_validator(mode="before")

@@ -16,7 +16,8 @@ _KEYS = {
     "top": {"dsl_version": "dsl_version", "version": "dsl_version", "scenario_id": "scenario_id",
             "id": "scenario_id", "summary": "summary", "environment": "environment",
             "road_network": "road_network", "road": "road_network", "actors": "actors",
-            "oracle": "oracle", "oracles": "oracle", "evidence": "evidence"},
+            "oracle": "oracle", "oracles": "oracle", "collisions": "collisions", "contacts": "collisions",
+            "crash_sequence": "collisions", "evidence": "evidence"},
     "environment": {"weather": "weather", "time_of_day": "time_of_day", "time": "time_of_day",
                     "lighting": "time_of_day", "road_surface": "road_surface", "surface": "road_surface"},
     "road_network": {"road_type": "road_type", "number_of_ways": "number_of_ways", "ways": "number_of_ways",
@@ -31,6 +32,9 @@ _KEYS = {
     "position": {"reference": "reference", "relation": "relation", "heading": "heading",
                  "direction": "heading"},
     "oracle": {"code": "code", "violation": "violation", "actor": "actor", "description": "description"},
+    "contact": {"striking": "striking", "striking_actor": "striking", "struck": "struck", "struck_actor": "struck",
+                "striking_area": "striking_area", "struck_area": "struck_area", "class": "class",
+                "collision_class": "class", "configuration": "class"},
 }
 
 _WORD_NUMBERS = {"one": 1, "two": 2, "three": 3, "four": 4, "five": 5, "six": 6, "seven": 7, "eight": 8,
@@ -153,6 +157,30 @@ def _oracle(raw: Any) -> Any:
     return raw
 
 
+def _contact(raw: Any) -> Any:
+    raw = _mapping("contact", raw)
+    if not isinstance(raw, dict):
+        return raw
+    out = dict(raw)
+    for field in ("striking", "struck"):
+        if isinstance(out.get(field), str):
+            out[field] = actor_key(out[field])
+    for field in ("striking_area", "struck_area"):
+        if field in out:
+            out[field] = token("area", out[field])
+    if "class" in out:
+        out["class"] = token("class", out["class"])
+    return out
+
+
+def _collisions(raw: Any) -> Any:
+    if isinstance(raw, str) and fold(raw) in ("none", "no_contact", ""):
+        return []
+    if isinstance(raw, list):
+        return [_contact(item) for item in raw]
+    return raw
+
+
 def normalize(raw: Any) -> Any:
     """Canonical keys and tokens for a raw scenario tree; non-mappings pass through for validation."""
     raw = _mapping("top", raw)
@@ -185,4 +213,6 @@ def normalize(raw: Any) -> Any:
         out["actors"] = actors
     if "oracle" in out:
         out["oracle"] = _oracle(out["oracle"])
+    if "collisions" in out:
+        out["collisions"] = _collisions(out["collisions"])
     return out

@@ -114,6 +114,42 @@ class Heading(StrEnum):
     FROM_RIGHT = "from_right"
 
 
+class ImpactArea(StrEnum):
+    """The side of a vehicle that takes part in a contact (dsl.md `collisions`)."""
+
+    FRONT = "front"
+    REAR = "rear"
+    LEFT = "left"
+    RIGHT = "right"
+
+
+class CollisionClass(StrEnum):
+    """Collision configurations (dsl.md `collisions`, rules.md collision classes)."""
+
+    REAR_END = "rear_end"
+    HEAD_ON = "head_on"
+    ANGLE = "angle"
+    SIDESWIPE = "sideswipe"
+
+
+_ENDS = (ImpactArea.FRONT, ImpactArea.REAR)
+_SIDES = (ImpactArea.LEFT, ImpactArea.RIGHT)
+
+# Which pairs of areas (striking, struck; either order) each class admits (dsl.md section 3): front into rear,
+# front into front, an end into a side, side against side or a glancing end along a side.
+CLASS_AREAS: dict[CollisionClass, frozenset[frozenset[ImpactArea]]] = {
+    CollisionClass.REAR_END: frozenset({frozenset({ImpactArea.FRONT, ImpactArea.REAR})}),
+    CollisionClass.HEAD_ON: frozenset({frozenset({ImpactArea.FRONT})}),
+    CollisionClass.ANGLE: frozenset(frozenset({end, side}) for end in _ENDS for side in _SIDES),
+    CollisionClass.SIDESWIPE: frozenset(frozenset({a, b}) for a in ImpactArea for b in _SIDES),
+}
+
+
+def areas_fit_class(klass: CollisionClass, striking_area: ImpactArea, struck_area: ImpactArea) -> bool:
+    """Whether a contact's two areas are consistent with its class."""
+    return frozenset({ImpactArea(striking_area), ImpactArea(struck_area)}) in CLASS_AREAS[CollisionClass(klass)]
+
+
 # The monitored rulebook (../shared/spec/rules.md): code -> violation token.
 MONITORED_CODES: dict[str, str] = {
     "CVC_21453": "red_light",
@@ -191,6 +227,12 @@ ALIASES: dict[str, dict[str, str]] = {
                   "t_intersection": "intersection"},
     "relation": {"ahead": "front", "in_front": "front", "in_front_of": "front", "rear": "behind",
                  "back": "behind", "left_side": "left", "right_side": "right"},
+    "area": {"front_plane": "front", "frontal_plane": "front", "frontal": "front", "back": "rear",
+             "back_plane": "rear", "rear_plane": "rear", "left_side": "left", "left_plane": "left",
+             "right_side": "right", "right_plane": "right"},
+    "class": {"rear_end": "rear_end", "front_to_rear": "rear_end", "rear_ended": "rear_end",
+              "head_on": "head_on", "front_to_front": "head_on", "t_bone": "angle", "t_type": "angle",
+              "broadside": "angle", "oblique": "angle", "side_swipe": "sideswipe", "sideswiped": "sideswipe"},
     "heading": {"same": "same_direction", "opposite": "opposite_direction", "oncoming": "opposite_direction",
                 "from_the_left": "from_left", "from_the_right": "from_right"},
 }

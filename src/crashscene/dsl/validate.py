@@ -12,7 +12,7 @@ from pathlib import Path
 from crashscene.dsl.errors import Diagnostic, DslError, Severity
 from crashscene.dsl.io import parse_yaml, from_raw
 from crashscene.dsl.model import Scenario
-from crashscene.dsl.tokens import MONITORED_CODES, Heading, RoadElement, RoadType, Sign
+from crashscene.dsl.tokens import MONITORED_CODES, CLASS_AREAS, Heading, RoadElement, RoadType, Sign, areas_fit_class
 
 ERROR, WARNING = Severity.ERROR, Severity.WARNING
 _SIGN_REFERENCES = {RoadElement.STOP_SIGN: Sign.STOP_SIGN, RoadElement.YIELD_SIGN: Sign.YIELD_SIGN,
@@ -23,7 +23,7 @@ _JUNCTIONS = (RoadType.INTERSECTION, RoadType.T_INTERSECTION)
 def check(scenario: Scenario) -> list[Diagnostic]:
     """All semantic diagnostics of a schema-valid scenario (no file or line)."""
     return [*_actor_checks(scenario), *_road_checks(scenario), *_oracle_checks(scenario),
-            *_evidence_checks(scenario)]
+            *_collision_checks(scenario), *_evidence_checks(scenario)]
 
 
 def _actor_checks(s: Scenario) -> Iterator[Diagnostic]:
@@ -114,8 +114,27 @@ def _oracle_checks(s: Scenario) -> Iterator[Diagnostic]:
         seen.add((entry.code, entry.actor))
 
 
+def _collision_checks(s: Scenario) -> Iterator[Diagnostic]:
+    for index, contact in enumerate(s.collisions or []):
+        path = f"collisions[{index}]"
+        for field in ("striking", "struck"):
+            name = getattr(contact, field)
+            if name not in s.actors:
+                yield Diagnostic("contact names an actor that does not exist", f"{path}.{field}", value=name,
+                                 allowed=list(s.actors))
+        if contact.striking == contact.struck:
+            yield Diagnostic("a contact is between two different actors", f"{path}.struck", value=contact.struck,
+                             allowed=[n for n in s.actors if n != contact.striking])
+        if not areas_fit_class(contact.class_, contact.striking_area, contact.struck_area):
+            fitting = sorted("/".join(sorted(a.value for a in pair)) if len(pair) == 2 else f"{min(pair).value}/{min(pair).value}"
+                             for pair in CLASS_AREAS[contact.class_])
+            yield Diagnostic(f"class {contact.class_.value} contradicts the areas "
+                             f"{contact.striking_area.value} into {contact.struck_area.value}", f"{path}.class",
+                             value=contact.class_.value, allowed=fitting, severity=WARNING)
+
+
 def _evidence_checks(s: Scenario) -> Iterator[Diagnostic]:
-    tops = {"environment", "road_network", "actors", "oracle", "summary", "scenario_id"}
+    tops = {"environment", "road_network", "actors", "oracle", "collisions", "summary", "scenario_id"}
     for key in s.evidence:
         head = key.split(".")[0].split("[")[0]
         if head not in tops:

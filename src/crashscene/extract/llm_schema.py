@@ -9,7 +9,7 @@ refuse or mishandle open dictionaries and optional fields, so the DSL's
   actors each with a closed `role` (npc1, npc2, ...) and a required heading;
 - `evidence` is a list of `{path, quote}` pairs, one list per section, written
   *before* that section's values so that the model quotes first and decides
-  second (environment, then road network, then actors, then oracle);
+  second (environment, then road network, then actors, then the crash sequence, then oracle);
 - every field is required; optional DSL fields are nullable instead.
 
 The vocabularies are the DSL's own enums (`crashscene.dsl.tokens`), so the two
@@ -30,8 +30,10 @@ from crashscene.dsl.tokens import (
     MONITORED_CODES,
     ActorType,
     Behavior,
+    CollisionClass,
     CurveDirection,
     Heading,
+    ImpactArea,
     Relation,
     RoadElement,
     RoadMarker,
@@ -44,6 +46,7 @@ from crashscene.dsl.tokens import (
 
 MAX_NPCS = 9  # the closed role vocabulary: ego, npc1..npc9 (CIREN cases involve at most 5 vehicles)
 MAX_ORACLE = 6  # violations per scenario; list bounds (maxItems) also stop a small model's repetition loops
+MAX_CONTACTS = 6  # contacts in the crash sequence (CIREN cascades have up to 4)
 
 NpcRole = StrEnum("NpcRole", {f"NPC{i}": f"npc{i}" for i in range(1, MAX_NPCS + 1)})
 Role = StrEnum("Role", {"EGO": "ego", **{r.name: r.value for r in NpcRole}})
@@ -131,6 +134,19 @@ class LlmViolation(BaseModel):
     description: str
 
 
+class LlmContact(BaseModel):
+    """One contact of the crash sequence (dsl.md convention 11), first harmful event first."""
+
+    model_config = _CLOSED
+
+    quote: str = Field(description="the report's impact sentence, e.g. 'the front of V2 struck the right side of V1'")
+    striking: Role
+    struck: Role
+    striking_area: ImpactArea
+    struck_area: ImpactArea
+    collision_class: CollisionClass
+
+
 class LlmScenario(BaseModel):
     """What the model returns: one crash scenario, sections in decision order."""
 
@@ -141,6 +157,8 @@ class LlmScenario(BaseModel):
     road_network: LlmRoadNetwork
     ego: LlmEgo
     npcs: list[LlmNpc] = Field(max_length=MAX_NPCS)
+    collisions: list[LlmContact] = Field(max_length=MAX_CONTACTS, description="contacts between actors in order; "
+                                         "[] when no two actors touched")
     oracle: list[LlmViolation] = Field(max_length=MAX_ORACLE)
 
 
@@ -181,6 +199,11 @@ def to_scenario(reply: LlmScenario, scenario_id: str | None = None, source: str 
                        "description": entry.description.strip()[:2000]})
         if entry.quote.strip():
             evidence[f"oracle[{index}]"] = entry.quote.strip()
+    collisions = [{"striking": c.striking.value, "struck": c.struck.value, "striking_area": c.striking_area.value,
+                   "struck_area": c.struck_area.value, "class": c.collision_class.value} for c in reply.collisions]
+    quotes = [c.quote.strip() for c in reply.collisions if c.quote.strip()]
+    if quotes:
+        evidence["collisions"] = " | ".join(quotes)
     if problems:
         raise DslError(problems)
     road = reply.road_network
@@ -189,6 +212,7 @@ def to_scenario(reply: LlmScenario, scenario_id: str | None = None, source: str 
         "road_network": road.model_dump(mode="json", exclude={"evidence"}, exclude_none=True),
         "actors": actors,
         "oracle": oracle,
+        "collisions": collisions,
         "evidence": evidence,
     }
     if scenario_id:
@@ -228,7 +252,11 @@ def from_scenario(scenario: Scenario) -> LlmScenario:
                                     number_of_ways=road.number_of_ways, number_of_lanes=road.number_of_lanes,
                                     road_marker=road.road_marker, traffic_signs=road.traffic_signs,
                                     speed_limit_mph=road.speed_limit_mph, curve_direction=road.curve_direction),
-        ego=ego_reply, npcs=[npc(name, actor) for name, actor in scenario.npcs.items()], oracle=oracle)
+        ego=ego_reply, npcs=[npc(name, actor) for name, actor in scenario.npcs.items()], oracle=oracle,
+        collisions=[LlmContact(quote=scenario.evidence.get("collisions", "") if index == 0 else "",
+                               striking=c.striking, struck=c.struck, striking_area=c.striking_area,
+                               struck_area=c.struck_area, collision_class=c.class_)
+                    for index, c in enumerate(scenario.collisions or [])])
 
 
 def _collect(evidence: dict[str, str], prefix: str, quotes: list[Quote]) -> None:

@@ -1,16 +1,25 @@
-"""Collisions: detected from footprints, merged with the simulator's contact events, classified.
+"""Contacts: detected from footprints, merged with the simulator's contact events, classified.
 
 Footprint overlap (oriented rectangles from x, y, yaw, length, width) is
 checked at every step, so traces from a backend without contact events still
-yield collisions. One row per (variation, actor pair): the first contact.
+yield contacts. One row per *contact*: every onset of overlap of an actor pair
+(footprints apart for CONTACT_GAP or more end a contact; touching again later
+is a new one, e.g. a car pushed back into the vehicle that struck it), in time
+order with its `contact_index` in the variation. A simulator event of the same
+pair during a footprint contact (from SAME_CONTACT before its onset to
+CONTACT_GAP after it ends) is that contact.
 Classes follow rules.md: `rear_end` (relative heading under 30 deg, struck from
 behind), `head_on` (over 150 deg), `angle` (60-120 deg), `sideswipe` (otherwise,
-and same- or opposite-direction contact that is side to side).
+and same- or opposite-direction contact that is side to side). The area of
+each vehicle that touched (front, rear, left, right: the quarter of its
+footprint, split by the diagonals, holding the centre of the overlap at the
+first overlapping step) is what dsl.md's `collisions` areas are compared with.
 """
 from __future__ import annotations
 
 import numpy as np
 import pyarrow as pa
+import shapely
 
 from crashscene.monitor.arrays import TraceArrays
 from crashscene.monitor.geometry import (
@@ -19,10 +28,12 @@ from crashscene.monitor.geometry import (
     rectangles_overlap,
     relative_position,
 )
-from crashscene.monitor.timeseries import first_index, wrap_angle
+from crashscene.monitor.timeseries import wrap_angle
 from crashscene.traces import COLLISION_SCHEMA
 
 COLLISION_CLASSES = ("rear_end", "head_on", "angle", "sideswipe")
+CONTACT_GAP = 0.5    # [s] footprints apart at least this long end a contact
+SAME_CONTACT = 0.3   # [s] a simulator event this close to a footprint onset of the same pair is that contact
 
 # The contract's contact columns (traces.COLLISION_SCHEMA; actor_a/actor_b in role order, ego first), then
 # what classification adds.
@@ -32,6 +43,9 @@ CLASSIFIED_SCHEMA = pa.schema(list(COLLISION_SCHEMA) + [
     ("striking_actor", pa.string()),    # the actor whose front made the contact (null for a sideswipe)
     ("source", pa.string()),            # simulator | footprint | both
     ("involves_ads", pa.bool_()),       # an actor under test (is_ads) is one of the two
+    ("contact_index", pa.int32()),      # order of the contact within its variation, from 0
+    ("area_a", pa.string()),            # front | rear | left | right: the quarter of actor_a that touched
+    ("area_b", pa.string()),
 ])
 
 
@@ -52,13 +66,21 @@ def classify(rel_heading: np.ndarray, lon: np.ndarray, lat: np.ndarray, half_len
     return out
 
 
-def footprint_contacts(arrays: TraceArrays) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """First overlapping step per (variation, unordered pair): (pair_a, pair_b, step (V, P), -1 none)."""
+def area_of(lon: np.ndarray, lat: np.ndarray, length: np.ndarray, width: np.ndarray) -> np.ndarray:
+    """The quarter of a footprint (split by its diagonals) that holds the point (lon, lat) of its own frame [m]."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        u, w = lon / (length / 2), lat / (width / 2)
+    return np.where(np.abs(u) >= np.abs(w), np.where(u >= 0, "front", "rear"),
+                    np.where(w >= 0, "left", "right")).astype(object)
+
+
+def pair_overlaps(arrays: TraceArrays) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Footprint overlap of every unordered actor pair: (pair_a, pair_b, overlap (V, P, T) bool)."""
     ia, ib = pair_indices(arrays.shape[1])
     n_var, _, n_steps = arrays.shape
-    first = np.full((n_var, len(ia)), -1, dtype=np.int64)
+    overlap = np.zeros((n_var, len(ia), n_steps), dtype=bool)
     if not len(ia) or n_steps == 0:
-        return ia, ib, first
+        return ia, ib, overlap
     f = arrays.floats
     x = np.where(arrays.alive, f["x"], np.nan)
     y, yaw = f["y"], f["yaw"]
@@ -67,92 +89,159 @@ def footprint_contacts(arrays: TraceArrays) -> tuple[np.ndarray, np.ndarray, np.
         # cheap distance gate, then the separating-axis test on the few candidate steps
         with np.errstate(invalid="ignore"):
             near = np.hypot(x[:, a] - x[:, b], y[:, a] - y[:, b]) <= (diag[:, a] + diag[:, b])[:, None]
-        overlap = np.zeros((n_var, n_steps), dtype=bool)
         if near.any():
             vv, tt = np.nonzero(near)
             box_a = corners(x[vv, a, tt], y[vv, a, tt], yaw[vv, a, tt], arrays.length[vv, a], arrays.width[vv, a])
             box_b = corners(x[vv, b, tt], y[vv, b, tt], yaw[vv, b, tt], arrays.length[vv, b], arrays.width[vv, b])
-            overlap[vv, tt] = rectangles_overlap(box_a, box_b, yaw[vv, a, tt], yaw[vv, b, tt])
-        first[:, p] = first_index(overlap)
-    return ia, ib, first
+            overlap[vv, p, tt] = rectangles_overlap(box_a, box_b, yaw[vv, a, tt], yaw[vv, b, tt])
+    return ia, ib, overlap
+
+
+def contact_onsets(overlap: np.ndarray, gap_steps: int) -> np.ndarray:
+    """(V, P, T) True where a contact begins: overlap after at least `gap_steps` steps without one."""
+    recent = np.zeros_like(overlap)
+    for k in range(1, max(gap_steps, 1) + 1):
+        recent[..., k:] |= overlap[..., :-k]
+    return overlap & ~recent
+
+
+def _simulator_events(arrays: TraceArrays, contacts: pa.Table | None,
+                      pair_of: dict[tuple[int, int], int]) -> dict[tuple[int, int], list[dict]]:
+    """The simulator's contact rows by (variation index, pair), each with t, x, y and the two delta-v."""
+    events: dict[tuple[int, int], list[dict]] = {}
+    if contacts is None or not contacts.num_rows:
+        return events
+    role_index = {r: i for i, r in enumerate(arrays.roles)}
+    rows = contacts.to_pydict()
+    n_var = arrays.shape[0]
+    for k in range(contacts.num_rows):
+        v = int(np.searchsorted(arrays.variations, rows["variation"][k]))
+        if v >= n_var or arrays.variations[v] != rows["variation"][k]:
+            continue
+        ra, rb = role_index.get(rows["actor_a"][k]), role_index.get(rows["actor_b"][k])
+        t = rows["t"][k]
+        if ra is None or rb is None or ra == rb or t is None or not np.isfinite(t):
+            continue
+        swap = ra > rb
+
+        def value(name: str) -> float:
+            got = rows.get(name, [None] * contacts.num_rows)[k]
+            return np.nan if got is None else float(got)
+
+        dva, dvb = value("delta_v_a"), value("delta_v_b")
+        events.setdefault((v, pair_of[(min(ra, rb), max(ra, rb))]), []).append(
+            {"t": float(t), "x": value("x"), "y": value("y"), "dv": (dvb, dva) if swap else (dva, dvb)})
+    return events
+
+
+def _merge_events(overlap: np.ndarray, onset_steps: np.ndarray, time: np.ndarray,
+                  sim: list[dict]) -> list[tuple[float, int, str, dict]]:
+    """Footprint contacts (from each onset to its last overlapping step) and simulator events of one pair in one
+    variation, as contacts: (t, footprint onset step or -1, source, simulator event or {}). A simulator event
+    that falls within a footprint contact (SAME_CONTACT before its onset to CONTACT_GAP after its end) is it."""
+    out: list[tuple[float, int, str, dict]] = []
+    unused = sorted(sim, key=lambda e: e["t"])
+    touching = np.nonzero(overlap)[0]
+    for k, step in enumerate(onset_steps):
+        nxt = onset_steps[k + 1] if k + 1 < len(onset_steps) else len(overlap)
+        end = touching[(touching >= step) & (touching < nxt)].max()
+        t0, t1 = float(time[step]) - SAME_CONTACT, float(time[end]) + CONTACT_GAP
+        inside = [e for e in unused if t0 <= e["t"] <= t1]
+        for e in inside:
+            unused.remove(e)
+        if inside:
+            out.append((min(float(time[step]), inside[0]["t"]), int(step), "both", inside[0]))
+        else:
+            out.append((float(time[step]), int(step), "footprint", {}))
+    out += [(e["t"], -1, "simulator", e) for e in unused]
+    return sorted(out, key=lambda item: item[0])
 
 
 def classify_collisions(arrays: TraceArrays, contacts: pa.Table | None, ads: np.ndarray) -> pa.Table:
-    """Merge footprint and simulator contacts, one row per (variation, pair), and classify them.
+    """Merge footprint and simulator contacts, one row per contact, and classify them.
 
     `ads` (V, A) marks the actors under test.
     """
     n_var, _, n_steps = arrays.shape
-    ia, ib, first = footprint_contacts(arrays)
+    ia, ib, overlap = pair_overlaps(arrays)
     pair_of = {(int(a), int(b)): p for p, (a, b) in enumerate(zip(ia, ib))}
-    t_first = np.full(first.shape, np.inf)
-    hit = first >= 0
+    onsets = contact_onsets(overlap, round(CONTACT_GAP / arrays.dt)) if overlap.size else overlap
+    sim = _simulator_events(arrays, contacts, pair_of)
     time = arrays.time()
-    for p, (a, _) in enumerate(zip(ia, ib)):
-        t_first[hit[:, p], p] = time[hit[:, p], a, first[hit[:, p], p]]
-    source = np.where(hit, "footprint", "").astype(object)
-    sim_xy = np.full(first.shape + (2,), np.nan)
-    sim_t = np.full(first.shape, np.inf)
-    role_index = {r: i for i, r in enumerate(arrays.roles)}
-    if contacts is not None and contacts.num_rows:
-        rows = contacts.to_pydict()
-        for k in range(contacts.num_rows):
-            v = int(np.searchsorted(arrays.variations, rows["variation"][k]))
-            if v >= n_var or arrays.variations[v] != rows["variation"][k]:
-                continue
-            ra, rb = role_index.get(rows["actor_a"][k]), role_index.get(rows["actor_b"][k])
-            if ra is None or rb is None or ra == rb:
-                continue
-            p = pair_of[(min(ra, rb), max(ra, rb))]
-            t = rows["t"][k] if rows["t"][k] is not None else np.nan
-            if np.isfinite(t) and t < sim_t[v, p]:
-                sim_t[v, p] = t
-                sim_xy[v, p] = [np.nan if rows["x"][k] is None else rows["x"][k],
-                                np.nan if rows["y"][k] is None else rows["y"][k]]
-    sim_hit = np.isfinite(sim_t)
-    source = np.where(sim_hit & hit, "both", np.where(sim_hit, "simulator", source))
-    t_event = np.fmin(t_first, sim_t)
-    any_hit = hit | sim_hit
-    vv, pp = np.nonzero(any_hit)
-    if not len(vv):
+    keys = sorted({(int(v), int(p)) for v, p in zip(*np.nonzero(onsets.any(axis=2)))} | set(sim))
+    rows: list[tuple] = []  # (v, pair, t, step, source, event)
+    for v, p in keys:
+        steps = np.nonzero(onsets[v, p])[0] if overlap.size else np.zeros(0, dtype=int)
+        touching = overlap[v, p] if overlap.size else np.zeros(n_steps, dtype=bool)
+        for t, step, source, event in _merge_events(touching, steps, time[v, ia[p]], sim.get((v, p), [])):
+            if step < 0:  # state at the simulator's time
+                step = int(np.clip(round(t / arrays.dt), 0, max(n_steps - 1, 0)))
+            rows.append((v, p, t, step, source, event))
+    if not rows:
         return CLASSIFIED_SCHEMA.empty_table()
+    rows.sort(key=lambda r: (r[0], r[2], r[1]))
+    vv = np.array([r[0] for r in rows], dtype=np.int64)
+    pp = np.array([r[1] for r in rows], dtype=np.int64)
+    step = np.array([r[3] for r in rows], dtype=np.int64)
+    t_event = np.array([r[2] for r in rows])
     a_idx, b_idx = ia[pp], ib[pp]
-    # state at the contact: the footprint step, or the step nearest the simulator's time
-    sim_step = np.clip(np.round(np.where(np.isfinite(sim_t[vv, pp]), sim_t[vv, pp], 0) / arrays.dt), 0, n_steps - 1)
-    step = np.where(hit[vv, pp] & (t_first[vv, pp] <= sim_t[vv, pp]), first[vv, pp], sim_step.astype(np.int64))
     f = arrays.floats
     xa, ya, yawa, va = (f[c][vv, a_idx, step] for c in ("x", "y", "yaw", "speed"))
     xb, yb, yawb, vb = (f[c][vv, b_idx, step] for c in ("x", "y", "yaw", "speed"))
+    la, wa = arrays.length[vv, a_idx], arrays.width[vv, a_idx]
+    lb, wb = arrays.length[vv, b_idx], arrays.width[vv, b_idx]
     rel = np.abs(wrap_angle(yawb - yawa))
     lon_ab, lat_ab = relative_position(xa, ya, yawa, xb, yb)
     lon_ba, lat_ba = relative_position(xb, yb, yawb, xa, ya)
-    half_len = (arrays.length[vv, a_idx] + arrays.length[vv, b_idx]) / 2
-    half_wid = (arrays.width[vv, a_idx] + arrays.width[vv, b_idx]) / 2
-    cls = classify(rel, lon_ab, lat_ab, half_len, half_wid)
+    cls = classify(rel, lon_ab, lat_ab, (la + lb) / 2, (wa + wb) / 2)
     # the striker has the other ahead of it: larger forward offset relative to its lateral offset
     a_strikes = (lon_ab - np.abs(lat_ab)) >= (lon_ba - np.abs(lat_ba))
-    head_on = cls == "head_on"
-    a_strikes = np.where(head_on, va >= vb, a_strikes)
+    a_strikes = np.where(cls == "head_on", va >= vb, a_strikes)
     roles = np.asarray(arrays.roles, dtype=object)
     striking = np.where(a_strikes, roles[a_idx], roles[b_idx]).astype(object)
     striking[cls == "sideswipe"] = None
-    cx = np.where(np.isfinite(sim_xy[vv, pp, 0]), sim_xy[vv, pp, 0], (xa + xb) / 2)
-    cy = np.where(np.isfinite(sim_xy[vv, pp, 1]), sim_xy[vv, pp, 1], (ya + yb) / 2)
-    order = np.lexsort((pp, t_event[vv, pp], vv))
+    sim_x = np.array([r[5].get("x", np.nan) for r in rows])
+    sim_y = np.array([r[5].get("y", np.nan) for r in rows])
+    cx, cy = _overlap_centre(np.stack([xa, ya, yawa, la, wa]), np.stack([xb, yb, yawb, lb, wb]))
+    cx = np.where(np.isfinite(cx), cx, np.where(np.isfinite(sim_x), sim_x, (xa + xb) / 2))
+    cy = np.where(np.isfinite(cy), cy, np.where(np.isfinite(sim_y), sim_y, (ya + yb) / 2))
+    area_a = area_of(*relative_position(xa, ya, yawa, cx, cy), la, wa)
+    area_b = area_of(*relative_position(xb, yb, yawb, cx, cy), lb, wb)
+    index = np.zeros(len(rows), dtype=np.int32)
+    for k in range(1, len(rows)):
+        index[k] = index[k - 1] + 1 if vv[k] == vv[k - 1] else 0
+    dv = np.array([r[5].get("dv", (np.nan, np.nan)) for r in rows], dtype=float).reshape(-1, 2)
     columns = {
         "variation": arrays.variations[vv].astype(np.int32),
-        "t": t_event[vv, pp],
+        "t": t_event,
         "actor_a": roles[a_idx],
         "actor_b": roles[b_idx],
-        "speed_a": va, "speed_b": vb, "yaw_a": yawa, "yaw_b": yawb, "x": cx, "y": cy,
+        "speed_a": va, "speed_b": vb, "yaw_a": yawa, "yaw_b": yawb,
+        "x": np.where(np.isfinite(sim_x), sim_x, cx), "y": np.where(np.isfinite(sim_y), sim_y, cy),
+        "delta_v_a": dv[:, 0], "delta_v_b": dv[:, 1],
         "relative_heading_deg": np.degrees(rel),
         "class": cls,
         "striking_actor": striking,
-        "source": source[vv, pp],
+        "source": np.array([r[4] for r in rows], dtype=object),
         "involves_ads": ads[vv, a_idx] | ads[vv, b_idx],
+        "contact_index": index,
+        "area_a": area_a,
+        "area_b": area_b,
     }
-    return pa.table({k: pa.array(list(v[order]) if v.dtype == object else v[order], type=CLASSIFIED_SCHEMA.field(k).type)
+    return pa.table({k: pa.array(list(v) if v.dtype == object else v,
+                                 type=CLASSIFIED_SCHEMA.field(k).type, from_pandas=True)
                      for k, v in columns.items()}, schema=CLASSIFIED_SCHEMA)
+
+
+def _overlap_centre(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Centroid of the overlap of two footprints, each given as rows (x, y, yaw, length, width); NaN when they
+    do not overlap (a simulator-only contact)."""
+    boxes = [shapely.polygons(corners(*row[:3], row[3], row[4])) for row in (a, b)]
+    centre = shapely.centroid(shapely.intersection(*boxes))
+    coords = np.full((len(centre), 2), np.nan)
+    found = ~shapely.is_empty(centre) & ~shapely.is_missing(centre)
+    coords[found] = shapely.get_coordinates(centre[found])
+    return coords[:, 0], coords[:, 1]
 
 
 def first_contact_steps(arrays: TraceArrays, collisions: pa.Table) -> np.ndarray:

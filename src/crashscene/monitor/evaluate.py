@@ -28,8 +28,10 @@ def evaluate(tables: dict[str, pa.Table], scenario: Scenario | None, rulebook: R
     """Evaluate every actor of every variation in `tables` (see `crashscene.traces`).
 
     `scenario` supplies the environment (condition factors), the posted limit,
-    the road layout and the oracle to reproduce. `expected` overrides the
-    collision the report implies ("auto": derived from the DSL; None: none).
+    the road layout, the oracle and the crash sequence (`collisions`) to
+    reproduce. `expected` overrides the collision the report implies ("auto":
+    the DSL's `collisions` when written, else derived from its actors; None:
+    none).
     With `stop_at_collision`, an actor's rules see its trace up to
     `after_collision` [s] past its first collision only: what a backend without
     contact physics does afterwards (vehicles passing through each other) is
@@ -57,8 +59,8 @@ def evaluate(tables: dict[str, pa.Table], scenario: Scenario | None, rulebook: R
                                f"{type(exc).__name__}: {exc}") from exc
         outcomes.append((rule, outcome.finalize()))
     rule_results = rule_results_table(arrays.variations, arrays.roles, arrays.present, under_test, outcomes)
-    if expected == "auto":
-        expected = expected_collision(scenario)
+    if expected == "auto":  # the written crash sequence, else the collision the actors imply (older files)
+        expected = expected_collision(scenario) if scenario is None or scenario.collisions is None else None
     verdicts, oracle = verdict_table(arrays, {r.code: o for r, o in outcomes}, collisions, scenario, ads, expected,
                                      invalid)
     rules = [{"code": r.code, "violation": r.violation, "unit": r.unit, "summary": r.summary,

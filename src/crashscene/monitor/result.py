@@ -78,6 +78,11 @@ class MonitorResult:
         violations = {code: dict(sorted(violations[code].items())) for code in order if code in violations}
         counts = Counter(verdicts["verdict"])
         reproduced = int(sum(1 for r in verdicts["reproduced"] if r))
+        rates = {}
+        for column in ("first_contact", "sequence", "area_match"):
+            values = [value for value, verdict in zip(verdicts[column], verdicts["verdict"]) if verdict != "invalid"]
+            known = [value for value in values if value is not None]
+            rates[f"{column}_rate"] = round(sum(known) / n_valid, 4) if n_valid and known else None
         coll = self.collisions.to_pydict()
         by_class: Counter = Counter()
         by_pair: dict[str, Counter] = {}
@@ -95,6 +100,7 @@ class MonitorResult:
             "verdicts": {name: int(counts.get(name, 0)) for name in VERDICTS},
             "reproduced": reproduced,
             "reproduction_rate": round(reproduced / n_valid, 4) if n_valid else None,
+            **rates,
             "collisions": {name: int(by_class.get(name, 0)) for name in COLLISION_CLASSES},
             "collision_pairs": {pair: dict(c) for pair, c in sorted(by_pair.items())},
             "invalid_reasons": dict(invalid_reasons),
@@ -102,6 +108,7 @@ class MonitorResult:
             "min_robustness": closest,
             "oracle": self.oracle.get("oracle", []),
             "expected_collision": self.oracle.get("expected_collision"),
+            "expected_sequence": self.oracle.get("expected_sequence"),
             "rules": [r["code"] for r in self.rules],
             "rulebook": self.rulebook,
         }

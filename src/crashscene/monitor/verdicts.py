@@ -7,11 +7,16 @@ violated a rule; else `collision` when an actor under test collided; else
 `pass`. The actors under test are those with `is_ads`; in reproduce mode no
 actor is, and the ego stands in for it.
 
-Reproduction: every oracle entry with a monitored code is violated by its
-actor, and the expected collision (the report's crash, derived from the DSL:
-the ego and the actor to blame, with the class its heading relation implies)
-occurs with that class between those two actors. For a single-vehicle
-scenario whose actor leaves the road, leaving the road is the expected event.
+Reproduction (rules.md): every oracle entry with a monitored code is violated
+by its actor, and the crash sequence happens. When the DSL has `collisions`,
+the sequence is that list: its first contact is the variation's first contact
+between actors (the same two actors, the same class) and every later contact
+follows, in order (the same two actors and class); each matched contact's
+areas are compared apart (`area_match`). Without `collisions` (older files),
+the expected collision is derived from the DSL (the ego and the actor to
+blame, with the class its heading relation implies) and must occur. For a
+single-vehicle scenario whose actor leaves the road, leaving the road is the
+expected event.
 """
 from __future__ import annotations
 
@@ -20,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 import pyarrow as pa
 
-from crashscene.dsl.model import Scenario
+from crashscene.dsl.model import Contact, Scenario
 from crashscene.monitor.arrays import TraceArrays
 from crashscene.monitor.conflicts import arc_length
 from crashscene.monitor.rules.base import RuleOutcome
@@ -36,6 +41,9 @@ VERDICT_SCHEMA = pa.schema([
     ("reason", pa.string()),
     ("ads_violations", pa.list_(pa.string())),  # codes violated by the actors under test
     ("collision_classes", pa.list_(pa.string())),  # classes of collisions involving them
+    ("first_contact", pa.bool_()),            # the first contact is the reported (or expected) one
+    ("sequence", pa.bool_()),                 # the whole reported sequence happened, in order
+    ("area_match", pa.bool_()),               # ... with the reported areas (null: the DSL has no collisions)
 ])
 
 
@@ -84,6 +92,44 @@ def expected_collision(scenario: Scenario | None) -> ExpectedCollision | None:
     else:
         klass = "rear_end"
     return ExpectedCollision("ego", partner, klass, also)
+
+
+@dataclass(frozen=True)
+class SequenceMatch:
+    """How a variation's contacts compare with the crash sequence."""
+
+    first_contact: bool
+    sequence: bool
+    area_match: bool | None
+
+
+def match_sequence(observed: list[tuple[str, str, str, str, str]], reported: list[Contact]) -> SequenceMatch:
+    """Compare a variation's contacts, in time order as (actor_a, actor_b, class, area_a, area_b), with the
+    reported sequence. The first contact must be the first one observed; later ones follow in order."""
+    if not reported:
+        return SequenceMatch(not observed, not observed, None)
+
+    def fits(seen: tuple[str, str, str, str, str], contact: Contact) -> bool:
+        return {seen[0], seen[1]} == {contact.striking, contact.struck} and seen[2] == contact.class_.value
+
+    def areas(seen: tuple[str, str, str, str, str], contact: Contact) -> bool:
+        by_actor = {seen[0]: seen[3], seen[1]: seen[4]}
+        return (by_actor[contact.striking] == contact.striking_area.value
+                and by_actor[contact.struck] == contact.struck_area.value)
+
+    if not observed or not fits(observed[0], reported[0]):
+        return SequenceMatch(False, False, False)
+    matched = [(observed[0], reported[0])]
+    position = 1
+    for contact in reported[1:]:
+        while position < len(observed) and not fits(observed[position], contact):
+            position += 1
+        if position == len(observed):
+            break
+        matched.append((observed[position], contact))
+        position += 1
+    sequence = len(matched) == len(reported)
+    return SequenceMatch(True, sequence, sequence and all(areas(seen, c) for seen, c in matched))
 
 
 def ads_mask(arrays: TraceArrays) -> np.ndarray:
@@ -136,15 +182,15 @@ def verdict_table(arrays: TraceArrays, outcomes: dict[str, RuleOutcome], collisi
         for v in np.nonzero(hit)[0]:
             ads_codes[v].append(code)
     coll_classes: list[list[str]] = [[] for _ in range(n_var)]
-    pair_classes: list[set[tuple[str, str, str]]] = [set() for _ in range(n_var)]
+    contacts: list[list[tuple[str, str, str, str, str]]] = [[] for _ in range(n_var)]  # in time order
     if collisions.num_rows:
-        cols = collisions.select(["variation", "actor_a", "actor_b", "class"]).to_pydict()
-        for v, aa, bb, klass in zip(cols["variation"], cols["actor_a"], cols["actor_b"], cols["class"]):
+        cols = collisions.select(["variation", "actor_a", "actor_b", "class", "area_a", "area_b"]).to_pydict()
+        for v, aa, bb, klass, area_a, area_b in zip(*cols.values()):
             vi = var_index[int(v)]
-            pair_classes[vi].add((aa, bb, klass))
-            pair_classes[vi].add((bb, aa, klass))
+            contacts[vi].append((aa, bb, klass, area_a, area_b))
             if ads[vi, role_index[aa]] or ads[vi, role_index[bb]]:
                 coll_classes[vi].append(klass)
+    reported = scenario.collisions if scenario is not None and expected is None else None
 
     # oracle entries the monitor can observe
     observable, unmonitored = [], []
@@ -157,11 +203,17 @@ def verdict_table(arrays: TraceArrays, outcomes: dict[str, RuleOutcome], collisi
     leave_road = _leave_road_expected(scenario, arrays) if expected is None else None
 
     verdicts, reproduced, reason_text = [], [], []
+    first_contact: list[bool] = []
+    sequence: list[bool] = []
+    area_match: list[bool | None] = []
     for v in range(n_var):
         if reasons[v] is not None:
             verdicts.append("invalid")
             reproduced.append(False)
             reason_text.append(reasons[v])
+            first_contact.append(False)
+            sequence.append(False)
+            area_match.append(None if reported is None else False)
             continue
         if ads_codes[v]:
             verdicts.append("violation")
@@ -172,11 +224,30 @@ def verdict_table(arrays: TraceArrays, outcomes: dict[str, RuleOutcome], collisi
         seen, missing = [], []
         for e in observable:
             (seen if observed[(e.code, e.actor)][v] else missing).append(f"{e.code} by {e.actor}")
-        if expected is not None:
+        if reported is not None:
+            match = match_sequence(contacts[v], reported)
+            first_contact.append(match.first_contact)
+            sequence.append(match.sequence)
+            area_match.append(match.area_match)
+            label = ("no contact between actors" if not reported else
+                     "crash sequence " + ", ".join(f"{c.striking}-{c.struck} {c.class_.value}" for c in reported))
+            if scenario.npcs:  # with one vehicle, "no contact between actors" is no observation
+                (seen if match.sequence else missing).append(label)
+        elif expected is not None:
             label = f"{expected.label()} collision {expected.actor_a}-{expected.actor_b}"
-            match = any(a == expected.actor_a and b == expected.actor_b and expected.accepts(k)
-                        for a, b, k in pair_classes[v])
-            (seen if match else missing).append(label)
+
+            def fits(contact: tuple[str, str, str, str, str]) -> bool:
+                return {contact[0], contact[1]} == {expected.actor_a, expected.actor_b} and expected.accepts(contact[2])
+
+            match_any = any(fits(c) for c in contacts[v])
+            first_contact.append(bool(contacts[v]) and fits(contacts[v][0]))
+            sequence.append(match_any)
+            area_match.append(None)
+            (seen if match_any else missing).append(label)
+        else:
+            first_contact.append(not contacts[v])
+            sequence.append(not contacts[v])
+            area_match.append(None)
         if leave_road is not None:
             (seen if leave_road[v] else missing).append("leaves the road")
         if not seen and not missing:
@@ -195,6 +266,9 @@ def verdict_table(arrays: TraceArrays, outcomes: dict[str, RuleOutcome], collisi
         "reason": pa.array(reason_text, type=pa.string()),
         "ads_violations": pa.array(ads_codes, type=pa.list_(pa.string())),
         "collision_classes": pa.array(coll_classes, type=pa.list_(pa.string())),
+        "first_contact": pa.array(first_contact, type=pa.bool_()),
+        "sequence": pa.array(sequence, type=pa.bool_()),
+        "area_match": pa.array(area_match, type=pa.bool_()),
     }, schema=VERDICT_SCHEMA)
     info = {
         "oracle": [{"code": e.code, "actor": e.actor, "monitored": True,
@@ -202,6 +276,8 @@ def verdict_table(arrays: TraceArrays, outcomes: dict[str, RuleOutcome], collisi
                    for e in observable]
                   + [{"code": e.code, "actor": e.actor, "monitored": False, "observed": None} for e in unmonitored],
         "expected_collision": expected.to_json() if expected is not None else None,
+        "expected_sequence": ([c.model_dump(mode="json", by_alias=True) for c in reported]
+                              if reported is not None else None),
         "expected_leave_road": leave_road is not None,
     }
     return table, info
