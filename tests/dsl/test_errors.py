@@ -162,3 +162,26 @@ def test_oracle_is_required_so_a_truncated_file_does_not_validate(tmp_path: Path
     err = _error(GOLDEN[: GOLDEN.index("  npc1:")], tmp_path)
     assert [d.path for d in err.diagnostics] == ["oracle"]
     assert "required" in err.diagnostics[0].message
+
+
+def test_actors_placed_relative_to_each_other_are_refused_naming_both_fields(tmp_path: Path) -> None:
+    three = (EXAMPLES / "105203" / "golden.yaml").read_text(encoding="utf-8")
+    text = three.replace("position: {reference: ego, relation: front, heading: same_direction}",
+                         "position: {reference: npc2, relation: front, heading: same_direction}")
+    text = text.replace("position: {reference: ego, relation: front, heading: opposite_direction}",
+                        "position: {reference: npc1, relation: front, heading: opposite_direction}")
+    err = _error(text, tmp_path)
+    [diag] = [d for d in err.diagnostics if "cycle" in d.message]
+    assert diag.path == "actors.npc1.position.reference" and "actors.npc2.position.reference" in diag.message
+    assert "npc1 -> npc2, npc2 -> npc1" in diag.message and diag.line is not None
+
+
+def test_more_actors_than_a_map_can_place_are_refused(tmp_path: Path) -> None:
+    npc = "\n  npc{i}:\n    type: car\n    behavior: go_forward\n" \
+          "    position: {{reference: ego, relation: behind, heading: same_direction}}"
+    extra = "".join(npc.format(i=i) for i in range(2, 51))
+    text = GOLDEN.replace("    position: {reference: ego, relation: front, heading: same_direction}\n",
+                          "    position: {reference: ego, relation: front, heading: same_direction}" + extra + "\n")
+    err = _error(text, tmp_path)
+    [diag] = err.diagnostics
+    assert diag.path == "actors" and diag.value == 51 and "at most 6" in str(diag)
