@@ -150,3 +150,44 @@ def test_a_backend_registered_outside_the_package_runs_in_a_two_worker_campaign(
     for run in runs:
         assert (run / "scenario.scenic").read_bytes() == (render / "scenario.scenic").read_bytes()
         assert '"rendered_from"' in (run / "summary.json").read_text()
+
+
+@pytest.mark.slow
+def test_a_chunk_with_rules_is_monitored_once_with_that_rulebook(tmp_path, monkeypatch):
+    import crashscene.monitor as monitor
+    from crashscene.campaign.model import ChunkTask
+    from crashscene.campaign.worker import simulate_chunk
+    from crashscene.dsl import dumps, load_file
+
+    calls = []
+    real = monitor.evaluate
+
+    def counting(tables, scenario, rulebook=None, **kw):
+        calls.append(rulebook)
+        return real(tables, scenario, rulebook, **kw)
+
+    monkeypatch.setattr(monitor, "evaluate", counting)
+    rules = _rules(tmp_path, "rules:\n  CVC_22350: {enabled: false}\n")
+    golden = Path(__file__).resolve().parents[2] / "examples" / "ciren" / "120013" / "golden.yaml"
+    task = ChunkTask(case_id="120013", scenario_yaml=dumps(load_file(golden)), scenario_hash="h", seed=0,
+                     mode="reproduce", first=0, count=2, options=SimOptions(rules_file=str(rules)))
+    result = simulate_chunk(task)
+    assert len(calls) == 1 and calls[0] is not None and "CVC_22350" in calls[0].params
+    assert "CVC_22350" not in result.violations.column("code").to_pylist()
+
+
+def test_rulebook_condition_factors_reach_the_drivers():
+    from crashscene.dsl import load_file
+    from crashscene.monitor.rulebook import Rulebook
+    from crashscene.simulate.embedded.setup import condition_factor, friction
+    from crashscene.simulate.pipeline import _conditions
+
+    night = load_file(Path(__file__).resolve().parents[2] / "examples" / "ciren" / "120013" / "golden.yaml")
+    night = night.model_copy(update={"environment": night.environment.model_copy(
+        update={"time_of_day": "nighttime", "road_surface": "wet"})})
+    assert condition_factor(night) == pytest.approx(0.85 * 0.90)  # rules.md defaults
+    book = Rulebook.from_mapping({"rules": {"CVC_22350": {"factor_night": 0.5, "friction_wet": 0.4}}})
+    conditions = _conditions(book)
+    assert conditions["factor_night"] == 0.5 and conditions["friction_wet"] == 0.4
+    assert condition_factor(night, conditions) == pytest.approx(0.85 * 0.5)
+    assert friction(night, conditions) == pytest.approx(0.4)
