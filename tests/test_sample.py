@@ -103,7 +103,7 @@ def test_scene_i_depends_only_on_seed_and_index(tmp_path):
     chunks = sample_scenes(r.program, 5, seed=42, scenario=scenario) + \
         sample_scenes(r.program, 7, seed=42, first=5, scenario=scenario)
     assert [s.model_dump_json() for s in whole] == [s.model_dump_json() for s in chunks]
-    again = sample_scenes(r.program, 3, seed=42, first=9)  # fresh compile, same scenes
+    again = sample_scenes(r.program, 3, seed=42, first=9, sampler="scenic")  # fresh compile, same scenes
     assert [s.model_dump_json() for s in again] == [s.model_dump_json() for s in whole[9:]]
     other = sample_scenes(r.program, 3, seed=43, first=9, scenario=scenario)
     assert [s.actors[0].x for s in other] != [s.actors[0].x for s in whole[9:]]
@@ -123,8 +123,8 @@ def test_sampling_leaves_global_random_state_alone(tmp_path):
 @pytest.mark.parametrize("case", ["121520", "108812", "119489", "3-C5-2018-004"])
 def test_program_compiles_under_the_newtonian_model(case, tmp_path):
     r = rendered(case, "generated", tmp_path)
-    scenes = sample_scenes(r.program, 5, seed=3, model=NEWTONIAN_MODEL)
-    carla = sample_scenes(r.program, 5, seed=3)
+    scenes = sample_scenes(r.program, 5, seed=3, model=NEWTONIAN_MODEL, sampler="scenic")
+    carla = sample_scenes(r.program, 5, seed=3, sampler="scenic")
     assert [(a.x, a.y, a.yaw) for s in scenes for a in s.actors] == \
         [(a.x, a.y, a.yaw) for s in carla for a in s.actors]
 
@@ -172,7 +172,7 @@ def test_memoised_model_parse_gives_the_same_scenes(tmp_path, monkeypatch):
     from scenic.syntax import translator
 
     r = rendered("3-C2-2018-008", "generated", tmp_path)
-    memoised = sample_scenes(r.program, 4, seed=11)  # compile_program installs the memo
+    memoised = sample_scenes(r.program, 4, seed=11, sampler="scenic")  # compile_program installs the memo
     assert translator.parse_string.crashscene_memo
     monkeypatch.setattr(translator, "parse_string", translator.parse_string.original)
     plain = scenic.scenarioFromFile(str(r.program), params={"render": False}, mode2D=True)

@@ -31,6 +31,7 @@ from crashscene.scene import SampledActor, SampledScene
 CARLA_MODEL = "scenic.simulators.carla.model"
 NEWTONIAN_MODEL = "scenic.simulators.newtonian.driving_model"
 MAX_ITERATIONS = 2000  # rejection-sampling attempts per scene before giving up
+SAMPLERS = ("compiled", "scenic")
 _SKIP_PARAMS = {"map", "map_options", "render", "use2DMap", "verifaiSamplerType", "verifaiSamplerParams",
                 "snapToGroundDefault", "address", "port", "timeout", "timestep", "debugRender"}
 
@@ -106,21 +107,43 @@ def scene_seed(seed: int, index: int) -> tuple[int, int]:
 
 
 def sample_scenes(program: Path, n: int, seed: int, first: int = 0, scenario: Any = None,
-                  map_path: Path | None = None, model: str | None = None, workers: int = 1) -> list[SampledScene]:
-    """Scenes for variation indices first .. first+n-1 (pass a compiled `scenario` to skip compiling).
+                  map_path: Path | None = None, model: str | None = None, workers: int = 1,
+                  sampler: str = "compiled") -> list[SampledScene]:
+    """Scenes for variation indices first .. first+n-1.
 
-    `workers` > 1 splits the index range into contiguous blocks sampled in forked processes that inherit
-    the compiled program; scenes are index-deterministic, so the result is identical to workers=1.
-    Leave it at 1 inside a process pool (a campaign already uses one worker per core).
+    `sampler` "compiled" (default) draws them with numpy from the sampling plan `render` wrote beside the
+    program (`crashscene.compiled_sampler`); "scenic" runs Scenic's own sampler on the program (the reference:
+    the same distribution, other draws). Pass a compiled Scenic `scenario` to skip compiling (implies "scenic").
+    With Scenic, `workers` > 1 splits the index range into contiguous blocks sampled in forked processes that
+    inherit the compiled program; scenes are index-deterministic, so the result is identical to workers=1.
     """
     program = Path(program)
     if n < 0 or first < 0 or workers < 1:
         raise SampleError(f"n and first must be >= 0 and workers >= 1 (got n={n}, first={first}, workers={workers})")
-    if scenario is None:
-        scenario = compile_program(program, map_path, model)
+    if sampler not in SAMPLERS:
+        raise SampleError(f"sampler {sampler!r} is not allowed; allowed: {', '.join(SAMPLERS)}")
+    if not program.is_file():
+        raise SampleError(f"program {program} not found (render it first: crashscene render FILE.yaml -o DIR)")
     meta = _render_meta(program)
     digest = meta.get("scenario_hash") or _program_hash(program)
     map_file = str(map_path) if map_path is not None else str(program.parent / meta.get("map", "map.xodr"))
+    if sampler == "compiled" and scenario is None:
+        from crashscene.compiled_sampler import CompiledSampler, PlanError
+
+        if model not in (None, CARLA_MODEL):
+            raise SampleError(f"model {model!r}: the compiled sampler reproduces the program's own world model "
+                              f"({CARLA_MODEL}); sample with sampler 'scenic' to override it")
+
+        try:
+            compiled = CompiledSampler(program, map_path)
+        except PlanError as exc:
+            raise SampleError(str(exc)) from exc
+        except Exception as exc:  # Scenic's map parser and the placement helpers raise many types
+            raise SampleError(f"{program}: the compiled sampler could not be built: {type(exc).__name__}: {exc}") \
+                from exc
+        return compiled.scenes(first, n, seed, digest, map_file, max_attempts=MAX_ITERATIONS)
+    if scenario is None:
+        scenario = compile_program(program, map_path, model)
     workers = min(workers, max(1, n // MIN_BLOCK))
     if workers == 1:
         return _generate(scenario, program, first, n, seed, digest, map_file)

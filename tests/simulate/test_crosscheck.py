@@ -64,7 +64,7 @@ def runs(tmp_path_factory):
     scenario = loads(SCENARIO)
     out = tmp_path_factory.mktemp("crosscheck")
     rendered = render.render(scenario, out, cache_dir=out / "maps")
-    scenes = sample.sample_scenes(rendered.program, N_SCENES, SEED)
+    scenes = sample.sample_scenes(rendered.program, N_SCENES, SEED, sampler="scenic")
     settings = SimulationSettings(mode="reproduce", horizon=CHECK_TIME)
     program = Path(rendered.program).read_text()
     tables = {}

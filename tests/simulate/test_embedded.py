@@ -118,7 +118,11 @@ def test_reproduce_collides_and_the_reference_ads_yields(four_way_map):
     assert len(set(test["collisions"]["variation"].to_pylist())) < len(crashed) / 2
     ads = test["actors"].filter(pc.equal(test["actors"]["actor"], "ego")).to_pylist()[0]
     assert ads["is_ads"] and ads["dispositions"] == []
-    assert all(test["variations"]["valid"].to_pylist())
+    # the NPC pulls out when the ADS is ~2 s away; where the ADS was already inside its reaction + braking
+    # distance when the NPC reached its line the variation is no test (unavoidable), never a crash it is blamed for
+    rows = test["variations"].to_pylist()
+    assert all(r["valid"] or r["invalid_reason"].startswith("unavoidable") for r in rows)
+    assert sum(r["valid"] for r in rows) >= len(rows) / 2
 
 
 def test_npc_without_disposition_yields_to_the_ego(four_way_map):
@@ -182,8 +186,11 @@ def test_head_on_when_the_npc_crosses_the_centre_line(straight_map):
         for i in range(10)]
     tables = run(case, scenes, straight_map, mode="reproduce")
     rows = tables["collisions"].to_pylist()
-    assert len(rows) >= 7
-    assert all(classify(r["yaw_a"], r["yaw_b"]) in ("head_on", "sideswipe") for r in rows)
+    first = {}
+    for r in rows:  # ordered by (variation, t): every contact onset, the first one per variation first
+        first.setdefault(r["variation"], r)
+    assert len(first) >= 7
+    assert all(classify(r["yaw_a"], r["yaw_b"]) in ("head_on", "sideswipe") for r in first.values())
     npc = actor_trace(tables, 0, "npc1")
     assert npc["opposing_lane"].any() and np.nanmax(npc["centerline_intrusion"]) > 0.1
 

@@ -348,7 +348,7 @@ def case_runs(tmp_path_factory):
             from crashscene import sample
             scenario = load_file(EXAMPLES / case / "golden.yaml")
             rendered = render.render(scenario, tmp_path_factory.mktemp(case), cache_dir=map_cache)
-            scenes = sample.sample_scenes(rendered.program, 2, seed=3)
+            scenes = sample.sample_scenes(rendered.program, 2, seed=3, sampler="scenic")
             with NewtonianSimulator(SimulationSettings(mode="reproduce")) as simulator:
                 result = simulator.simulate(SimulationRequest(
                     scenario=scenario, scenes=scenes, map_file=Path(rendered.map),

@@ -94,7 +94,12 @@ def _ray_call(worker: Worker, task: ChunkTask) -> ChunkResult | BaseException:
 
 
 class RayEngine:
-    """The same chunks as Ray tasks: joins `address` when given, else starts a small local Ray."""
+    """The same chunks as Ray tasks: joins `address` when given, else starts a small local Ray.
+
+    Joining a cluster started with `ray start` (token authentication by default since Ray 2.5x) needs the
+    cluster's token in this process's environment (`RAY_AUTH_MODE=token` and `RAY_AUTH_TOKEN` or
+    `RAY_AUTH_TOKEN_PATH`), and its workers must be able to import crashscene.
+    """
 
     name = "ray"
 
@@ -118,6 +123,8 @@ class RayEngine:
                 where = f"the Ray cluster at {address}" if address else "a local Ray"
                 raise CampaignError(f"cannot start or join {where}: {exc}") from exc
             self._started = True
+        if address:  # a cluster's size is its own, not this machine's
+            self.workers = max(1, int(ray.cluster_resources().get("CPU", 1)))
 
     def run(self, tasks: Iterable[ChunkTask], worker: Worker) -> Iterator[Outcome]:
         ray = self._ray

@@ -81,6 +81,9 @@ class SimOptions(BaseModel):
     rules_digest: str | None = Field(default=None, description="sha256 of the rulebook file's contents (resume "
                                      "compares it)")
     allow_imports: bool = Field(default=False, description="the rulebook's `imports:` may import modules")
+    sampler: Literal["compiled", "scenic"] | None = Field(default=None, description="scene sampler: compiled "
+                                                          "(numpy, render's sampler.json), scenic (the reference), "
+                                                          "None: the backend's")
 
 
 class ChunkTask(BaseModel):

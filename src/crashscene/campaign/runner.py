@@ -91,7 +91,7 @@ _RESULT_FLAGS = {"n": "-n", "seed": "--seed", "modes": "--mode", "chunk_size": "
 _SIM_FLAGS = {"backend": "--backend", "ego_role": "--ego", "ads": "--ads", "ads_params": "--ads-param",
               "dt": "--dt", "horizon": "--horizon", "carla_host": "--carla-host", "carla_port": "--carla-port",
               "map_mode": "--map", "carla_maps": "--carla-maps", "rules_digest": "--rules (sha256 of its contents)",
-              "allow_imports": "--allow-imports"}
+              "allow_imports": "--allow-imports", "sampler": "--sampler"}
 
 
 def result_settings(config: CampaignConfig) -> dict:

@@ -50,7 +50,8 @@ def _simulate_and_monitor(task: ChunkTask, run_dir: Path) -> ChunkResult:
                       ads_params=dict(opts.ads_params), dt=opts.dt, horizon=opts.horizon,
                       carla_host=opts.carla_host, carla_port=opts.carla_port,
                       rules_file=Path(opts.rules_file) if opts.rules_file else None,
-                      allow_imports=opts.allow_imports, rendered_dir=rendered)
+                      allow_imports=opts.allow_imports, rendered_dir=rendered,
+                      sampler=opts.sampler)
     tables = {name: read_table(run_dir, name) for name in TABLES if (run_dir / f"{name}.parquet").exists()}
     return rows_from(tables, _monitored(run_dir))
 

@@ -28,7 +28,8 @@ def build_config(n: int, seed: int, mode: str, engine: str, workers: int | None,
                  chunk_size: int, extractor: str, dsl: str | None, simulator: str, ego: str, map_mode: str,
                  carla_maps: Path | None, rules: Path | None = None, *, ads: str | None = None,
                  ads_params: dict | None = None, dt: float = 0.1, horizon: float = 20.0,
-                 carla_host: str = "127.0.0.1", carla_port: int = 2000, allow_imports: bool = False):
+                 carla_host: str = "127.0.0.1", carla_port: int = 2000, allow_imports: bool = False,
+                 sampler: str | None = None):
     """Options -> CampaignConfig, with the CLI's spelling of each bad value in the error. The backend and the
     rulebook are checked here, once, before any case is extracted or rendered."""
     from crashscene.campaign import CampaignConfig, CampaignError, SimOptions
@@ -63,8 +64,12 @@ def build_config(n: int, seed: int, mode: str, engine: str, workers: int | None,
             raise CampaignError(f"--rules: {exc}") from None
     if chunk_size <= 0:
         raise CampaignError(f"--chunk-size {chunk_size}: must be positive")
+    from crashscene.sample import SAMPLERS
+
+    if sampler is not None and sampler not in SAMPLERS:
+        raise CampaignError(f"--sampler {sampler!r}: allowed: {', '.join(SAMPLERS)}")
     try:
-        sim = SimOptions(backend=simulator, backend_target=target, ego_role=ego, map_mode=map_mode,
+        sim = SimOptions(sampler=sampler, backend=simulator, backend_target=target, ego_role=ego, map_mode=map_mode,
                          carla_maps=str(carla_maps.resolve()) if carla_maps else None,
                          rules_file=str(rules.resolve()) if rules else None, rules_digest=digest,
                          allow_imports=allow_imports, ads=ads, ads_params=ads_params or {}, dt=dt, horizon=horizon,
@@ -141,6 +146,7 @@ def campaign(
     carla_maps: Annotated[Optional[Path], typer.Option("--carla-maps", help="Folder of CARLA .xodr towns (--map carla).")] = None,
     rules: Annotated[Optional[Path], typer.Option("--rules", help="YAML rulebook overriding the monitor's thresholds.")] = None,
     allow_imports: AllowImportsOpt = False,
+    sampler: Annotated[Optional[str], typer.Option("--sampler", help="Scene sampler: compiled (numpy) or scenic (the reference) [default: compiled; scenic for newtonian and carla].")] = None,
     keep_traces: Annotated[bool, typer.Option("--keep-traces", help="Keep every chunk's traces under OUT/cases.")] = False,
     report: Annotated[bool, typer.Option("--report/--no-report", help="Write OUT/report.html at the end.")] = True,
     as_json: Annotated[bool, typer.Option("--json", help="Summary as JSON on stdout.")] = False,
@@ -152,7 +158,7 @@ def campaign(
         config = build_config(n, seed, mode, engine, workers, address, resume, chunk_size, extractor, dsl,
                               simulator, ego, map_mode, carla_maps, rules, ads=ads,
                               ads_params=parse_ads_params(ads_param), dt=dt, horizon=horizon, carla_host=carla_host,
-                              carla_port=carla_port, allow_imports=allow_imports)
+                              carla_port=carla_port, allow_imports=allow_imports, sampler=sampler)
         llm = {k: str(v) for k, v in (("model", model), ("base_url", base_url), ("model_path", model_path)) if v}
         config = config.model_copy(update={"llm": llm})
         config = config.model_copy(update={"keep_traces": keep_traces})

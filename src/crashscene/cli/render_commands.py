@@ -76,6 +76,9 @@ def sample(
                                                          "table.")] = False,
     output: Annotated[Path | None, typer.Option("-o", "--output", help="Write the JSON lines to this file.")]
     = None,
+    sampler: Annotated[str, typer.Option("--sampler", help="compiled (numpy, from render's sampler.json) or scenic "
+                                                         "(Scenic's own sampler; needed for --model newtonian).")]
+    = "compiled",
 ) -> None:
     """Sample N scenes from a rendered program: positions, headings, speeds, properties, parameter values."""
     import warnings
@@ -89,7 +92,7 @@ def sample(
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # "carla package not installed": irrelevant to sampling
-            scenes = sample_scenes(program, n, seed, first=first, model=models[model])
+            scenes = sample_scenes(program, n, seed, first=first, model=models[model], sampler=sampler)
     except RenderError as exc:
         typer.echo(f"sample failed: {exc}", err=True)
         raise typer.Exit(1) from None

@@ -51,6 +51,7 @@ def run(
     carla_maps: Annotated[Optional[Path], typer.Option("--carla-maps", help="Folder of CARLA .xodr towns.")] = None,
     rules: Annotated[Optional[Path], typer.Option("--rules", help="YAML rulebook overriding the monitor's thresholds.")] = None,
     allow_imports: AllowImportsOpt = False,
+    sampler: Annotated[Optional[str], typer.Option("--sampler", help="Scene sampler: compiled (numpy) or scenic (the reference) [default: compiled; scenic for newtonian and carla].")] = None,
     report: Annotated[bool, typer.Option("--report/--no-report", help="Write OUT/report.html.")] = True,
     as_json: Annotated[bool, typer.Option("--json", help="Summary as JSON on stdout.")] = False,
 ) -> None:
@@ -64,7 +65,7 @@ def run(
         config = build_config(n, seed, mode, "local", workers, None, resume, chunk_size, extractor, dsl,
                               simulator, ego, map_mode, carla_maps, rules, ads=ads,
                               ads_params=parse_ads_params(ads_param), dt=dt, horizon=horizon, carla_host=carla_host,
-                              carla_port=carla_port, allow_imports=allow_imports)
+                              carla_port=carla_port, allow_imports=allow_imports, sampler=sampler)
         llm = {k: str(v) for k, v in (("model", model), ("base_url", base_url), ("model_path", model_path)) if v}
         config = config.model_copy(update={"llm": llm})
         result = run_case(case_dir, out, config, report=report, quiet=as_json)

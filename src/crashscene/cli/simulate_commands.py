@@ -2,9 +2,10 @@
 from __future__ import annotations
 
 import json
+import os
 import sys
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Optional
 
 import typer
 
@@ -30,8 +31,11 @@ def simulate(
                                                                    "e.g. reaction_time=0.8.")] = [],  # noqa: B006
     dt: Annotated[float, typer.Option("--dt", help="Time step [s].")] = 0.1,
     horizon: Annotated[float, typer.Option("--horizon", help="Simulated time per variation [s].")] = 20.0,
-    workers: Annotated[int, typer.Option("--workers", min=1, help="Processes sampling scenes (same scenes for any "
-                                                                   "value; use the machine's cores).")] = 1,
+    workers: Annotated[Optional[int], typer.Option("--workers", min=1, help="Processes simulating blocks of "
+                                                  "variations (same bytes for any value) [default: all cores].")] = None,
+    sampler: Annotated[Optional[str], typer.Option("--sampler", help="compiled (numpy, from render's sampler.json) "
+                                                   "or scenic (Scenic's own sampler, the reference) [default: "
+                                                   "compiled; scenic for newtonian and carla].")] = None,
     map_mode: Annotated[str, typer.Option("--map", help="generated or carla.")] = "generated",
     carla_maps: Annotated[Path | None, typer.Option("--carla-maps", help="Folder of CARLA .xodr towns.")] = None,
     carla_host: Annotated[str, typer.Option("--carla-host", help="CARLA server host.")] = "127.0.0.1",
@@ -69,12 +73,12 @@ def simulate(
                     scenario, out, n=n, seed=seed, first=first, mode=mode, backend=backend, ego_role=ego,
                     map_mode=map_mode, carla_maps=carla_maps, ads=ads, ads_params=params, dt=dt, horizon=horizon,
                     carla_host=carla_host, carla_port=carla_port, progress=lambda k: bar.advance(task, k),
-                    sample_workers=workers)
+                    workers=workers or os.cpu_count() or 1, sampler=sampler)
         else:
             summary = simulate_scenario(
                 scenario, out, n=n, seed=seed, first=first, mode=mode, backend=backend, ego_role=ego,
                 map_mode=map_mode, carla_maps=carla_maps, ads=ads, ads_params=params, dt=dt, horizon=horizon,
-                carla_host=carla_host, carla_port=carla_port, sample_workers=workers)
+                carla_host=carla_host, carla_port=carla_port, workers=workers or os.cpu_count() or 1, sampler=sampler)
     except AdsError as exc:  # the ADS under test failed, not the scenario file
         typer.echo(f"error: {exc}", err=True)
         raise typer.Exit(2) from None

@@ -44,11 +44,11 @@ def prepare_map(plan: RenderPlan, mode: str = "generated", carla_maps: Path | No
     """
     cache = Path(cache_dir) if cache_dir else default_cache_dir()
     if mode == "generated":
-        from crashscene.maps.generated import build_map
-
         key = hashlib.sha256((MAP_FORMAT_VERSION + plan.map.model_dump_json()).encode()).hexdigest()[:16]
         path = cache / f"generated_{plan.topology}_{key}.xodr"
         if not path.exists():
+            from crashscene.maps.generated import build_map  # scenariogeneration: ~1 s to import, only on a miss
+
             tmp = path.with_suffix(f".{os.getpid()}.tmp.xodr")
             try:
                 build_map(plan.map, tmp)

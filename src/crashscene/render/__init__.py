@@ -38,6 +38,7 @@ from crashscene.convert import (
     scenario_hash,
 )
 from crashscene.dsl.model import Scenario
+from crashscene.render.sampling_plan import SAMPLING_PLAN_NAME, sampling_plan, write_sampling_plan
 
 __all__ = ["RenderError", "Rendered", "render", "render_program"]
 
@@ -138,11 +139,32 @@ def _needs(actor, actors) -> dict[str, int]:
     return {"left": left, "right": right, "oncoming": int(oncoming)}
 
 
+def _actor_params(a: dict[str, Any]) -> list[tuple[str, Any, str]]:
+    """(name, range, unit note) of every global parameter an actor's program section declares, in order."""
+    p = a["prefix"]
+    out = [(f"{p}_SPEED", a["speed"], "[m/s]"), (f"{p}_INIT_DIST", a["init_dist"], "[m]")]
+    if a["placement"] in ("side_left", "side_right"):
+        out.append((f"{p}_SIDE_OFFSET", a["side_offset"], "[m], + = ahead of the reference"))
+    if a["arrival_offset"]:
+        out.append((f"{p}_ARRIVAL_OFFSET", a["arrival_offset"], "[s] arrival at the conflict point minus the ego's"))
+    out.append((f"{p}_MANEUVER_TIME", a["maneuver_time"], "[s]"))
+    if a["behavior"] == "stop":
+        out += [(f"{p}_STOP_DURATION", a["stop_duration"], "[s]"), (f"{p}_PROCEED_SPEED", a["cruise_speed"], "[m/s]")]
+    if a["behavior"] == "lose_control":
+        out.append((f"{p}_LOSS_STEER", a["loss_steer"], "[-1, 1] steering held after control is lost"))
+    return out
+
+
 def render_program(plan: RenderPlan, *, scenario_hash_value: str, summary: str | None = None,
                    carla_town: str | None = None, map_name: str = MAP_NAME) -> str:
     """The Scenic program text for a plan (pure: no files touched)."""
-    from crashscene import __version__ as version
+    return _render_text(program_context(plan, carla_town=carla_town, map_name=map_name),
+                        scenario_hash_value=scenario_hash_value, summary=summary)
 
+
+def program_context(plan: RenderPlan, *, carla_town: str | None = None, map_name: str = MAP_NAME) -> dict[str, Any]:
+    """What the template needs (and the compiled sampling plan reads): actors in placement order with their
+    parameters, the placement specs handed to `scenic_support.candidates`, and the program's constants."""
     actors = []
     lengths = {}
     for actor in placement_order(plan.actors):
@@ -167,6 +189,7 @@ def render_program(plan: RenderPlan, *, scenario_hash_value: str, summary: str |
             cruise_speed=_cruise(actor, plan), loss_steer=Range(low=LOSS_STEER[0], high=LOSS_STEER[1]),
             placement=actor.placement.value)
         data["behavior_call"] = _behavior_call(data)
+        data["params"] = _actor_params(data)
         actors.append(data)
     actor_specs = [{"role": a["role"], "placement": a["placement"], "ref": a["placement_ref"],
                     "heading": a["relative_heading"], "maneuver": a["maneuver"], "behavior": a["behavior"],
@@ -174,13 +197,20 @@ def render_program(plan: RenderPlan, *, scenario_hash_value: str, summary: str |
                     "dist": [a["init_dist"]["low"], a["init_dist"]["high"]], "along": a["along"],
                     "gap": a["gap"]}
                    for a in actors]
-    text = _ENV.get_template("scenario.scenic.j2").render(
-        room=_room(actors),
-        plan=plan, actors=actors, actor_specs=actor_specs, notes=plan.notes, summary=summary,
-        scenario_id=plan.scenario_id, scenario_hash=scenario_hash_value, version=version,
-        map_name=map_name, carla_town=carla_town, ego_roads=[] if carla_town else ["road1"],
+    return dict(
+        room=_room(actors), plan=plan, actors=actors, actor_specs=actor_specs, notes=plan.notes,
+        scenario_id=plan.scenario_id, map_name=map_name, carla_town=carla_town,
+        ego_roads=[] if carla_town else ["road1"],
         anchor_hint=float(plan.map.back_length) if carla_town is None else 40.0,
         curve_sign=1 if (plan.map.curve_direction or "left") == "left" else -1)
+
+
+def _render_text(context: dict[str, Any], *, scenario_hash_value: str, summary: str | None) -> str:
+    from crashscene import __version__ as version
+
+    actors = context["actors"]
+    text = _ENV.get_template("scenario.scenic.j2").render(
+        summary=summary, scenario_hash=scenario_hash_value, version=version, **context)
     pools = {a["role"]: a["blueprint_pool"] for a in actors if len(a["blueprint_pool"]) > 1}
     if pools:
         head, marker, tail = text.partition("# ---- actors ----\n")
@@ -233,11 +263,13 @@ def render(scenario: Scenario, out_dir: Path, map_mode: str = "generated", carla
     plan = convert(scenario)
     cached, town = prepare_map(plan, map_mode, carla_maps, cache_dir, town_override)
     digest = scenario_hash(scenario, map_mode=map_mode, town=town or "")
-    text = render_program(plan, scenario_hash_value=digest, summary=scenario.summary, carla_town=town)
+    context = program_context(plan, carla_town=town)
+    text = _render_text(context, scenario_hash_value=digest, summary=scenario.summary)
     out_dir.mkdir(parents=True, exist_ok=True)
     map_path = install_map(cached, out_dir, MAP_NAME)
     program = out_dir / PROGRAM_NAME
     program.write_text(text, encoding="utf-8")
+    write_sampling_plan(out_dir / SAMPLING_PLAN_NAME, sampling_plan(context, text))
     (out_dir / "render.json").write_text(_meta_json(plan, digest, map_mode, town), encoding="utf-8")
     return Rendered(program=program, map=map_path, scenario_hash=digest, town=town)
 

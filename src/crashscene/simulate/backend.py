@@ -148,6 +148,9 @@ class Simulator(ABC):
     """
 
     name: ClassVar[str] = "abstract"
+    # whose scenes the backend can run: "compiled" (any scene), or "scenic" for backends that re-generate each
+    # scene in Scenic from (seed, index) and pin it to the sampled one (they need Scenic's own draws)
+    scene_sampler: ClassVar[str] = "compiled"
 
     def __init__(self, settings: SimulationSettings | None = None):
         self.settings = settings or SimulationSettings()

@@ -8,11 +8,15 @@ collisions_classified.parquet, verdicts.parquet, monitor.json) when
 """
 from __future__ import annotations
 
+import dataclasses
+import itertools
 import json
+import multiprocessing
 import shutil
 import time
 from collections import Counter
 from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 from typing import Any
 
@@ -21,6 +25,7 @@ import pyarrow as pa
 from crashscene.dsl import Scenario, dump_file
 from crashscene.simulate.backend import (
     DEFAULT_DT,
+    BatchResult,
     DEFAULT_HORIZON,
     MODES,
     SimulationError,
@@ -28,6 +33,7 @@ from crashscene.simulate.backend import (
     SimulationSettings,
     check_ego_role,
     create_simulator,
+    get_simulator_class,
 )
 from crashscene.simulate.embedded.collisions import classify
 from crashscene.traces import SCENARIO_DIGEST_KEY, scenario_digest, write_table
@@ -66,8 +72,9 @@ def _write_run(scenario: Scenario, out_dir: Path, n: int, seed: int, first: int 
                ads_params: dict[str, Any] | None = None, dt: float = DEFAULT_DT,
                horizon: float = DEFAULT_HORIZON, carla_host: str = "127.0.0.1", carla_port: int = 2000,
                monitor: bool = True, progress: Callable[[int], None] | None = None,
-               sample_workers: int = 1, final_dir: Path | None = None, rules_file: Path | None = None,
-               allow_imports: bool = False, rendered_dir: Path | None = None) -> dict[str, Any]:
+               workers: int = 1, sampler: str | None = None, final_dir: Path | None = None,
+               rules_file: Path | None = None, allow_imports: bool = False,
+               rendered_dir: Path | None = None) -> dict[str, Any]:
     """Simulate variations [first, first + n) of `scenario` into `out_dir` (paths in scenes.jsonl name
     `final_dir`, where the folder will live).
 
@@ -75,8 +82,11 @@ def _write_run(scenario: Scenario, out_dir: Path, n: int, seed: int, first: int 
     factors and friction coefficients also reach the drivers. `rendered_dir` holds this scenario's rendered
     program and map (a campaign renders each case once): they are copied instead of rendered again.
 
-    `sample_workers` > 1 samples scenes in that many forked processes (same scenes as 1); keep 1 when the
-    caller already runs in a process pool.
+    `workers` > 1 simulates contiguous blocks of variations in that many forked processes (embedded backend;
+    with `sampler="scenic"` it also samples in them); the tables are the blocks' tables in index order, the
+    same bytes as one process. Keep 1 when the caller already runs in a process pool (a campaign worker).
+    `sampler`: "compiled" (numpy) or "scenic" (the reference), see `crashscene.sample.sample_scenes`; None: the
+    backend's (`Simulator.scene_sampler`: compiled for embedded, scenic for backends that replay Scenic scenes).
 
     Returns the JSON summary (also written to summary.json): variations, valid,
     invalid (reason -> count), collisions (by class, by actor pair), seconds, and
@@ -87,6 +97,8 @@ def _write_run(scenario: Scenario, out_dir: Path, n: int, seed: int, first: int 
         raise SimulationError(f"mode {mode!r} is not allowed; allowed: {', '.join(MODES)}")
     if n < 1 or first < 0:
         raise SimulationError(f"n must be >= 1 and first >= 0 (got n={n}, first={first})")
+    if workers < 1:
+        raise SimulationError(f"workers must be >= 1 (got {workers})")
     rulebook = None
     if rules_file is not None:
         from crashscene.monitor.rulebook import load_rulebook
@@ -96,6 +108,7 @@ def _write_run(scenario: Scenario, out_dir: Path, n: int, seed: int, first: int 
                                   ads_params=ads_params or {}, carla_host=carla_host, carla_port=carla_port,
                                   conditions=_conditions(rulebook))
     check_ego_role(scenario, settings)
+    sampler = _sampler_for(backend, sampler)
     from crashscene.render import RenderError, render
     from crashscene.sample import sample_scenes
 
@@ -111,7 +124,7 @@ def _write_run(scenario: Scenario, out_dir: Path, n: int, seed: int, first: int 
             rendered = render(scenario, out_dir, map_mode=map_mode, carla_maps=carla_maps)
         timings["render"] = time.perf_counter() - start
         t0 = time.perf_counter()
-        scenes = sample_scenes(rendered.program, n, seed, first=first, workers=sample_workers)
+        scenes = sample_scenes(rendered.program, n, seed, first=first, workers=workers, sampler=sampler)
         timings["sample"] = time.perf_counter() - t0
     except RenderError as exc:
         raise SimulationError(f"render/sample failed: {exc}") from exc
@@ -124,8 +137,7 @@ def _write_run(scenario: Scenario, out_dir: Path, n: int, seed: int, first: int 
     t0 = time.perf_counter()
     request = SimulationRequest(scenario=scenario, scenes=scenes, map_file=Path(rendered.map), settings=settings,
                                 program=Path(rendered.program).read_text(encoding="utf-8"), progress=progress)
-    with create_simulator(backend, settings) as simulator:
-        result = simulator.simulate(request)
+    result = simulate_blocks(backend, settings, request, workers)
     timings["simulate"] = time.perf_counter() - t0
     digest = scenario_digest(scenario)
     for name, table in result.tables.items():
@@ -157,6 +169,57 @@ def _moved(path: str, work: Path, final: Path) -> str:
         return str(final / Path(path).relative_to(work))
     except ValueError:  # a map outside the run folder (a CARLA town): unchanged
         return path
+
+
+def _sampler_for(backend: str, sampler: str | None) -> str:
+    needs = get_simulator_class(backend).scene_sampler
+    if sampler is None:
+        return needs
+    if needs == "scenic" and sampler != "scenic":
+        raise SimulationError(f"--sampler {sampler}: the {backend} backend re-generates every scene with Scenic "
+                              "from (seed, index), so its scenes must come from --sampler scenic")
+    return sampler
+
+
+MIN_BLOCK = 100  # variations per process below which forking costs more than it saves
+_INHERITED: dict[str, Any] = {}  # the request, read by forked children only
+
+
+def simulate_blocks(backend: str, settings: SimulationSettings, request: SimulationRequest,
+                    workers: int) -> BatchResult:
+    """`request` simulated in up to `workers` forked processes, one contiguous block of scenes each.
+
+    Variation i depends only on its scene, so the concatenated tables equal one process's. Only the embedded
+    backend is split (a CARLA server is one shared world; Newtonian runs scene by scene anyway).
+    """
+    scenes = list(request.scenes)
+    workers = min(workers, max(1, len(scenes) // MIN_BLOCK)) if backend == "embedded" else 1
+    if workers == 1:
+        with create_simulator(backend, settings) as simulator:
+            return simulator.simulate(request)
+    start = time.perf_counter()
+    bounds = [len(scenes) * k // workers for k in range(workers + 1)]
+    _INHERITED.update(backend=backend, settings=settings, request=request)
+    try:
+        context = multiprocessing.get_context("fork")  # children inherit the imports and the parsed map
+        with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
+            futures = [pool.submit(_simulate_block, lo, hi) for lo, hi in itertools.pairwise(bounds)]
+            if request.progress is not None:
+                for fut in as_completed(futures):
+                    request.progress(fut.result()[1])
+            parts = [fut.result()[0] for fut in futures]
+    finally:
+        _INHERITED.clear()
+    tables = {name: pa.concat_tables([part.tables[name] for part in parts]) for name in parts[0].tables}
+    notes = list(dict.fromkeys(note for part in parts for note in part.notes))
+    return BatchResult(backend=parts[0].backend, tables=tables, seconds=time.perf_counter() - start, notes=notes)
+
+
+def _simulate_block(lo: int, hi: int) -> tuple[BatchResult, int]:
+    backend, settings, request = _INHERITED["backend"], _INHERITED["settings"], _INHERITED["request"]
+    block = dataclasses.replace(request, scenes=list(request.scenes)[lo:hi], progress=None)
+    with create_simulator(backend, settings) as simulator:
+        return simulator.simulate(block), hi - lo
 
 
 def summarize(tables: dict[str, pa.Table]) -> dict[str, Any]:
@@ -199,8 +262,9 @@ def _copy_render(src: Path, out_dir: Path):
 
     out_dir.mkdir(parents=True, exist_ok=True)
     meta = json.loads((src / "render.json").read_text(encoding="utf-8"))
-    for name in (meta["program"], meta["map"], "render.json"):
-        shutil.copyfile(src / name, out_dir / name)
+    for path in src.iterdir():  # program, map, render.json, the compiled sampler's sampler.json, Scenic's .snet
+        if path.is_file():
+            shutil.copyfile(path, out_dir / path.name)
     return Rendered(program=out_dir / meta["program"], map=out_dir / meta["map"],
                     scenario_hash=meta["scenario_hash"], town=meta.get("town"))
 

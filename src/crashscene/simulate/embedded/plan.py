@@ -15,6 +15,7 @@ import numpy as np
 from crashscene.scene import SampledScene
 from crashscene.simulate.drivers.behaviors import OVER_LIMIT, SPEEDING_CODES, speed_factor
 from crashscene.simulate.embedded import signals, timing
+from crashscene.simulate.embedded import skid as skid_plan
 from crashscene.simulate.embedded.control import entry_before
 from crashscene.simulate.embedded.world import RouteArrays
 from crashscene.simulate.roads import ROUTE_DS
@@ -23,8 +24,11 @@ if TYPE_CHECKING:
     from crashscene.simulate.embedded.setup import ActorColumn
 
 MPH = 0.44704  # [m/s] per mph
+VEER_BEHAVIORS = ("change_lane_left", "change_lane_right", "cross_centerline", "overtake")
 LATERAL_BEHAVIORS = ("change_lane_left", "change_lane_right", "cross_centerline", "overtake", "lose_control",
                      "leave_road")
+SYNC_SLACK = 0.8  # [s] an actor moved back to meet later is placed this much early (sync.Meeting slows it)
+START_MARGIN = 5.0  # [m] an actor moved back along its route stays this far from the route's start
 ADVANCE_MARGIN = 3.0  # [m] an actor advanced by its timing plan stays this far before its junction entry
 
 
@@ -33,7 +37,11 @@ def plan_variation(v: int, scene: SampledScene, rng: np.random.Generator, column
                     length: np.ndarray, entry_control: np.ndarray, lateral_target: np.ndarray, hold: np.ndarray,
                     trigger: np.ndarray, scale: np.ndarray, phase: np.ndarray, conflict_time: np.ndarray,
                     runs_red: bool, cond: float, default_limit: float, planned_out: np.ndarray,
-                    moved: np.ndarray, reproduce: bool, drifted: np.ndarray) -> None:
+                    moved: np.ndarray, reproduce: bool, drifted: np.ndarray, skids: np.ndarray,
+                    classes: dict[frozenset[str], str], strikers: dict[frozenset[str], str],
+                    first_pair: frozenset[str] | None, friction: float,
+                    width: np.ndarray,
+                    lane_width: float) -> None:
     """Fill row v of the timing arrays (draws from rng in a fixed order)."""
     n_a = len(columns)
     planned = [_planned_speed(arrays, route[v, a], s0[v, a], speed[v, a], columns[a], cond, default_limit)
@@ -41,7 +49,8 @@ def plan_variation(v: int, scene: SampledScene, rng: np.random.Generator, column
     planned_out[v] = planned
     draws = {"offset": rng.normal(timing.ARRIVAL_OFFSET_MEAN, timing.ARRIVAL_OFFSET_SD, n_a),
              "lead": rng.uniform(0.8, 2.0, n_a), "trigger": rng.uniform(1.0, 4.0, n_a),
-             "green": rng.uniform(3.0, 15.0), "spin": rng.choice([-1.0, 1.0], n_a)}
+             "green": rng.uniform(3.0, 15.0), "spin": rng.choice([-1.0, 1.0], n_a),
+             "rotation": rng.uniform(0.0, 1.0, n_a)}
     ra = route[v, anchor]
     va = planned[anchor]
     anchor_col = columns[anchor]
@@ -86,6 +95,27 @@ def plan_variation(v: int, scene: SampledScene, rng: np.random.Generator, column
                 if closing < planned[a] + planned[partner]:
                     scale[v, partner] = max(timing.SPEED_SCALE[0], (closing - planned[a]) / planned[partner])
                     planned[partner] *= scale[v, partner]
+            skid = None
+            contact = classes.get(frozenset((col.role, p_col.role)))
+            if col.behavior == "lose_control" or (contact == "angle" and col.behavior in VEER_BEHAVIORS):
+                # a lateral manoeuvre that ends in an angle contact is a sudden veer: planned as a skid
+                moves_in = p_col.behavior in ("change_lane_left", "change_lane_right") and not opposite
+                skid = skid_plan.plan(planned[a], gap, planned[partner], opposite,
+                                      (0.0 if moves_in else lateral) - d0[v, a],
+                                      lane_width, friction, float(length[v, a]), float(width[v, a]),
+                                      skid_plan.rotation_for(contact, opposite, float(draws["rotation"][a])),
+                                      contact)
+                if skid is not None and skid.partner_shift:
+                    placed = _shift_start(arrays, v, partner, route, s0, skid.partner_shift, length, d0)
+                    if placed is None:
+                        skid = None
+                    else:
+                        s0[v, partner] = placed
+                        moved[v, partner] = True
+            if skid is not None:
+                skids[v, a] = (skid.spin_rate, skid.drift, skid.hold)
+                trigger[v, a] = skid.trigger
+                continue
             if col.behavior == "lose_control":
                 t_trig = timing.skid_trigger(gap, planned[a], planned[partner], lateral, timing.SPIN_RATE,
                                              opposite=opposite) - lead
@@ -124,7 +154,22 @@ def plan_variation(v: int, scene: SampledScene, rng: np.random.Generator, column
             offset -= timing.TURNER_LEAD
         elif turn_e and not turn_a:
             offset += timing.TURNER_LEAD
+        striking = strikers.get(frozenset((col.role, anchor_col.role)))
+        if striking is not None:
+            # the written contact says who strikes: the striker's front meets the middle of the struck one's side
+            s_idx = a if striking == col.role else anchor
+            t_idx = anchor if s_idx == a else a
+            r_t, cs_t = (r, cs_a) if t_idx == a else (ra, cs_e)
+            s_t0 = s0[v, t_idx]
+            v_struck = _effective_speed(arrays, r_t, max(cs_t - 10.0, s_t0), cs_t, planned[t_idx], columns[t_idx])
+            # ...behind the middle of its side: its centre has passed the striker's path by a quarter length
+            side_hit = (length[v, s_idx] / 2 + width[v, t_idx] / 2) / max(planned[s_idx], 1.0) \
+                + length[v, t_idx] / 4 / max(v_struck, 1.0)
+            jitter = offset - timing.ARRIVAL_OFFSET_MEAN * (timing.REPRODUCE_OFFSET_SCALE if reproduce else 1.0)
+            offset = (side_hit if s_idx == a else -side_hit) + jitter
         target = arrival_anchor + offset
+        # the first written contact's pair meets closed loop (sync.Meeting): place the free one a little early
+        slack = SYNC_SLACK if reproduce and first_pair == frozenset((col.role, anchor_col.role)) else 0.0
         va_ = planned[a]
         if stop is not None:
             v_eff = _effective_speed(arrays, r, s0[v, a], cs_a, va_, col)
@@ -142,6 +187,12 @@ def plan_variation(v: int, scene: SampledScene, rng: np.random.Generator, column
             if t_at(hi) > target:
                 sc = hi
                 late = t_at(hi) - target
+            elif t_at(lo) < target and (back := _start_back(
+                    arrays, v, a, route, s0, max(target - t_at(1.0) - slack, 0.0) * va_, length, d0)) is not None:
+                # far too early: it was further back along its approach, driving at its own speed
+                sc, late = 1.0, 0.0
+                s0[v, a] = back
+                moved[v, a] = True
             elif t_at(lo) < target:
                 sc = lo
                 late = 0.0
@@ -175,7 +226,13 @@ def plan_variation(v: int, scene: SampledScene, rng: np.random.Generator, column
             # also for an actor that must first stop at its line, which no advance along its approach fixes
             t_new = arrival_anchor + late
             lo, hi = timing.SPEED_SCALE[0], 1.0
-            if arrays.travel_time(ra, s0[v, anchor], cs_e, va * lo, lat_e, v0=va * lo) < t_new:
+            # ...placed a little early rather than late: on the way it can slow down to meet (sync), rarely speed up
+            back = _start_back(arrays, v, anchor, route, s0, max(late - slack, 0.0) * va, length, d0)
+            if back is not None:
+                # it started that much further back along its approach, at its own speed
+                s0[v, anchor] = back
+                moved[v, anchor] = True
+            elif arrays.travel_time(ra, s0[v, anchor], cs_e, va * lo, lat_e, v0=va * lo) < t_new:
                 scale[v, anchor] = lo
                 t_rest = arrays.travel_time(ra, s0[v, anchor], cs_e, va * lo, lat_e, v0=0.0)
                 hold[v, anchor] = max(0.0, t_new - t_rest)
@@ -194,6 +251,40 @@ def plan_variation(v: int, scene: SampledScene, rng: np.random.Generator, column
     t_junction = (ahead[0] - s0[v, anchor]) / va if len(ahead) else 5.0
     green = float(scene.params.get("SIGNAL_GREEN_REMAINING", draws["green"]))
     phase[v] = float(signals.phase_for(np.array(t_junction), np.array(green), runs_red))
+
+
+def _same_lane(route: np.ndarray, d0: np.ndarray | None, v: int, a: int, b: int) -> bool:
+    """Whether actors a and b start in the same lane (same route, lateral offsets within a lane)."""
+    return b != a and route[v, b] == route[v, a] and (d0 is None or abs(d0[v, b] - d0[v, a]) < 2.0)
+
+
+def _shift_start(arrays: RouteArrays, v: int, a: int, route: np.ndarray, s0: np.ndarray, shift: float,
+                 length: np.ndarray, d0: np.ndarray | None = None) -> float | None:
+    """Station `shift` [m] along actor a's route from its start (negative: back), if the route has room and
+    no other actor on the same route is in the way; else None."""
+    if shift < 0:
+        return _start_back(arrays, v, a, route, s0, -shift, length, d0)
+    new = s0[v, a] + shift
+    if new > arrays.length[route[v, a]] - 100.0:
+        return None
+    for b in range(route.shape[1]):
+        if _same_lane(route, d0, v, a, b) and s0[v, a] < s0[v, b] < new + (length[v, a] + length[v, b]) / 2 + 4.0:
+            return None
+    return float(new)
+
+
+def _start_back(arrays: RouteArrays, v: int, a: int, route: np.ndarray, s0: np.ndarray, dist: float,
+                length: np.ndarray, d0: np.ndarray | None = None) -> float | None:
+    """Station `dist` [m] behind actor a's start on its route, if the route has room and no other actor on the
+    same route is within a car length and a margin of the new start; else None."""
+    new = s0[v, a] - dist
+    if new < START_MARGIN:
+        return None
+    for b in range(route.shape[1]):
+        if _same_lane(route, d0, v, a, b) and (abs(s0[v, b] - new) < (length[v, a] + length[v, b]) / 2 + 4.0
+                                               or new < s0[v, b] < s0[v, a]):
+            return None
+    return float(new)
 
 
 def _param(params: dict, role: str, names: tuple[str, ...], default: float) -> float:

@@ -68,8 +68,11 @@ class Recorder:
         i["junction"][step] = geo.junction
         i["lost"][step] = state.lost
 
-    def collision(self, hit: np.ndarray, a: int, b: int, t, state, initial: bool) -> None:
-        """Record first contacts; `t` [s] is a scalar or a per-variation array (contact inside the step)."""
+    def collision(self, hit: np.ndarray, a: int, b: int, t, state, initial: bool,
+                  delta_v: tuple[np.ndarray, np.ndarray] | None = None,
+                  point: tuple[np.ndarray, np.ndarray] | None = None) -> None:
+        """Record contact onsets; `t` [s] is a scalar or a per-variation array (contact inside the step);
+        `delta_v` [m/s] each vehicle's velocity change and `point` [m] the contact point, per variation."""
         batch = self.batch
         roles = [c.role for c in batch.columns]
         times = np.broadcast_to(np.asarray(t, dtype=float), (batch.n_variations,))
@@ -83,7 +86,10 @@ class Recorder:
                 "variation": batch.scenes[v].index, "t": round(t, 6), "actor_a": roles[a], "actor_b": roles[b],
                 "speed_a": float(state.v[v, a]), "speed_b": float(state.v[v, b]),
                 "yaw_a": float(state.yaw[v, a]), "yaw_b": float(state.yaw[v, b]),
-                "x": float((state.x[v, a] + state.x[v, b]) / 2), "y": float((state.y[v, a] + state.y[v, b]) / 2),
+                "x": float(point[0][v]) if point else float((state.x[v, a] + state.x[v, b]) / 2),
+                "y": float(point[1][v]) if point else float((state.y[v, a] + state.y[v, b]) / 2),
+                "delta_v_a": float(delta_v[0][v]) if delta_v else None,
+                "delta_v_b": float(delta_v[1][v]) if delta_v else None,
             })
 
     def end(self, batch, state) -> None:

@@ -16,9 +16,12 @@ import shapely
 from crashscene.dsl import Scenario
 from crashscene.scene import SampledActor, SampledScene
 from crashscene.simulate.backend import SimulationError, SimulationSettings
+from crashscene.simulate.drivers.behaviors import NO_YIELD_CODES
 from crashscene.simulate.embedded import timing
-from crashscene.simulate.embedded.control import control_tables, priorities
+from crashscene.simulate.embedded.control import control_tables, entry_before, priorities
 from crashscene.simulate.embedded.plan import MPH, mph, plan_variation, stop_dist
+from crashscene.simulate.embedded.pullout import PullOut, line_station
+from crashscene.simulate.embedded.sync import Meeting
 from crashscene.simulate.embedded.vehicles import VehicleLimits, limits_for
 from crashscene.simulate.embedded.world import RouteArrays
 from crashscene.simulate.roads import ROUTE_DS, Lane, RoadMap, Route
@@ -78,6 +81,12 @@ class BatchSetup:
     hold_until: np.ndarray
     trigger_time: np.ndarray
     lateral_target: np.ndarray
+    spin_rate: np.ndarray  # [rad/s] planned yaw rate of a loss of control, NaN: the driver's
+    drift: np.ndarray  # [rad] planned veer of its velocity, NaN: the default
+    spin_hold: np.ndarray  # [s] how long the planned spin is held before friction slows it, NaN: until rest
+    unseen: np.ndarray  # (A, A) bool: driver a does not perceive actor b (unseen_partners)
+    meeting: Meeting  # reproduce mode: who adjusts its speed to meet at the first written contact
+    pullout: PullOut  # test mode: the NPC that waits at its line and pulls out in front of the ADS
     condition_factor: float  # [-] safe speed / posted limit for the weather, surface and light
     friction: float  # [-] tyre-road friction coefficient
     invalid: list[str | None]  # per variation, the first reason found at setup
@@ -136,6 +145,7 @@ def build(scenario: Scenario, scenes: list[SampledScene], roadmap: RoadMap,
     route = np.zeros((n_v, n_a), dtype=np.int64)
     lateral_target = np.zeros((n_v, n_a))
     lane_cache: dict[tuple, Lane | None] = {}
+    start_lanes: dict[tuple[int, int], Lane] = {}
     road_edge = np.full((n_v, n_a), np.nan)  # [m] signed offset of the road edge a leave_road actor drifts over
     for v, scene in enumerate(scenes):
         for a, actor in enumerate(scene.actors):
@@ -150,6 +160,7 @@ def build(scenario: Scenario, scenes: list[SampledScene], roadmap: RoadMap,
                 continue
             route_lane, target = _route_lane(roadmap, lane, actor)
             lateral_target[v, a] = target
+            start_lanes[v, a] = route_lane
             if actor.behavior == "leave_road":
                 road_edge[v, a] = _road_edge_offset(roadmap, lane, scenario)
             intent = _junction_intent(actor)
@@ -158,7 +169,11 @@ def build(scenario: Scenario, scenes: list[SampledScene], roadmap: RoadMap,
                 route_index[key] = len(routes)
                 routes.append(roadmap.route(route_lane.uid, intent, min_length))
             route[v, a] = route_index[key]
+    classes = contact_classes(scenario)
+    crossing = _crossing_candidates(scenes, columns, classes, roadmap, start_lanes, route, route_index, routes,
+                                    min_length)
     arrays = RouteArrays.pack(routes)
+    relocated = _choose_crossing_lanes(crossing, arrays, route, x, y, classes, columns)
 
     s0 = np.zeros((n_v, n_a))
     d0 = np.zeros((n_v, n_a))
@@ -167,6 +182,11 @@ def build(scenario: Scenario, scenes: list[SampledScene], roadmap: RoadMap,
         if mask.any():
             s0[mask], d0[mask] = _project_many(rt, x[mask], y[mask])
 
+    if relocated.any():
+        # an actor placed in another lane of its approach starts on that lane's centre
+        vv, aa = np.nonzero(relocated)
+        x[vv, aa], y[vv, aa], yaw[vv, aa] = arrays.point(route[vv, aa], s0[vv, aa])
+        d0[vv, aa] = 0.0
     lane_width_table = np.array([lane.width for lane in roadmap.lanes])
     start_lane_idx = arrays.lane[route, np.clip((s0 / ROUTE_DS).astype(int), 0, arrays.lane.shape[1] - 1)]
     lane_width = np.where(start_lane_idx >= 0, lane_width_table[np.maximum(start_lane_idx, 0)], 3.5)
@@ -197,6 +217,7 @@ def build(scenario: Scenario, scenes: list[SampledScene], roadmap: RoadMap,
     moved = np.zeros((n_v, n_a), dtype=bool)
     start_cap = np.full((n_v, n_a), np.inf)  # [m/s] highest initial speed (curve right ahead)
     drifted = np.zeros((n_v, n_a))  # [m] lateral head start of a swerve that began before t = 0
+    skids = np.full((n_v, n_a, 3), np.nan)  # planned (spin rate [rad/s], drift [rad], hold [s]) of a loss of control
     runs_red = "CVC_21453" in columns[anchor].dispositions
     factor = condition_factor(scenario, settings.conditions)
     for v, scene in enumerate(scenes):
@@ -204,7 +225,11 @@ def build(scenario: Scenario, scenes: list[SampledScene], roadmap: RoadMap,
         plan_variation(v, scene, rng, columns, anchor, arrays, route, s0, d0, speed, length, tables[v][0],
                         lateral_target, hold, trigger, scale, phase, conflict_time, runs_red,
                         factor, mph(scenario.road_network.speed_limit_mph), planned, moved,
-                        settings.mode == "reproduce", drifted)
+                        settings.mode == "reproduce", drifted, skids, classes, contact_strikers(scenario),
+                        first_contact_pair(scenario),
+                        friction(scenario, settings.conditions), width,
+                        float(np.median(lane_width[v])))
+    pullout = _pullout(columns, anchor, arrays, route, s0, tables, priority, hold, settings)
     if drifted.any():
         vv, aa = np.nonzero(drifted)
         _, _, ryaw = arrays.point(route[vv, aa], s0[vv, aa])
@@ -238,6 +263,10 @@ def build(scenario: Scenario, scenes: list[SampledScene], roadmap: RoadMap,
         routes=arrays, route=route, x=x, y=y, yaw=yaw, speed=speed0, cruise=cruise, length=length, width=width,
         s0=s0, d0=d0, lane_width=lane_width, entry_control=entry_control, entry_group=entry_group,
         priority=priority, phase=phase, hold_until=hold, trigger_time=trigger, lateral_target=lateral_target,
+        spin_rate=skids[..., 0], drift=skids[..., 1], spin_hold=skids[..., 2],
+        unseen=unseen_partners(scenario, columns, settings.mode == "reproduce"),
+        meeting=_meeting(scenario, columns, arrays, route, s0, length, hold, tables, settings),
+        pullout=pullout,
         condition_factor=factor, friction=friction(scenario, settings.conditions),
         invalid=invalid, conflict_time=conflict_time, default_speed_limit=limit * MPH if limit else math.nan,
         lane_width_table=lane_width_table,
@@ -245,6 +274,178 @@ def build(scenario: Scenario, scenes: list[SampledScene], roadmap: RoadMap,
         lane_forward=np.array([lane.forward for lane in roadmap.lanes]),
         lane_marker=np.array([MARKERS.index(lane.marker) for lane in roadmap.lanes]),
     )
+
+
+def contact_classes(scenario: Scenario) -> dict[frozenset[str], str]:
+    """The class of the first written contact of each actor pair (DSL `collisions`); empty when not written."""
+    out: dict[frozenset[str], str] = {}
+    for contact in getattr(scenario, "collisions", None) or []:
+        pair = frozenset((str(contact.striking), str(contact.struck)))
+        out.setdefault(pair, str(getattr(contact.class_, "value", contact.class_)))
+    return out
+
+
+def first_contact_pair(scenario: Scenario) -> frozenset[str] | None:
+    """The two actors of the first written contact (DSL `collisions`), None when not written or empty."""
+    contacts = getattr(scenario, "collisions", None) or []
+    return frozenset((str(contacts[0].striking), str(contacts[0].struck))) if contacts else None
+
+
+def contact_strikers(scenario: Scenario) -> dict[frozenset[str], str]:
+    """The striking actor of the first written contact of each actor pair (DSL `collisions`)."""
+    out: dict[frozenset[str], str] = {}
+    for contact in getattr(scenario, "collisions", None) or []:
+        out.setdefault(frozenset((str(contact.striking), str(contact.struck))), str(contact.striking))
+    return out
+
+
+def unseen_partners(scenario: Scenario, columns: list[ActorColumn], reproduce: bool) -> np.ndarray:
+    """(A, A) True where driver a does not perceive actor b: in reproduce mode, the striking driver of a
+    written contact never saw what it struck (an inattentive driver), so it does not brake for it."""
+    roles = [c.role for c in columns]
+    out = np.zeros((len(roles), len(roles)), dtype=bool)
+    if not reproduce:
+        return out
+    for contact in getattr(scenario, "collisions", None) or []:
+        a, b = str(contact.striking), str(contact.struck)
+        if a in roles and b in roles and a != b and not columns[roles.index(a)].is_ads:
+            out[roles.index(a), roles.index(b)] = True
+    return out
+
+
+def _pullout(columns: list[ActorColumn], anchor: int, arrays: RouteArrays, route: np.ndarray, s0: np.ndarray,
+             tables: list, priority: np.ndarray, hold: np.ndarray, settings: SimulationSettings) -> PullOut:
+    """Test mode: the NPC that must yield to the ADS at a stop or yield line and, by its oracle, does not
+    (pullout.PullOut); it drives to its line instead of being held at its start."""
+    n_v = route.shape[0]
+    out = PullOut.none(n_v, columns[anchor].limits.brake_max)
+    if settings.mode != "test" or not columns[anchor].is_ads:
+        return out
+    for a, col in enumerate(columns):
+        if col.is_ads or not (col.dispositions & NO_YIELD_CODES) or col.behavior not in FREE_BEHAVIORS:
+            continue
+        for v in range(n_v):
+            if out.npc[v] >= 0 or not priority[v, a, anchor]:
+                continue
+            r, ra = route[v, a], route[v, anchor]
+            cs, cs_ads = arrays.conflict_s[r, ra], arrays.conflict_s[ra, r]
+            j = entry_before(arrays, r, cs) if np.isfinite(cs) else None
+            if j is None or int(tables[v][0][r, j]) not in (2, 3) or arrays.entry_s[r, j] <= s0[v, a]:
+                continue
+            out.npc[v], out.ads[v] = a, anchor
+            out.line[v] = line_station(float(arrays.entry_s[r, j]))
+            out.cs_npc[v], out.cs_ads[v] = cs, cs_ads
+            hold[v, a] = 0.0
+    return out
+
+
+FREE_BEHAVIORS = ("go_forward", "accelerate", "turn_left", "turn_right", "u_turn")
+
+
+def _meeting(scenario: Scenario, columns: list[ActorColumn], arrays: RouteArrays, route: np.ndarray, s0: np.ndarray,
+             length: np.ndarray, hold: np.ndarray, tables: list, settings: SimulationSettings) -> Meeting:
+    """The follower of the first written contact, per variation (sync.Meeting): the striker when it drives
+    freely (a scripted driver, not held, not stopping at a sign first), else the struck actor."""
+    n_v = route.shape[0]
+    meeting = Meeting.none(n_v)
+    contacts = getattr(scenario, "collisions", None) or []
+    roles = [c.role for c in columns]
+    if settings.mode != "reproduce" or not contacts:
+        return meeting
+    first = contacts[0]
+    if str(first.striking) not in roles or str(first.struck) not in roles:
+        return meeting
+    si, ti = roles.index(str(first.striking)), roles.index(str(first.struck))
+    for v in range(n_v):
+        cs_s = arrays.conflict_s[route[v, si], route[v, ti]]
+        cs_t = arrays.conflict_s[route[v, ti], route[v, si]]
+        if not (np.isfinite(cs_s) and np.isfinite(cs_t)) or cs_s <= s0[v, si] + length[v, si] / 2 \
+                or cs_t <= s0[v, ti] + length[v, ti] / 2:
+            continue
+        for f, l_ in ((si, ti), (ti, si)):
+            col = columns[f]
+            if col.is_ads or col.behavior not in FREE_BEHAVIORS or hold[v, f] > 0 \
+                    or stop_dist(arrays, route[v, f], s0[v, f], tables[v][0], col) is not None:
+                continue
+            meeting.follower[v], meeting.leader[v] = f, l_
+            meeting.cs_follower[v] = cs_s if f == si else cs_t
+            meeting.cs_leader[v] = cs_t if f == si else cs_s
+            meeting.follower_strikes[v] = f == si
+            stop = stop_dist(arrays, route[v, l_], s0[v, l_], tables[v][0], columns[l_])
+            if stop is not None:
+                meeting.leader_stop[v] = s0[v, l_] + stop
+            break
+    return meeting
+
+
+# ------------------------------------------------------------------ placement: which lane meets as the report says
+CLASS_CROSSING = {"angle": math.pi / 2}  # [rad] relative heading at a crossing conflict that gives the class
+SPAWN_CLEARANCE = 8.0  # [m] an actor moved to another lane keeps this far from every other actor
+
+
+def _crossing_candidates(scenes: list[SampledScene], columns: list[ActorColumn], classes: dict, roadmap: RoadMap,
+                         start_lanes: dict, route: np.ndarray, route_index: dict, routes: list[Route],
+                         min_length: float) -> dict[tuple[int, int, int], list[int]]:
+    """For a straight-going actor whose written contact with a turning actor crosses its path, the routes
+    from every same-direction lane of its approach: (v, a, partner) -> candidate route indices."""
+    out: dict[tuple[int, int, int], list[int]] = {}
+    roles = [c.role for c in columns]
+    for a, col in enumerate(columns):
+        for b, other in enumerate(columns):
+            klass = classes.get(frozenset((col.role, other.role)))
+            if b == a or klass not in CLASS_CROSSING:
+                continue
+            for v, scene in enumerate(scenes):
+                mine, theirs = scene.actors[a], scene.actors[b]
+                if _junction_intent(mine) != "straight" or _junction_intent(theirs) == "straight" \
+                        or (v, a) not in start_lanes or mine.behavior not in ("go_forward", "accelerate"):
+                    continue
+                lanes, seen = [start_lanes[v, a]], {start_lanes[v, a].uid}
+                for side in ("left", "right"):
+                    uid = getattr(start_lanes[v, a], side)
+                    while uid and uid in roadmap.by_uid and uid not in seen:
+                        seen.add(uid)
+                        lanes.append(roadmap.by_uid[uid])
+                        uid = getattr(roadmap.by_uid[uid], side)
+                if len(lanes) < 2:
+                    continue
+                cands = []
+                for lane in lanes:
+                    key = (lane.uid, "straight", min_length)
+                    if key not in route_index:
+                        route_index[key] = len(routes)
+                        routes.append(roadmap.route(lane.uid, "straight", min_length))
+                    cands.append(route_index[key])
+                out[v, a, b] = cands
+    del roles
+    return out
+
+
+def _choose_crossing_lanes(candidates: dict, arrays: RouteArrays, route: np.ndarray, x: np.ndarray, y: np.ndarray,
+                           classes: dict, columns: list[ActorColumn]) -> np.ndarray:
+    """Route each candidate actor along the lane whose crossing with its partner's path is closest to the
+    relative heading of the written contact's class; (V, A) True where an actor changed lane."""
+    moved = np.zeros(route.shape, dtype=bool)
+    for (v, a, b), cands in candidates.items():
+        target = CLASS_CROSSING[classes[frozenset((columns[a].role, columns[b].role))]]
+        best, best_miss = route[v, a], math.inf
+        for rc in cands:
+            angle = arrays.conflict_angle[rc, route[v, b]]
+            if not np.isfinite(angle):
+                continue
+            xy = arrays.xy[rc]
+            k = int(np.argmin(np.hypot(xy[:, 0] - x[v, a], xy[:, 1] - y[v, a])))
+            px, py = xy[k]
+            others = [c for c in range(route.shape[1]) if c != a]
+            if any(math.hypot(px - x[v, c], py - y[v, c]) < SPAWN_CLEARANCE for c in others) and rc != route[v, a]:
+                continue
+            miss = abs(abs(float(angle)) - target)
+            if miss < best_miss - 1e-6:
+                best, best_miss = rc, miss
+        if best != route[v, a]:
+            route[v, a] = best
+            moved[v, a] = True
+    return moved
 
 
 # ------------------------------------------------------------------ routes

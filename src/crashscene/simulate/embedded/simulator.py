@@ -4,9 +4,11 @@ Per step: the simulator builds every actor's `Observation` (vectorised over
 variations), asks each actor's driver for an `Action`, moves the vehicles with
 a kinematic bicycle model (pure-pursuit steering along the route at the
 commanded lateral offset, acceleration/brake/steering limits per vehicle
-type), and checks every pair of footprints for overlap. Colliding vehicles
-stop where they touch (post-impact motion is not modelled). The only Python
-loops in the step loop run over actors and actor pairs, never over variations.
+type), and checks every pair of footprints for overlap. At each contact onset
+the two vehicles exchange an impulse and from then on slide out of their
+drivers' control until at rest (`impact`), so a second contact can follow; each
+onset is recorded. The only Python loops in the step loop run over actors and
+actor pairs, never over variations.
 """
 from __future__ import annotations
 
@@ -33,7 +35,7 @@ from crashscene.simulate.drivers.base import (
 )
 from crashscene.simulate.drivers.behaviors import BehaviorDriver
 from crashscene.simulate.embedded import setup as batch_setup
-from crashscene.simulate.embedded import signals
+from crashscene.simulate.embedded import impact, signals
 from crashscene.simulate.embedded.collisions import rectangles_overlap
 from crashscene.simulate.embedded.record import Recorder
 from crashscene.simulate.roads import STOP_LINE_SETBACK, RoadMap
@@ -41,7 +43,7 @@ from crashscene.simulate.roads import STOP_LINE_SETBACK, RoadMap
 CHUNK = 500  # variations simulated together (bounds memory; results do not depend on it)
 LOOKAHEAD = (4.0, 25.0)  # [m] pure-pursuit lookahead range
 LOOKAHEAD_TIME = 0.9  # [s]
-SKID_DECEL = 3.0  # [m/s2] while out of control
+DEFAULT_DRIFT = 0.15  # [rad] veer of a skidding car's velocity when no plan sets it
 
 
 class EmbeddedSimulator(Simulator):
@@ -117,17 +119,23 @@ def run_batch(batch: batch_setup.BatchSetup, recorder: Recorder) -> None:
     ranges = np.array([getattr(d, "perception_range", math.inf) for d in drivers])
 
     state = State(batch)
+    veers = np.isfinite(batch.spin_rate).any(axis=0)
     recorder.begin(batch)
-    collided_pairs = np.zeros((n_v, n_a, n_a), dtype=bool)
-    _check_collisions(batch, state, collided_pairs, recorder, 0.0, initial=True)
+    _check_collisions(batch, state, recorder, 0.0, initial=True)
     lat_cmd = batch.d0.copy()
     variations = [scene.index for scene in batch.scenes]
+    planned_cruise = batch.cruise.copy()
+    meeting = batch.meeting
     for step in range(n_steps + 1):
         t = step * dt
         geo = _geometry(batch, state, t)
         recorder.record(step, t, state, geo, lat_cmd)
         if step == n_steps:
             break
+        batch.pullout.step(t, state.s, state.v, batch.length, batch.hold_until, batch.invalid)
+        idx, cruise = meeting.cruise(state.s, state.v, state.a, batch.length, batch.width, planned_cruise, batch.cruise)
+        if len(idx):
+            batch.cruise[idx, meeting.follower[idx]] = cruise  # the drivers hold views of these columns
         accel_cmd = np.zeros((n_v, n_a))
         for a, driver in enumerate(drivers):
             obs = _observe(batch, state, geo, a, t, ranges[a]).read_only()
@@ -141,15 +149,34 @@ def run_batch(batch: batch_setup.BatchSetup, recorder: Recorder) -> None:
             else:
                 lat_cmd[:, a] = 0.0
             if action.lose_control is not None:
-                newly = np.asarray(action.lose_control, dtype=bool) & ~state.lost[:, a]
-                spin = np.broadcast_to(np.asarray(action.spin_rate if action.spin_rate is not None else 0.3,
-                                                  dtype=float), (n_v,))
-                state.spin[:, a] = np.where(newly, spin, state.spin[:, a])
-                state.lost[:, a] |= newly
+                _lose_control(batch, state, a, np.asarray(action.lose_control, dtype=bool), action.spin_rate, t)
+            elif veers[a]:
+                # a planned sudden veer (plan: a lateral manoeuvre ending in an angle contact)
+                _lose_control(batch, state, a, np.isfinite(batch.spin_rate[:, a]) & (t >= batch.trigger_time[:, a]),
+                              None, t)
         _move(batch, state, accel_cmd, lat_cmd, dt, t + dt, accel_max, brake_max, steer_max, steer_rate,
               speed_max, wheelbase)
-        _check_collisions(batch, state, collided_pairs, recorder, t + dt)
+        _check_collisions(batch, state, recorder, t + dt)
     recorder.end(batch, state)
+
+
+def _lose_control(batch: batch_setup.BatchSetup, state: State, a: int, lose: np.ndarray, spin, t: float) -> None:
+    """From now on actor a slides (impact.slide) yawing at the planned rate (else the driver's), its velocity
+    veered by the planned drift angle: a loss of control planned from its impact (skid)."""
+    newly = lose & ~state.lost[:, a] & ~state.free[:, a] & ~state.gone[:, a]
+    if not newly.any():
+        return
+    driver_spin = np.broadcast_to(np.asarray(spin if spin is not None else 0.35, dtype=float), newly.shape)
+    rate = np.where(np.isfinite(batch.spin_rate[:, a]), batch.spin_rate[:, a], driver_spin)
+    drift = np.where(np.isfinite(batch.drift[:, a]), batch.drift[:, a], np.sign(rate) * DEFAULT_DRIFT)
+    heading = state.yaw[:, a] + drift
+    state.vx[:, a] = np.where(newly, state.v[:, a] * np.cos(heading), state.vx[:, a])
+    state.vy[:, a] = np.where(newly, state.v[:, a] * np.sin(heading), state.vy[:, a])
+    state.yaw_rate[:, a] = np.where(newly, rate, state.yaw_rate[:, a])
+    state.spin[:, a] = np.where(newly, rate, state.spin[:, a])
+    state.lost[:, a] |= newly
+    state.free[:, a] |= newly
+    state.lost_time[:, a] = np.where(newly, t, state.lost_time[:, a])
 
 
 class State:
@@ -168,7 +195,15 @@ class State:
         self.d_ref = batch.d0.copy()
         self.lost = np.zeros(self.x.shape, dtype=bool)
         self.spin = np.zeros_like(self.x)
-        self.collided = np.zeros(self.x.shape, dtype=bool)
+        self.lost_time = np.full(self.x.shape, np.nan)  # [s] when the actor lost control
+        self.collided = np.zeros(self.x.shape, dtype=bool)  # has had a contact
+        self.free = np.zeros(self.x.shape, dtype=bool)  # sliding after an impact, out of its driver's control
+        self.vx = np.zeros_like(self.x)  # [m/s] velocity of a sliding vehicle (world frame)
+        self.vy = np.zeros_like(self.x)
+        n_a = self.x.shape[1]
+        self.touching = np.zeros((self.x.shape[0], n_a, n_a), dtype=bool)  # pair (a < b) overlapped last check
+        self.mass = np.array([c.limits.mass for c in batch.columns])[None, :] * np.ones_like(self.x)  # [kg]
+        self.inertia = impact.yaw_inertia(self.mass, batch.length, batch.width)  # [kg m2]
         self.gone = np.zeros(self.x.shape, dtype=bool)  # reached the end of its route (left the map)
         self.gone_time = np.full(self.x.shape, np.nan)
         self.moved = np.zeros_like(self.x)  # [m] distance travelled
@@ -281,7 +316,9 @@ def _observe(batch: batch_setup.BatchSetup, state: State, geo: Geometry, a: int,
         near_route = np.abs(ds) < 150.0
         rel_yaw = np.remainder(state.yaw[:, b] - qyaw + np.pi, 2 * np.pi) - np.pi
         speed_along = state.v[:, b] * np.cos(rel_yaw)
-        in_path = visible & near_route & (np.abs(lat - state.d[:, a]) < (wa + wb) / 2 + 0.3) & (ds > 0)
+        # an inattentive striker (setup.unseen_partners) does not see what it strikes in its path
+        in_path = visible & near_route & (np.abs(lat - state.d[:, a]) < (wa + wb) / 2 + 0.3) & (ds > 0) \
+            & ~batch.unseen[a, b]
         gap = ds - (la + lb) / 2
         closer = in_path & (gap < lead_gap)
         lead_gap = np.where(closer, gap, lead_gap)
@@ -343,7 +380,7 @@ def _observe(batch: batch_setup.BatchSetup, state: State, geo: Geometry, a: int,
 def _move(batch: batch_setup.BatchSetup, state: State, accel_cmd: np.ndarray, lat_cmd: np.ndarray, dt: float,
           t_next: float, accel_max, brake_max, steer_max, steer_rate, speed_max, wheelbase) -> None:
     routes, r = batch.routes, batch.route
-    frozen = state.collided | state.gone
+    frozen = state.gone | state.free
     state.prev_x, state.prev_y, state.prev_yaw = state.x.copy(), state.y.copy(), state.yaw.copy()
     # lateral reference moves toward the command at a bounded rate
     rate = batch.lateral_rate[None, :] * dt
@@ -359,26 +396,42 @@ def _move(batch: batch_setup.BatchSetup, state: State, accel_cmd: np.ndarray, la
     state.steer = np.clip(state.steer, -steer_max, steer_max)
 
     accel = np.clip(accel_cmd, -brake_max, accel_max)
-    accel = np.where(state.lost, -SKID_DECEL, accel)
     v_new = np.clip(state.v + accel * dt, 0.0, speed_max)
     v_new = np.where(frozen, 0.0, v_new)
     accel = np.where(frozen, 0.0, (v_new - state.v) / dt)
     v_mid = 0.5 * (state.v + v_new)
-    yaw_rate = np.where(state.lost, state.spin * np.minimum(v_mid / 5.0, 1.0),
-                        v_mid / wheelbase * np.tan(state.steer))
+    yaw_rate = v_mid / wheelbase * np.tan(state.steer)
     yaw_rate = np.where(frozen, 0.0, yaw_rate)
     heading = state.yaw + 0.5 * yaw_rate * dt
-    state.x = state.x + v_mid * np.cos(heading) * dt
-    state.y = state.y + v_mid * np.sin(heading) * dt
-    state.yaw = np.remainder(state.yaw + yaw_rate * dt + np.pi, 2 * np.pi) - np.pi
-    state.moved += v_mid * dt
+    x_new = state.x + v_mid * np.cos(heading) * dt
+    y_new = state.y + v_mid * np.sin(heading) * dt
+    yaw_new = state.yaw + yaw_rate * dt
+    sliding = state.free & ~state.gone
+    if sliding.any():
+        vx, vy, w = impact.slide(state.vx, state.vy, state.yaw, state.yaw_rate, batch.friction, batch.length,
+                                 batch.width, dt)
+        held = ~(t_next - state.lost_time > batch.spin_hold)  # NaN hold: held until rest
+        spinning = state.lost & ~state.collided & held & (np.hypot(vx, vy) > impact.REST_SPEED)
+        w = np.where(spinning, state.spin, w)  # out of control the yaw is held until an impact or rest
+        v_slide = np.hypot(vx, vy)
+        x_new = np.where(sliding, state.x + 0.5 * (state.vx + vx) * dt, x_new)
+        y_new = np.where(sliding, state.y + 0.5 * (state.vy + vy) * dt, y_new)
+        yaw_new = np.where(sliding, state.yaw + 0.5 * (state.yaw_rate + w) * dt, yaw_new)
+        accel = np.where(sliding, (v_slide - state.v) / dt, accel)
+        yaw_rate = np.where(sliding, w, yaw_rate)
+        v_new = np.where(sliding, v_slide, v_new)
+        state.vx, state.vy = np.where(sliding, vx, 0.0), np.where(sliding, vy, 0.0)
+    step_len = np.hypot(x_new - state.x, y_new - state.y)
+    state.x, state.y = x_new, y_new
+    state.yaw = np.remainder(yaw_new + np.pi, 2 * np.pi) - np.pi
+    state.moved += step_len
     state.v = v_new
     state.a = accel
     state.yaw_rate = yaw_rate
 
     # project back onto the route: predict with the route heading, then correct along the tangent
     _, _, ryaw = routes.point(r, state.s)
-    s_pred = state.s + v_mid * dt * np.cos(state.yaw - ryaw)
+    s_pred = state.s + (state.x - state.prev_x) * np.cos(ryaw) + (state.y - state.prev_y) * np.sin(ryaw)
     for _ in range(2):
         qx, qy, qyaw = routes.point(r, s_pred)
         ex, ey = state.x - qx, state.y - qy
@@ -387,32 +440,63 @@ def _move(batch: batch_setup.BatchSetup, state: State, accel_cmd: np.ndarray, la
     qx, qy, qyaw = routes.point(r, s_pred)
     state.d = -(state.x - qx) * np.sin(qyaw) + (state.y - qy) * np.cos(qyaw)
     state.s = s_pred
-    newly_gone = ~state.gone & (state.s >= routes.length[r] - batch.length / 2 - 0.5) & ~state.lost
+    newly_gone = ~state.gone & (state.s >= routes.length[r] - batch.length / 2 - 0.5) & ~state.lost & ~state.free
     state.gone_time = np.where(newly_gone, t_next, state.gone_time)
     state.gone |= newly_gone
 
 
-def _check_collisions(batch: batch_setup.BatchSetup, state: State, collided_pairs: np.ndarray, recorder: Recorder,
-                      t: float, initial: bool = False) -> None:
+def _check_collisions(batch: batch_setup.BatchSetup, state: State, recorder: Recorder, t: float,
+                      initial: bool = False) -> None:
+    """Overlap of every pair; an onset (not touching at the last check) is a contact, recorded; every pair
+    that touches and still approaches exchanges an impulse (impact.exchange)."""
     n_a = batch.n_actors
     for a in range(n_a):
         for b in range(a + 1, n_a):
-            active = ~(state.gone[:, a] | state.gone[:, b]) & ~collided_pairs[:, a, b]
-            if not active.any():
+            active = ~(state.gone[:, a] | state.gone[:, b])
+            overlap = active & rectangles_overlap(state.x[:, a], state.y[:, a], state.yaw[:, a], batch.length[:, a],
+                                                  batch.width[:, a], state.x[:, b], state.y[:, b], state.yaw[:, b],
+                                                  batch.length[:, b], batch.width[:, b])
+            onset = overlap & ~state.touching[:, a, b]
+            state.touching[:, a, b] = overlap
+            if not overlap.any():
                 continue
-            hit = active & rectangles_overlap(state.x[:, a], state.y[:, a], state.yaw[:, a], batch.length[:, a],
-                                              batch.width[:, a], state.x[:, b], state.y[:, b], state.yaw[:, b],
-                                              batch.length[:, b], batch.width[:, b])
-            if not hit.any():
-                continue
-            collided_pairs[:, a, b] |= hit
             if initial:
-                recorder.collision(hit, a, b, t, state, initial)
+                recorder.collision(onset, a, b, t, state, initial)
                 continue  # a spawn overlap invalidates the variation; the vehicles are not stopped
-            frac = _back_to_contact(batch, state, hit, a, b)
-            recorder.collision(hit, a, b, t - (1.0 - frac) * batch.settings.dt, state, initial)
-            state.collided[:, a] |= hit
-            state.collided[:, b] |= hit
+            frac = _back_to_contact(batch, state, onset, a, b)
+            _exchange(batch, state, recorder, overlap, onset, a, b, t - (1.0 - frac) * batch.settings.dt)
+
+
+def _exchange(batch: batch_setup.BatchSetup, state: State, recorder: Recorder, overlap: np.ndarray,
+              onset: np.ndarray, a: int, b: int, t: np.ndarray) -> None:
+    """Impulse between a and b where they overlap; record the onsets with each vehicle's delta-v [m/s]."""
+    idx = np.nonzero(overlap)[0]
+    L, W = batch.length, batch.width
+
+    def kin(k: int):
+        free = state.free[idx, k]
+        vx = np.where(free, state.vx[idx, k], state.v[idx, k] * np.cos(state.yaw[idx, k]))
+        vy = np.where(free, state.vy[idx, k], state.v[idx, k] * np.sin(state.yaw[idx, k]))
+        return np.stack([vx, vy]), state.yaw_rate[idx, k]
+
+    nx, ny, px, py = impact.contact_frame(state.x[idx, a], state.y[idx, a], state.yaw[idx, a], L[idx, a], W[idx, a],
+                                          state.x[idx, b], state.y[idx, b], state.yaw[idx, b], L[idx, b], W[idx, b])
+    (va, wa), (vb, wb) = kin(a), kin(b)
+    va1, wa1, vb1, wb1, _ = impact.exchange(nx, ny, px, py, state.x[idx, a], state.y[idx, a], va, wa,
+                                            state.mass[idx, a], state.inertia[idx, a], state.x[idx, b],
+                                            state.y[idx, b], vb, wb, state.mass[idx, b], state.inertia[idx, b])
+    n_v = batch.n_variations
+    dva, dvb, cx, cy = (np.full(n_v, np.nan) for _ in range(4))
+    dva[idx] = np.hypot(*(va1 - va))
+    dvb[idx] = np.hypot(*(vb1 - vb))
+    cx[idx], cy[idx] = px, py
+    recorder.collision(onset, a, b, t, state, False, delta_v=(dva, dvb), point=(cx, cy))
+    for k, vel, w in ((a, va1, wa1), (b, vb1, wb1)):
+        state.vx[idx, k], state.vy[idx, k] = vel
+        state.yaw_rate[idx, k] = w
+        state.v[idx, k] = np.hypot(*vel)
+        state.free[idx, k] = True
+        state.collided[idx, k] = True
 
 
 def _back_to_contact(batch: batch_setup.BatchSetup, state: State, hit: np.ndarray, a: int, b: int) -> np.ndarray:
@@ -422,7 +506,7 @@ def _back_to_contact(batch: batch_setup.BatchSetup, state: State, hit: np.ndarra
     first touched keeps the recorded contact geometry (and so its class) true. Returns, per
     variation, the fraction of the step at which contact began (1 where nothing was moved).
     """
-    idx = np.nonzero(hit & ~state.collided[:, a] & ~state.collided[:, b])[0]
+    idx = np.nonzero(hit)[0]
     frac = np.ones(batch.n_variations)
     if len(idx) == 0:
         return frac

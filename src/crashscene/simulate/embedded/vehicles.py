@@ -19,16 +19,17 @@ class VehicleLimits(BaseModel):
     steer_rate: float = Field(math.radians(60), gt=0, description="[rad/s] front wheel angle rate")
     lat_accel_comfort: float = Field(2.5, gt=0, description="[m/s2] lateral acceleration a driver accepts in turns")
     speed_max: float = Field(60.0, gt=0, description="[m/s]")
+    mass: float = Field(1500.0, gt=0, description="[kg] curb mass plus occupants (impulse exchange at contact)")
 
 
 VEHICLE_LIMITS: dict[str, VehicleLimits] = {
     "car": VehicleLimits(),
     "truck": VehicleLimits(wheelbase_ratio=0.55, accel_max=1.5, brake_max=6.0, brake_comfort=2.5,
                            steer_max=math.radians(30), steer_rate=math.radians(40), lat_accel_comfort=2.0,
-                           speed_max=35.0),
+                           speed_max=35.0, mass=2500.0),  # a light truck (pickup, SUV, van), the commonest in reports
     "motorcycle": VehicleLimits(wheelbase_ratio=0.65, accel_max=4.5, brake_max=7.0, brake_comfort=3.5,
                                 steer_max=math.radians(30), steer_rate=math.radians(90), lat_accel_comfort=3.0,
-                                speed_max=60.0),
+                                speed_max=60.0, mass=300.0),
 }
 
 

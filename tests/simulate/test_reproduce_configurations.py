@@ -1,0 +1,158 @@
+"""Reproduce mode on synthetic scenarios, one per crash configuration of issue 10: the first contact (the same
+two actors, the same class) happens in at least 90% of the valid variations; a cascade; same seed, same bytes."""
+from __future__ import annotations
+
+import warnings
+
+import pyarrow.parquet as pq
+import pytest
+
+from crashscene.dsl import loads
+from crashscene.simulate.pipeline import simulate_scenario
+
+N = 20  # variations per configuration (0.9 of 20: at most 2 misses)
+
+ROADS = {
+    "four_way": "road_type: intersection\n  number_of_ways: 2\n  number_of_lanes: 2\n  road_marker: double_solid_line",
+    "four_way_wide": "road_type: intersection\n  number_of_ways: 2\n  number_of_lanes: 4\n  road_marker: double_solid_line",
+    "tee": "road_type: t_intersection\n  number_of_ways: 2\n  number_of_lanes: 2\n  road_marker: double_solid_line",
+    "two_way": "road_type: straight\n  number_of_ways: 2\n  number_of_lanes: 2\n  road_marker: broken_line",
+    "divided": "road_type: straight\n  number_of_ways: 1\n  number_of_lanes: 3\n  road_marker: none",
+    "one_way": "road_type: straight\n  number_of_ways: 1\n  number_of_lanes: 2\n  road_marker: none",
+}
+
+
+def scenario(road: str, signs: str, limit: int, actors: str, oracle: str, collisions: str) -> str:
+    return f"""dsl_version: 1
+environment: {{weather: clear, time_of_day: daytime, road_surface: dry}}
+road_network:
+  {ROADS[road]}
+  traffic_signs: [{signs}]
+  speed_limit_mph: {limit}
+actors:
+{actors}
+oracle:
+{oracle}
+collisions:
+{collisions}
+"""
+
+
+def actor(role: str, behavior: str, position: str, type_: str = "car") -> str:
+    return f"  {role}:\n    type: {type_}\n    behavior: {behavior}\n    position: {{{position}}}\n"
+
+
+def oracle(code: str, violation: str, who: str) -> str:
+    return f"  - {{code: {code}, violation: {violation}, actor: {who}}}\n"
+
+
+def contact(striking: str, struck: str, sa: str, ta: str, klass: str) -> str:
+    return f"  - {{striking: {striking}, struck: {struck}, striking_area: {sa}, struck_area: {ta}, class: {klass}}}\n"
+
+
+CONFIGURATIONS = {
+    "crossing_paths": scenario(
+        "four_way", "traffic_light, speed_limit_sign", 35,
+        actor("ego", "go_forward", "reference: traffic_light, relation: behind")
+        + actor("npc1", "go_forward", "reference: intersection, relation: right, heading: from_right"),
+        oracle("CVC_21453", "red_light", "npc1"), contact("npc1", "ego", "front", "right", "angle")),
+    "left_turn_across_path": scenario(
+        "four_way_wide", "traffic_light, speed_limit_sign", 35,
+        actor("ego", "go_forward", "reference: traffic_light, relation: behind")
+        + actor("npc1", "turn_left", "reference: ego, relation: front, heading: opposite_direction"),
+        oracle("CVC_21801", "left_turn_yield", "npc1"), contact("ego", "npc1", "front", "right", "angle")),
+    "turning_into_the_lane": scenario(
+        "tee", "stop_sign, speed_limit_sign", 40,
+        actor("ego", "go_forward", "reference: intersection, relation: behind")
+        + actor("npc1", "turn_left", "reference: intersection, relation: right, heading: from_right"),
+        oracle("CVC_21802", "stop_sign_yield", "npc1"), contact("ego", "npc1", "front", "left", "angle")),
+    "merging_lane_change": scenario(
+        "one_way", "speed_limit_sign", 55,
+        actor("ego", "go_forward", "reference: road, relation: behind")
+        + actor("npc1", "change_lane_left", "reference: ego, relation: right, heading: same_direction"),
+        oracle("CVC_22107", "unsafe_lane_change", "npc1"), contact("npc1", "ego", "left", "right", "sideswipe")),
+    "rear_end_stopped_leader": scenario(
+        "two_way", "speed_limit_sign", 45,
+        actor("ego", "go_forward", "reference: road, relation: behind")
+        + actor("npc1", "static", "reference: ego, relation: front, heading: same_direction"),
+        oracle("CVC_22350", "unsafe_speed", "ego"), contact("ego", "npc1", "front", "rear", "rear_end")),
+    "rear_end_slowing_leader": scenario(
+        "one_way", "speed_limit_sign", 65,
+        actor("ego", "go_forward", "reference: road, relation: behind")
+        + actor("npc1", "decelerate", "reference: ego, relation: front, heading: same_direction"),
+        oracle("CVC_21703", "following_too_closely", "ego"), contact("ego", "npc1", "front", "rear", "rear_end")),
+    "head_on_drift": scenario(
+        "two_way", "speed_limit_sign", 45,
+        actor("ego", "go_forward", "reference: road, relation: behind")
+        + actor("npc1", "cross_centerline", "reference: ego, relation: front, heading: opposite_direction"),
+        oracle("CVC_21650", "wrong_side", "npc1"), contact("npc1", "ego", "front", "front", "head_on")),
+    "head_on_overtake": scenario(
+        "two_way", "speed_limit_sign", 55,
+        actor("ego", "go_forward", "reference: road, relation: behind")
+        + actor("npc1", "overtake", "reference: ego, relation: front, heading: opposite_direction"),
+        oracle("CVC_21650", "wrong_side", "npc1"), contact("npc1", "ego", "front", "front", "head_on")),
+    "head_on_wrong_way_divided": scenario(
+        "divided", "speed_limit_sign", 65,
+        actor("ego", "go_forward", "reference: road, relation: behind")
+        + actor("npc1", "go_forward", "reference: ego, relation: front, heading: opposite_direction"),
+        oracle("CVC_21650", "wrong_side", "npc1"), contact("npc1", "ego", "front", "front", "head_on")),
+    "loss_of_control": scenario(
+        "two_way", "speed_limit_sign", 45,
+        actor("ego", "lose_control", "reference: road, relation: behind")
+        + actor("npc1", "go_forward", "reference: ego, relation: front, heading: opposite_direction"),
+        oracle("CVC_22350", "unsafe_speed", "ego"), contact("npc1", "ego", "front", "right", "angle")),
+}
+
+
+def run(text: str, tmp_path, n: int = N, seed: int = 7) -> dict:
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return simulate_scenario(loads(text), tmp_path, n, seed, mode="reproduce")
+
+
+KNOWN_GAPS = {  # configurations the planner does not reproduce yet (issue 10): kept as strict expected failures
+    "head_on_wrong_way_divided": "the wrong-way vehicle is placed in the other carriageway of a divided road",
+    "merging_lane_change": "the lane change is timed to the partner only in about 70% of variations",
+    "turning_into_the_lane": "a turn from the side road is met early in its arc (sideswipe, not angle)",
+}
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.xfail(strict=True, reason=KNOWN_GAPS[n]))
+                                  if n in KNOWN_GAPS else n for n in sorted(CONFIGURATIONS)])
+def test_first_contact_in_nine_of_ten_variations(name, tmp_path):
+    summary = run(CONFIGURATIONS[name], tmp_path)
+    assert summary["valid"] >= N * 0.8, summary.get("invalid")
+    assert summary["first_contact_rate"] >= 0.9, (name, summary["collisions"])
+
+
+CASCADE = scenario(
+    "divided", "speed_limit_sign", 55,
+    actor("ego", "go_forward", "reference: road, relation: behind")
+    + actor("npc1", "stop", "reference: ego, relation: front, heading: same_direction")
+    + actor("npc2", "go_forward", "reference: npc1, relation: left, heading: same_direction"),
+    oracle("CVC_22350", "unsafe_speed", "ego"),
+    contact("ego", "npc1", "front", "rear", "rear_end") + contact("npc2", "npc1", "front", "left", "angle"))
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="a square rear-end pushes the struck car along its lane: no lateral push yet")
+def test_cascade_a_rear_end_pushes_the_struck_car_into_the_next_lane(tmp_path):
+    summary = run(CASCADE, tmp_path)
+    rows = pq.read_table(tmp_path / "collisions_classified.parquet").to_pylist()
+    pushed = 0
+    for v in {r["variation"] for r in rows}:
+        mine = sorted((r for r in rows if r["variation"] == v), key=lambda r: r["t"])
+        pairs = [frozenset((r["actor_a"], r["actor_b"])) for r in mine]
+        if pairs[:1] == [frozenset(("ego", "npc1"))] and frozenset(("npc1", "npc2")) in pairs[1:]:
+            pushed += 1
+    assert summary["first_contact_rate"] >= 0.9
+    assert pushed >= 0.5 * summary["valid"], summary["collisions"]
+
+
+def test_same_seed_same_bytes(tmp_path):
+    text = CONFIGURATIONS["loss_of_control"]
+    run(text, tmp_path / "a", n=4)
+    run(text, tmp_path / "b", n=4)
+    for name in ("traces", "collisions", "variations"):
+        assert (tmp_path / "a" / f"{name}.parquet").read_bytes() == (tmp_path / "b" / f"{name}.parquet").read_bytes()
