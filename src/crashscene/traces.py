@@ -13,6 +13,7 @@ monitor treats the rules that need them as not_applicable.
 """
 from __future__ import annotations
 
+import hashlib
 from pathlib import Path
 
 import pyarrow as pa
@@ -95,10 +96,32 @@ TABLES = {"traces": TRACE_SCHEMA, "actors": ACTOR_SCHEMA, "collisions": COLLISIO
           "variations": VARIATION_SCHEMA}
 
 
+SCENARIO_DIGEST_KEY = b"crashscene.scenario_sha256"  # Parquet metadata: the scenario the traces were simulated from
+
+
+def scenario_digest(scenario) -> str:
+    """sha256 of the scenario's canonical YAML: stored with the traces, checked by the monitor."""
+    from crashscene.dsl import dumps
+
+    return hashlib.sha256(dumps(scenario).encode("utf-8")).hexdigest()
+
+
+def stored_digest(run_dir: str | Path) -> str | None:
+    """The scenario digest stored with `run_dir/traces.parquet` (None for runs written without one)."""
+    path = Path(run_dir) / "traces.parquet"
+    metadata = pq.read_schema(path).metadata or {}
+    value = metadata.get(SCENARIO_DIGEST_KEY)
+    return value.decode("ascii") if value else None
+
+
 def write_table(run_dir: str | Path, name: str, table: pa.Table) -> Path:
-    """Write one of TABLES to `run_dir/<name>.parquet`, cast to its schema (column order fixed)."""
+    """Write one of TABLES to `run_dir/<name>.parquet`, cast to its schema (column order fixed); the table's
+    schema metadata (the scenario digest) is kept."""
     schema = TABLES[name]
+    metadata = table.schema.metadata
     table = table.select(schema.names).cast(schema)
+    if metadata:
+        table = table.replace_schema_metadata(metadata)
     path = Path(run_dir) / f"{name}.parquet"
     pq.write_table(table, path, compression="zstd")
     return path

@@ -130,3 +130,58 @@ def test_missing_ego_and_bad_actor_name() -> None:
     with pytest.raises(DslError) as info:
         loads(GOLDEN.replace("  ego:\n", "  car1:\n"))
     assert any(d.path == "actors" for d in info.value.diagnostics)
+
+
+@pytest.mark.parametrize("old, new, path, lines", [
+    ("  npc1:\n", "  ego:\n    label: V9\n    type: car\n    behavior: go_forward\n"
+                  "    position: {reference: road, relation: behind}\n  npc1:\n", "actors.ego", (16, 21)),
+    ("  road_type: straight\n", "  road_type: straight\n  road_type: curve\n", "road_network.road_type", (9, 10)),
+    ("  road_type: straight\n", "  road_type: straight\n  Road type: curve\n", "road_network.road_type", (9, 10)),
+])
+def test_duplicate_keys_are_refused_with_both_lines(tmp_path: Path, old: str, new: str, path: str, lines) -> None:
+    err = _error(GOLDEN.replace(old, new, 1), tmp_path)
+    [diag] = err.diagnostics
+    assert diag.path == path
+    assert f"lines {lines[0]} and {lines[1]}" in diag.message
+    assert diag.line == lines[1]
+
+
+@pytest.mark.parametrize("old, new, path", [
+    ("number_of_lanes: 2", "number_of_lanes: true", "road_network.number_of_lanes"),
+    ("number_of_ways: 2", "number_of_ways: false", "road_network.number_of_ways"),
+    ("speed_limit_mph: 55", "speed_limit_mph: yes", "road_network.speed_limit_mph"),
+    ("    behavior: stop\n", "    behavior: stop\n    speed_mph: true\n", "actors.npc1.speed_mph"),
+])
+def test_booleans_are_refused_in_number_fields(tmp_path: Path, old: str, new: str, path: str) -> None:
+    err = _error(GOLDEN.replace(old, new, 1), tmp_path)
+    [diag] = err.diagnostics
+    assert diag.path == path and "boolean" in diag.message
+
+
+def test_oracle_is_required_so_a_truncated_file_does_not_validate(tmp_path: Path) -> None:
+    err = _error(GOLDEN[: GOLDEN.index("  npc1:")], tmp_path)
+    assert [d.path for d in err.diagnostics] == ["oracle"]
+    assert "required" in err.diagnostics[0].message
+
+
+def test_actors_placed_relative_to_each_other_are_refused_naming_both_fields(tmp_path: Path) -> None:
+    three = (EXAMPLES / "105203" / "golden.yaml").read_text(encoding="utf-8")
+    text = three.replace("position: {reference: ego, relation: front, heading: same_direction}",
+                         "position: {reference: npc2, relation: front, heading: same_direction}")
+    text = text.replace("position: {reference: ego, relation: front, heading: opposite_direction}",
+                        "position: {reference: npc1, relation: front, heading: opposite_direction}")
+    err = _error(text, tmp_path)
+    [diag] = [d for d in err.diagnostics if "cycle" in d.message]
+    assert diag.path == "actors.npc1.position.reference" and "actors.npc2.position.reference" in diag.message
+    assert "npc1 -> npc2, npc2 -> npc1" in diag.message and diag.line is not None
+
+
+def test_more_actors_than_a_map_can_place_are_refused(tmp_path: Path) -> None:
+    npc = "\n  npc{i}:\n    type: car\n    behavior: go_forward\n" \
+          "    position: {{reference: ego, relation: behind, heading: same_direction}}"
+    extra = "".join(npc.format(i=i) for i in range(2, 51))
+    text = GOLDEN.replace("    position: {reference: ego, relation: front, heading: same_direction}\n",
+                          "    position: {reference: ego, relation: front, heading: same_direction}" + extra + "\n")
+    err = _error(text, tmp_path)
+    [diag] = err.diagnostics
+    assert diag.path == "actors" and diag.value == 51 and "at most 6" in str(diag)

@@ -61,7 +61,10 @@ def test_disabled_rule_is_not_evaluated(tmp_path):
     ("rules:\n  CVC_21703: 2\n", ["rules.CVC_21703", "expected a mapping", "min_headway"]),
     ("rulez: {}\n", ["unknown key 'rulez'", "imports, rules"]),
     ("rules: [a\n", ["rules.yaml:", "not valid YAML"]),
-    ("imports: [no_such_module_xyz]\n", ["imports", "no_such_module_xyz"]),
+    ("imports: [no_such_module_xyz]\n", ["imports", "no_such_module_xyz", "--allow-imports"]),
+    ("rules:\n  CVC_21703: {min_headway: 1}\n  CVC_21703: {enabled: false}\n",
+     ["CVC_21703", "written twice", "lines 2 and 3"]),
+    ("rules:\n  CVC_21703: {min_headway: 1, min_headway: 2}\n", ["min_headway", "written twice"]),
 ])
 def test_rulebook_errors_name_file_code_parameter_value_and_allowed(tmp_path, text, expected):
     path = write(tmp_path, text)
@@ -71,6 +74,18 @@ def test_rulebook_errors_name_file_code_parameter_value_and_allowed(tmp_path, te
     assert str(path) in message
     for part in expected:
         assert part in message
+
+
+def test_binary_rulebook_names_the_file(tmp_path):
+    path = tmp_path / "rules.yaml"
+    path.write_bytes(b"\x89PNG\r\n\x1a\n\x00\x00\xff\xfe")
+    with pytest.raises(RulebookError, match="not UTF-8") as err:
+        load_rulebook(path)
+    assert str(path) in str(err.value)
+    path.write_bytes(b"rules: {}\x00\x01")
+    with pytest.raises(RulebookError, match="binary") as err:
+        load_rulebook(path)
+    assert str(path) in str(err.value)
 
 
 def test_missing_file(tmp_path):
@@ -132,7 +147,11 @@ def test_rulebook_imports_a_module_that_registers_rules(tmp_path, monkeypatch):
     """))
     monkeypatch.syspath_prepend(str(tmp_path))
     try:
-        book = load_rulebook(write(tmp_path, "imports: [my_rules_mod]\nrules:\n  CVC_22108: {}\n"))
+        path = write(tmp_path, "imports: [my_rules_mod]\nrules:\n  CVC_22108: {}\n")
+        with pytest.raises(RulebookError, match="--allow-imports"):
+            load_rulebook(path)
+        assert "my_rules_mod" not in sys.modules
+        book = load_rulebook(path, allow_imports=True)
         result = evaluate(tables({"ego": track(20)}), None, book)
         assert rule_row(result, "CVC_22108", "ego")["verdict"] == "satisfied"
     finally:

@@ -82,11 +82,22 @@ class SimOptions(BaseModel):
 
     model_config = ConfigDict(extra="forbid", frozen=True)
 
-    backend: str = Field(default="embedded", description="simulate backend")
+    backend: str = Field(default="embedded", description="simulate backend: a name or 'package.module:Class'")
+    backend_target: str | None = Field(default=None, description="'package.module:Class' of the backend, which "
+                                       "a worker process imports (a backend registered in the driver only)")
     ego_role: str = Field(default="ego", description="the DSL role driven by the ADS under test")
+    ads: str | None = Field(default=None, description="'package.module:Class' of the ADS driver (None: reference)")
+    ads_params: dict[str, float | int | str | bool] = Field(default_factory=dict, description="ADS parameters")
+    dt: float = Field(default=0.1, gt=0, le=1.0, description="[s] simulation step")
+    horizon: float = Field(default=20.0, gt=0, le=600.0, description="[s] simulated time per variation")
+    carla_host: str = Field(default="127.0.0.1", description="CARLA server host (carla backend)")
+    carla_port: int = Field(default=2000, ge=1, le=65535, description="CARLA server port (carla backend)")
     map_mode: Literal["generated", "carla"] = "generated"
     carla_maps: str | None = Field(default=None, description="folder of CARLA .xodr towns for map_mode=carla")
     rules_file: str | None = Field(default=None, description="YAML rulebook overriding the monitor's thresholds")
+    rules_digest: str | None = Field(default=None, description="sha256 of the rulebook file's contents (resume "
+                                     "compares it)")
+    allow_imports: bool = Field(default=False, description="the rulebook's `imports:` may import modules")
     sampler: Literal["compiled", "scenic"] | None = Field(default=None, description="scene sampler: compiled "
                                                           "(numpy, render's sampler.json), scenic (the reference), "
                                                           "None: the backend's")
@@ -106,6 +117,8 @@ class ChunkTask(BaseModel):
     count: int = Field(gt=0)
     options: SimOptions = SimOptions()
     keep_dir: str | None = Field(default=None, description="write the chunk's run directory here (traces kept)")
+    render_dir: str | None = Field(default=None, description="the case's rendered program and map (rendered once "
+                                   "per case; a worker that cannot see this folder renders again)")
 
     @property
     def key(self) -> str:

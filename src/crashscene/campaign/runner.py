@@ -87,6 +87,24 @@ class CampaignSummary(BaseModel):
     searches: list[dict] = []  # one per stored search: case, sampler, objective, budget, failures, min objective
 
 
+# the options that shape the stored rows, by the flag that sets them (where and how fast a campaign runs,
+# --engine, --workers, --address, --keep-traces, does not change a row)
+_RESULT_FLAGS = {"n": "-n", "seed": "--seed", "modes": "--mode", "chunk_size": "--chunk-size",
+                 "extract_backend": "--extractor", "dsl_name": "--dsl", "llm": "--model/--base-url/--model-path"}
+_SIM_FLAGS = {"backend": "--backend", "ego_role": "--ego", "ads": "--ads", "ads_params": "--ads-param",
+              "dt": "--dt", "horizon": "--horizon", "carla_host": "--carla-host", "carla_port": "--carla-port",
+              "map_mode": "--map", "carla_maps": "--carla-maps", "rules_digest": "--rules (sha256 of its contents)",
+              "allow_imports": "--allow-imports", "sampler": "--sampler"}
+
+
+def result_settings(config: CampaignConfig) -> dict:
+    """Every option that shapes the stored rows, keyed by its flag; a rulebook counts by its contents."""
+    top = config.model_dump(mode="json")
+    sim = config.sim.model_dump(mode="json")
+    return {**{flag: top[name] for name, flag in _RESULT_FLAGS.items()},
+            **{flag: sim[name] for name, flag in _SIM_FLAGS.items()}}
+
+
 def plan_chunks(n: int, chunk_size: int) -> list[tuple[int, int]]:
     """(first, count) ranges covering [0, n)."""
     return [(first, min(chunk_size, n - first)) for first in range(0, n, chunk_size)]
@@ -129,6 +147,7 @@ def run_campaign(cases: str | Path | Sequence[str | Path], out_dir: str | Path, 
         if store.has_results() and not config.resume:
             raise CampaignError(f"{out} already holds a campaign ({store.path.name}); add --resume to continue it "
                                 "or choose another --out")
+        store.check_settings(result_settings(config), config.resume)
         engine = make_engine(config.engine, config.workers, config.address)
         try:
             session = store.start_session(shlex.join(sys.argv), engine.name, engine.workers)
@@ -230,16 +249,22 @@ def _plan(store: Store, prepared: list[PreparedCase], config: CampaignConfig, ou
                     continue
                 keep = (str(Path(case.work_dir) / "runs" / mode / f"{first:06d}-{first + count - 1:06d}")
                         if config.keep_traces else None)
+                rendered = Path(case.work_dir) / "render"
                 tasks.append(ChunkTask(case_id=case.case_id, scenario_yaml=case.scenario_yaml,
                                        scenario_hash=case.scenario_hash, seed=config.seed, mode=mode, first=first,
-                                       count=count, options=config.sim, keep_dir=keep))
+                                       count=count, options=config.sim, keep_dir=keep,
+                                       render_dir=str(rendered) if (rendered / "render.json").is_file() else None))
     return tasks, skipped
 
 
 def summarize_runs(store: Store) -> list[RunSummary]:
     """Per (case, mode): counts of verdicts, reproduction, violations by code and actor, collisions by class."""
     out = []
-    for run in store.query("SELECT case_id, scenario_hash, seed, mode, n FROM runs ORDER BY case_id, mode"):
+    # a run whose scenario no case has any more (the case's input changed since) is history, not a row
+    current = ("WHERE scenario_hash IN (SELECT scenario_hash FROM cases WHERE scenario_hash IS NOT NULL) "
+               "OR case_id NOT IN (SELECT case_id FROM cases WHERE scenario_hash IS NOT NULL)")
+    for run in store.query(f"SELECT case_id, scenario_hash, seed, mode, n FROM runs {current} "
+                           "ORDER BY case_id, mode"):
         key = [run["scenario_hash"], run["seed"], run["mode"]]
         where = "scenario_hash=? AND seed=? AND mode=?"
         counts = store.query(f"SELECT count(*) AS n, count(*) FILTER (WHERE valid) AS valid, "

@@ -10,7 +10,12 @@ Tables (keys: scenario_hash, seed, mode, variation):
 - `chunks`: one row per finished chunk, written in the SAME transaction as its result
   rows, so a chunk is either fully stored and marked done or absent (kill -9 included);
 - `chunk_errors`: chunks whose worker failed (retried on resume);
-- `sessions`: one row per invocation (start, engine, workers), for resume bookkeeping.
+- `sessions`: one row per invocation (start, engine, workers), for resume bookkeeping;
+- `settings`: the options that shape the results (every campaign option, the rulebook's sha256), written by
+  the first invocation; a resume with other values is refused, naming what differs.
+
+A damaged file (truncated, overwritten) is reported as such, with its path and
+what can still be recovered, never as a raw database error.
 """
 from __future__ import annotations
 
@@ -49,6 +54,7 @@ CREATE TABLE IF NOT EXISTS variations (
 CREATE TABLE IF NOT EXISTS violations (
     {KEYS}, variation INTEGER NOT NULL, actor VARCHAR, is_ads BOOLEAN, code VARCHAR, violation VARCHAR,
     t_first DOUBLE, value DOUBLE, threshold DOUBLE, unit VARCHAR, robustness DOUBLE);
+CREATE TABLE IF NOT EXISTS settings (name VARCHAR PRIMARY KEY, value VARCHAR);
 CREATE TABLE IF NOT EXISTS collisions (
     {KEYS}, variation INTEGER NOT NULL, t DOUBLE, actor_a VARCHAR, actor_b VARCHAR, collision_class VARCHAR,
     speed_a DOUBLE, speed_b DOUBLE, x DOUBLE, y DOUBLE, contact_index INTEGER, area_a VARCHAR, area_b VARCHAR,
@@ -101,11 +107,24 @@ class Store:
             self.path.parent.mkdir(parents=True, exist_ok=True)
         try:
             self.con = duckdb.connect(str(self.path), read_only=read_only)
-        except duckdb.IOException as exc:
-            raise CampaignError(f"{self.path}: cannot open the campaign database ({exc}); "
-                                "is another campaign writing to it?") from exc
-        if not read_only:
-            self.con.execute(DDL)
+            if not read_only:
+                self.con.execute(DDL)
+            self.con.execute("SELECT count(*) FROM runs").fetchone()
+        except duckdb.Error as exc:
+            if isinstance(exc, duckdb.IOException) and "lock" in str(exc).lower():
+                raise CampaignError(f"{self.path}: cannot open the campaign database ({exc}); "
+                                    "is another campaign writing to it?") from exc
+            raise self.damaged(exc) from exc
+
+    def damaged(self, exc: Exception) -> CampaignError:
+        """The error for a database file that cannot be read: where it is, and what can be recovered."""
+        first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        cases = self.path.parent / "cases"
+        return CampaignError(
+            f"{self.path}: the campaign database is damaged ({first}). Its result rows cannot be read. Still "
+            f"there: the prepared cases under {cases} (scenario.yaml, extraction.json, the rendered program and "
+            f"map, and chunk traces if --keep-traces was on). To recover the results, move the damaged file aside "
+            f"and run the same campaign again with the same options: the same seed gives the same rows.")
 
     def close(self) -> None:
         self.con.close()
@@ -118,7 +137,7 @@ class Store:
 
     # --- sessions and runs -------------------------------------------------------------------------
     def has_results(self) -> bool:
-        return self.con.execute("SELECT count(*) FROM runs").fetchone()[0] > 0
+        return self.query("SELECT count(*) AS n FROM runs")[0]["n"] > 0
 
     def start_session(self, command: str, engine: str, workers: int) -> int:
         number = self.con.execute("SELECT coalesce(max(session), 0) + 1 FROM sessions").fetchone()[0]
@@ -146,9 +165,9 @@ class Store:
                                 "or use a new --out")
 
     def done_chunks(self, scenario_hash: str, seed: int, mode: str) -> set[int]:
-        rows = self.con.execute("SELECT first FROM chunks WHERE scenario_hash=? AND seed=? AND mode=?",
-                                [scenario_hash, seed, mode]).fetchall()
-        return {r[0] for r in rows}
+        rows = self.query("SELECT first FROM chunks WHERE scenario_hash=? AND seed=? AND mode=?",
+                          [scenario_hash, seed, mode])
+        return {r["first"] for r in rows}
 
     # --- results -------------------------------------------------------------------------------------
     def write_chunk(self, task: ChunkTask, result: ChunkResult, session: int) -> None:
@@ -183,12 +202,46 @@ class Store:
 
     def query(self, sql: str, params: list | None = None) -> list[dict]:
         """Rows of a query as dicts (for summaries and the report)."""
-        cur = self.con.execute(sql, params or [])
-        names = [d[0] for d in cur.description]
-        return [dict(zip(names, row)) for row in cur.fetchall()]
+        try:
+            cur = self.con.execute(sql, params or [])
+            names = [d[0] for d in cur.description]
+            return [dict(zip(names, row)) for row in cur.fetchall()]
+        except duckdb.Error as exc:
+            if _is_damage(exc):
+                raise self.damaged(exc) from exc
+            raise
 
     def arrow(self, sql: str, params: list | None = None) -> pa.Table:
-        return self.con.sql(sql, params=params or None).to_arrow_table()
+        try:
+            return self.con.sql(sql, params=params or None).to_arrow_table()
+        except duckdb.Error as exc:
+            if _is_damage(exc):
+                raise self.damaged(exc) from exc
+            raise
+
+    # --- settings ------------------------------------------------------------------------------------
+    def check_settings(self, settings: dict, resume: bool) -> None:
+        """Store the campaign's result-shaping options, or (resume) refuse values that differ from them."""
+        row = self.query("SELECT value FROM settings WHERE name = 'options'")
+        if not row:
+            self.con.execute("INSERT INTO settings VALUES ('options', ?)", [json.dumps(settings, sort_keys=True)])
+            return
+        stored = json.loads(row[0]["value"])
+        differ = [f"{name} {_show(stored.get(name))} (now {_show(settings.get(name))})"
+                  for name in sorted(set(stored) | set(settings)) if stored.get(name) != settings.get(name)]
+        if differ:
+            raise CampaignError(f"{self.path.parent} was started with other options: {'; '.join(differ)}. "
+                                f"{'Resume' if resume else 'Continue'} with the same options, or use a new --out")
+
+
+def _is_damage(exc: duckdb.Error) -> bool:
+    """A read failure of the file itself (not a mistake in a query)."""
+    damage = (duckdb.IOException, duckdb.InternalException, duckdb.FatalException, duckdb.SerializationException)
+    return isinstance(exc, damage) or type(exc) is duckdb.Error or "corrupt" in str(exc).lower()
+
+
+def _show(value: object) -> str:
+    return "(not set)" if value is None else json.dumps(value) if not isinstance(value, str) else value
 
 
 def _conform(name: str, table: pa.Table, task: ChunkTask) -> pa.Table:

@@ -51,11 +51,17 @@ def _simulate_and_monitor(task: ChunkTask, run_dir: Path) -> ChunkResult:
 
     scenario = loads(task.scenario_yaml, source=f"{task.case_id}/scenario.yaml")
     opts = task.options
+    rendered = Path(task.render_dir) if task.render_dir and Path(task.render_dir).is_dir() else None
     simulate_scenario(scenario, run_dir, n=task.count, seed=task.seed, first=task.first, mode=task.mode,
-                      backend=opts.backend, ego_role=opts.ego_role, map_mode=opts.map_mode,
-                      carla_maps=Path(opts.carla_maps) if opts.carla_maps else None, sampler=opts.sampler)
+                      backend=opts.backend_target or opts.backend, ego_role=opts.ego_role, map_mode=opts.map_mode,
+                      carla_maps=Path(opts.carla_maps) if opts.carla_maps else None, ads=opts.ads,
+                      ads_params=dict(opts.ads_params), dt=opts.dt, horizon=opts.horizon,
+                      carla_host=opts.carla_host, carla_port=opts.carla_port,
+                      rules_file=Path(opts.rules_file) if opts.rules_file else None,
+                      allow_imports=opts.allow_imports, rendered_dir=rendered,
+                      sampler=opts.sampler)
     tables = {name: read_table(run_dir, name) for name in TABLES if (run_dir / f"{name}.parquet").exists()}
-    result = rows_from(tables, _monitor(run_dir, opts.rules_file), _ads_ttc(run_dir))
+    result = rows_from(tables, _monitored(run_dir), _ads_ttc(run_dir))
     if (run_dir / "criticality.parquet").exists():
         result.criticality = pq.read_table(run_dir / "criticality.parquet").select(CRITICALITY_ROWS.names)
     return result
@@ -76,16 +82,11 @@ def _ads_ttc(run_dir: Path) -> dict[int, float] | None:
     return out
 
 
-def _monitor(run_dir: Path, rules_file: str | None) -> dict[str, pa.Table]:
-    """The monitor's tables for the run: those simulate wrote, or a fresh evaluation (custom rulebook)."""
+def _monitored(run_dir: Path) -> dict[str, pa.Table]:
+    """The monitor's tables simulate wrote for the run (with the campaign's rulebook: monitored once)."""
     names = {"rule_results": "rule_results.parquet", "collisions": "collisions_classified.parquet",
              "verdicts": "verdicts.parquet"}
-    if rules_file is None and all((run_dir / f).exists() for f in names.values()):
-        return {key: pq.read_table(run_dir / f) for key, f in names.items()}
-    from crashscene.monitor import monitor_run
-
-    result = monitor_run(run_dir, Path(rules_file) if rules_file else None)
-    return {"rule_results": result.rule_results, "collisions": result.collisions, "verdicts": result.verdicts}
+    return {key: pq.read_table(run_dir / f) for key, f in names.items()}
 
 
 def rows_from(tables: dict[str, pa.Table], monitored: dict[str, pa.Table],

@@ -7,6 +7,17 @@ from typing import Annotated, Optional
 import typer
 
 from crashscene.cli import app
+from crashscene.cli.simulation_options import (
+    AdsOpt,
+    AdsParamOpt,
+    AllowImportsOpt,
+    BackendOpt,
+    CarlaHostOpt,
+    CarlaPortOpt,
+    DtOpt,
+    HorizonOpt,
+    parse_ads_params,
+)
 
 EXTRACTORS = ("rules", "openai", "local", "auto")
 ModeOpt = Annotated[str, typer.Option("--mode", help="reproduce (re-enact the crash), test (ego = ADS under test), "
@@ -15,9 +26,13 @@ ModeOpt = Annotated[str, typer.Option("--mode", help="reproduce (re-enact the cr
 
 def build_config(n: int, seed: int, mode: str, engine: str, workers: int | None, address: str | None, resume: bool,
                  chunk_size: int, extractor: str, dsl: str | None, simulator: str, ego: str, map_mode: str,
-                 carla_maps: Path | None, rules: Path | None = None, sampler: str | None = None,
-                 search: list[str] | None = None, budget: int = 400, objective: str = "robustness"):
-    """Options -> CampaignConfig, with the CLI's spelling of each bad value in the error."""
+                 carla_maps: Path | None, rules: Path | None = None, *, ads: str | None = None,
+                 ads_params: dict | None = None, dt: float = 0.1, horizon: float = 20.0,
+                 carla_host: str = "127.0.0.1", carla_port: int = 2000, allow_imports: bool = False,
+                 sampler: str | None = None, search: list[str] | None = None, budget: int = 400,
+                 objective: str = "robustness"):
+    """Options -> CampaignConfig, with the CLI's spelling of each bad value in the error. The backend and the
+    rulebook are checked here, once, before any case is extracted or rendered."""
     from crashscene.campaign import CampaignConfig, CampaignError, SimOptions
     from crashscene.campaign.search import SearchPlan, check_plan
 
@@ -30,21 +45,39 @@ def build_config(n: int, seed: int, mode: str, engine: str, workers: int | None,
         raise CampaignError(f"-n {n}: the number of variations must be positive (0 only with --search)")
     if extractor not in EXTRACTORS:
         raise CampaignError(f"--extractor {extractor!r}: allowed: {', '.join(EXTRACTORS)}")
-    from crashscene.simulate import backend_names
+    from crashscene.simulate import SimulationError, backend_target, get_simulator_class
 
-    if simulator not in backend_names():
-        raise CampaignError(f"--simulator {simulator!r}: allowed: {', '.join(backend_names())}")
-    if rules is not None and not rules.is_file():
-        raise CampaignError(f"--rules {rules}: no such rulebook file")
+    try:
+        target = backend_target(simulator)
+        get_simulator_class(simulator)
+    except SimulationError as exc:
+        raise CampaignError(f"--backend/--simulator {simulator!r}: {exc}") from None
+    digest = None
+    if rules is not None:
+        from crashscene.monitor import MonitorError
+        from crashscene.monitor.rulebook import load_rulebook, rulebook_digest
+
+        if not rules.is_file():
+            raise CampaignError(f"--rules {rules}: no such rulebook file")
+        try:
+            load_rulebook(rules, allow_imports)
+            digest = rulebook_digest(rules)
+        except MonitorError as exc:
+            raise CampaignError(f"--rules: {exc}") from None
     if chunk_size <= 0:
         raise CampaignError(f"--chunk-size {chunk_size}: must be positive")
     from crashscene.sample import SAMPLERS
 
     if sampler is not None and sampler not in SAMPLERS:
         raise CampaignError(f"--sampler {sampler!r}: allowed: {', '.join(SAMPLERS)}")
-    sim = SimOptions(sampler=sampler, backend=simulator, ego_role=ego, map_mode=map_mode,
-                     carla_maps=str(carla_maps.resolve()) if carla_maps else None,
-                     rules_file=str(rules.resolve()) if rules else None)
+    try:
+        sim = SimOptions(sampler=sampler, backend=simulator, backend_target=target, ego_role=ego, map_mode=map_mode,
+                         carla_maps=str(carla_maps.resolve()) if carla_maps else None,
+                         rules_file=str(rules.resolve()) if rules else None, rules_digest=digest,
+                         allow_imports=allow_imports, ads=ads, ads_params=ads_params or {}, dt=dt, horizon=horizon,
+                         carla_host=carla_host, carla_port=carla_port)
+    except ValueError as exc:  # pydantic: --dt, --horizon, --carla-port out of range
+        raise CampaignError(f"simulation options: {exc}") from None
     plan = SearchPlan(samplers=tuple(search), budget=budget, objective=objective) if search else None
     if plan is not None:
         check_plan(plan)
@@ -112,11 +145,18 @@ def campaign(
     base_url: Annotated[Optional[str], typer.Option("--base-url", help="OpenAI-compatible endpoint for --extractor openai.")] = None,
     model_path: Annotated[Optional[Path], typer.Option("--model-path", help="GGUF file for --extractor local.")] = None,
     dsl: Annotated[Optional[str], typer.Option("--dsl", help="Use CASE/<NAME> (e.g. golden.yaml) instead of extracting, when present.")] = None,
-    simulator: Annotated[str, typer.Option("--simulator", help="Simulation backend: embedded, newtonian, carla.")] = "embedded",
+    simulator: BackendOpt = "embedded",
     ego: Annotated[str, typer.Option("--ego", help="DSL role driven by the ADS under test.")] = "ego",
+    ads: AdsOpt = None,
+    ads_param: AdsParamOpt = [],  # noqa: B006
+    dt: DtOpt = 0.1,
+    horizon: HorizonOpt = 20.0,
+    carla_host: CarlaHostOpt = "127.0.0.1",
+    carla_port: CarlaPortOpt = 2000,
     map_mode: Annotated[str, typer.Option("--map", help="generated or carla.")] = "generated",
     carla_maps: Annotated[Optional[Path], typer.Option("--carla-maps", help="Folder of CARLA .xodr towns (--map carla).")] = None,
     rules: Annotated[Optional[Path], typer.Option("--rules", help="YAML rulebook overriding the monitor's thresholds.")] = None,
+    allow_imports: AllowImportsOpt = False,
     sampler: Annotated[Optional[str], typer.Option("--sampler", help="Scene sampler: compiled (numpy) or scenic (the reference) (default: compiled; scenic for newtonian and carla).")] = None,
     keep_traces: Annotated[bool, typer.Option("--keep-traces", help="Keep every chunk's traces under OUT/cases.")] = False,
     report: Annotated[bool, typer.Option("--report/--no-report", help="Write OUT/report.html at the end.")] = True,
@@ -132,7 +172,10 @@ def campaign(
     try:
         n = n if n is not None else (0 if search else 2000)
         config = build_config(n, seed, mode, engine, workers, address, resume, chunk_size, extractor, dsl,
-                              simulator, ego, map_mode, carla_maps, rules, sampler, search, budget, objective)
+                              simulator, ego, map_mode, carla_maps, rules, ads=ads,
+                              ads_params=parse_ads_params(ads_param), dt=dt, horizon=horizon, carla_host=carla_host,
+                              carla_port=carla_port, allow_imports=allow_imports, sampler=sampler,
+                              search=search, budget=budget, objective=objective)
         llm = {k: str(v) for k, v in (("model", model), ("base_url", base_url), ("model_path", model_path)) if v}
         config = config.model_copy(update={"llm": llm})
         config = config.model_copy(update={"keep_traces": keep_traces})

@@ -16,6 +16,8 @@ def monitor(
                                                  "(scenario.yaml + traces/actors/collisions/variations.parquet).")],
     rules: Annotated[Path | None, typer.Option("--rules", help="Rulebook YAML overriding thresholds "
                                                "(rules: {CVC_21703: {min_headway: 1.5}}).")] = None,
+    allow_imports: Annotated[bool, typer.Option("--allow-imports", help="Let the --rules file's `imports:` import "
+                                                "Python modules (runs their code).")] = False,
     as_json: Annotated[bool, typer.Option("--json", help="Print the summary as JSON on stdout.")] = False,
 ) -> None:
     """Check every actor of every variation against the rulebook (`crashscene rules`), classify
@@ -24,7 +26,7 @@ def monitor(
     from crashscene.monitor import MonitorError, monitor_run
 
     try:
-        result = monitor_run(run_dir, rules)
+        result = monitor_run(run_dir, rules, allow_imports)
     except MonitorError as exc:
         typer.echo(f"error: {exc}", err=True)
         raise typer.Exit(2) from None
@@ -74,13 +76,15 @@ def rules_command(
     rules: Annotated[Path | None, typer.Option("--rules", help="Show this rulebook's effective values "
                                                "instead of the defaults.")] = None,
     output: Annotated[Path | None, typer.Option("-o", "--output", help="Write to this file instead of stdout.")] = None,
+    allow_imports: Annotated[bool, typer.Option("--allow-imports", help="Let the --rules file's `imports:` import "
+                                                "Python modules (runs their code).")] = False,
 ) -> None:
     """Print the monitor's rulebook (every rule, threshold and unit) as an editable YAML file for --rules."""
     from crashscene.monitor import MonitorError
     from crashscene.monitor.rulebook import load_rulebook, rulebook_yaml
 
     try:
-        text = rulebook_yaml(load_rulebook(rules) if rules is not None else None)
+        text = rulebook_yaml(load_rulebook(rules, allow_imports) if rules is not None else None)
     except MonitorError as exc:
         typer.echo(f"error: {exc}", err=True)
         raise typer.Exit(2) from None

@@ -42,6 +42,9 @@ def render(
 
     if map_mode not in ("generated", "carla"):
         raise typer.BadParameter(f"{map_mode!r}; allowed: generated, carla", param_hint="--map")
+    if out.exists() and not out.is_dir():
+        typer.echo(f"error: -o {out}: is a file; give a folder to write scenario.scenic and map.xodr into", err=True)
+        raise typer.Exit(2)
     try:
         scenario = load_file(file)
         rendered = render_scenario(scenario, out, map_mode=map_mode, carla_maps=carla_maps, cache_dir=cache_dir,

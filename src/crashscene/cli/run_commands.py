@@ -7,6 +7,17 @@ from typing import Annotated, Optional
 import typer
 
 from crashscene.cli import app
+from crashscene.cli.simulation_options import (
+    AdsOpt,
+    AdsParamOpt,
+    AllowImportsOpt,
+    BackendOpt,
+    CarlaHostOpt,
+    CarlaPortOpt,
+    DtOpt,
+    HorizonOpt,
+    parse_ads_params,
+)
 
 # kept here (not imported from campaign_commands) so that `run` is registered, and listed, before `campaign`
 ModeOpt = Annotated[str, typer.Option("--mode", help="reproduce (re-enact the crash), test (ego = ADS under test), "
@@ -28,11 +39,18 @@ def run(
     base_url: Annotated[Optional[str], typer.Option("--base-url", help="OpenAI-compatible endpoint for --extractor openai.")] = None,
     model_path: Annotated[Optional[Path], typer.Option("--model-path", help="GGUF file for --extractor local.")] = None,
     dsl: Annotated[Optional[str], typer.Option("--dsl", help="Use CASE/<NAME> (e.g. golden.yaml) instead of extracting.")] = None,
-    simulator: Annotated[str, typer.Option("--simulator", help="Simulation backend: embedded, newtonian, carla.")] = "embedded",
+    simulator: BackendOpt = "embedded",
     ego: Annotated[str, typer.Option("--ego", help="DSL role driven by the ADS under test.")] = "ego",
+    ads: AdsOpt = None,
+    ads_param: AdsParamOpt = [],  # noqa: B006
+    dt: DtOpt = 0.1,
+    horizon: HorizonOpt = 20.0,
+    carla_host: CarlaHostOpt = "127.0.0.1",
+    carla_port: CarlaPortOpt = 2000,
     map_mode: Annotated[str, typer.Option("--map", help="generated or carla.")] = "generated",
     carla_maps: Annotated[Optional[Path], typer.Option("--carla-maps", help="Folder of CARLA .xodr towns.")] = None,
     rules: Annotated[Optional[Path], typer.Option("--rules", help="YAML rulebook overriding the monitor's thresholds.")] = None,
+    allow_imports: AllowImportsOpt = False,
     sampler: Annotated[Optional[str], typer.Option("--sampler", help="Scene sampler: compiled (numpy) or scenic (the reference) (default: compiled; scenic for newtonian and carla).")] = None,
     report: Annotated[bool, typer.Option("--report/--no-report", help="Write OUT/report.html.")] = True,
     as_json: Annotated[bool, typer.Option("--json", help="Summary as JSON on stdout.")] = False,
@@ -45,7 +63,9 @@ def run(
 
     try:
         config = build_config(n, seed, mode, "local", workers, None, resume, chunk_size, extractor, dsl,
-                              simulator, ego, map_mode, carla_maps, rules, sampler)
+                              simulator, ego, map_mode, carla_maps, rules, ads=ads,
+                              ads_params=parse_ads_params(ads_param), dt=dt, horizon=horizon, carla_host=carla_host,
+                              carla_port=carla_port, allow_imports=allow_imports, sampler=sampler)
         llm = {k: str(v) for k, v in (("model", model), ("base_url", base_url), ("model_path", model_path)) if v}
         config = config.model_copy(update={"llm": llm})
         result = run_case(case_dir, out, config, report=report, quiet=as_json)

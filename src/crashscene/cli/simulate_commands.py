@@ -10,26 +10,7 @@ from typing import Annotated, Optional
 import typer
 
 from crashscene.cli import app
-
-
-def _parse_params(values: list[str]) -> dict[str, float | int | str | bool]:
-    params: dict[str, float | int | str | bool] = {}
-    for item in values:
-        key, sep, raw = item.partition("=")
-        if not sep or not key:
-            raise typer.BadParameter(f"{item!r}: expected KEY=VALUE", param_hint="--ads-param")
-        value: float | int | str | bool = raw
-        if raw.lower() in ("true", "false"):
-            value = raw.lower() == "true"
-        else:
-            for cast in (int, float):
-                try:
-                    value = cast(raw)
-                    break
-                except ValueError:
-                    pass
-        params[key] = value
-    return params
+from crashscene.cli.simulation_options import parse_ads_params
 
 
 @app.command()
@@ -40,7 +21,8 @@ def simulate(
     first: Annotated[int, typer.Option("--first", min=0, help="Index of the first variation.")] = 0,
     mode: Annotated[str, typer.Option("--mode", help="test: the ego role is the ADS under test; "
                                                     "reproduce: every actor replays the report.")] = "test",
-    backend: Annotated[str, typer.Option("--backend", help="embedded (default), newtonian or carla.")] = "embedded",
+    backend: Annotated[str, typer.Option("--backend", "--simulator", help="embedded (default), newtonian, carla, "
+                                                          "a plugin's name or 'package.module:Class'.")] = "embedded",
     ego: Annotated[str, typer.Option("--ego", help="DSL role handed to the ADS under test.")] = "ego",
     out: Annotated[Path, typer.Option("--out", "-o", help="Run directory to write.")] = Path("out/simulate"),
     ads: Annotated[str | None, typer.Option("--ads", help="User ADS driver 'package.module:Class' "
@@ -62,7 +44,7 @@ def simulate(
 ) -> None:
     """Render, sample and simulate FILE; write traces, the monitor's verdicts and summary.json into --out."""
     from crashscene.dsl import DslError, load_file
-    from crashscene.simulate.backend import SimulationError
+    from crashscene.simulate.backend import AdsError, SimulationError
     from crashscene.simulate.pipeline import simulate_scenario
 
     try:
@@ -73,7 +55,7 @@ def simulate(
     except OSError as exc:
         typer.echo(f"error: {file}: {exc.strerror or exc}", err=True)
         raise typer.Exit(2) from None
-    params = _parse_params(ads_param)
+    params = parse_ads_params(ads_param)
     show_bar = not as_json and sys.stderr.isatty()
     try:
         if show_bar:
@@ -97,6 +79,9 @@ def simulate(
                 scenario, out, n=n, seed=seed, first=first, mode=mode, backend=backend, ego_role=ego,
                 map_mode=map_mode, carla_maps=carla_maps, ads=ads, ads_params=params, dt=dt, horizon=horizon,
                 carla_host=carla_host, carla_port=carla_port, workers=workers or os.cpu_count() or 1, sampler=sampler)
+    except AdsError as exc:  # the ADS under test failed, not the scenario file
+        typer.echo(f"error: {exc}", err=True)
+        raise typer.Exit(2) from None
     except SimulationError as exc:
         typer.echo(f"error: {file}: {exc}", err=True)
         raise typer.Exit(2) from None

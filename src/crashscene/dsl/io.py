@@ -85,7 +85,7 @@ def parse_yaml(text: str, source: str | None = None) -> tuple[Any, dict[str, int
                                        "oracle", file=source)])
         _check_size(node, source)
         lines: dict[str, int] = {}
-        _line_map(node, "", "top", lines)
+        _line_map(node, "", "top", lines, source)
         raw = loader.construct_document(node)
     except yaml.MarkedYAMLError as exc:
         mark = exc.problem_mark or exc.context_mark
@@ -127,21 +127,29 @@ _CHILD_SECTION = {("top", "environment"): "environment", ("top", "road_network")
 _LIST_ITEMS = {"oracle_list": "oracle", "contact_list": "contact"}
 
 
-def _line_map(node: yaml.Node, path: str, section: str, out: dict[str, int]) -> None:
+def _line_map(node: yaml.Node, path: str, section: str, out: dict[str, int], source: str | None = None) -> None:
+    """Fill field path -> line; refuse a key written twice in one mapping (YAML would keep the last silently),
+    also when two spellings normalise to the same key ("road_type" and "Road type")."""
     out.setdefault(path, node.start_mark.line + 1)
     if isinstance(node, yaml.MappingNode):
+        seen: dict[Any, int] = {}
         for key_node, value_node in node.value:
             key = key_node.value if isinstance(key_node, yaml.ScalarNode) else "?"
             if section in ("top", "environment", "road_network", "actors", "actor", "position", "oracle", "contact"):
                 key = canonical_key(section, key)
             child = f"{path}.{key}" if path else str(key)
+            line = key_node.start_mark.line + 1
+            if key in seen:
+                raise DslError([Diagnostic(f"key written twice, on lines {seen[key]} and {line}; keep one",
+                                           path=child, file=source, line=line)])
+            seen[key] = line
             next_section = _CHILD_SECTION.get((section, "*" if section == "actors" else key), "")
-            out.setdefault(child, key_node.start_mark.line + 1)
-            _line_map(value_node, child, next_section, out)
+            out.setdefault(child, line)
+            _line_map(value_node, child, next_section, out, source)
     elif isinstance(node, yaml.SequenceNode):
         for index, item in enumerate(node.value):
             next_section = _LIST_ITEMS.get(section, "")
-            _line_map(item, f"{path}[{index}]", next_section, out)
+            _line_map(item, f"{path}[{index}]", next_section, out, source)
 
 
 def _loc_path(loc: tuple[Any, ...]) -> str:

@@ -6,9 +6,9 @@ JSON Schema exported from these models stays canonical.
 """
 from __future__ import annotations
 
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, field_validator, model_validator
 
 from crashscene.dsl.normalize import normalize
 from crashscene.dsl.tokens import (
@@ -35,6 +35,16 @@ _STRICT = ConfigDict(extra="forbid", use_enum_values=False, validate_default=Tru
 REFERENCE_TOKENS = [e.value for e in RoadElement] + ["ego", "npc<N>"]
 
 
+def _not_bool(value: Any) -> Any:
+    """YAML reads `true` as a bool, and Python counts a bool as 1: refuse it where a number is meant."""
+    if isinstance(value, bool):
+        raise ValueError(f"a number is required, not the boolean {str(value).lower()}")
+    return value
+
+
+NotBool = BeforeValidator(_not_bool)
+
+
 def actor_names_allowed() -> str:
     return "ego, npc1, npc2, ..."
 
@@ -51,11 +61,11 @@ class RoadNetwork(BaseModel):
     model_config = _STRICT
 
     road_type: RoadType
-    number_of_ways: Literal[1, 2] = Field(description="directions of travel on the crash roadway")
-    number_of_lanes: int = Field(ge=1, le=16, description="through lanes of the crash roadway, all directions")
+    number_of_ways: Annotated[Literal[1, 2], NotBool] = Field(description="directions of travel on the crash roadway")
+    number_of_lanes: Annotated[int, NotBool] = Field(ge=1, le=16, description="through lanes of the crash roadway, all directions")
     road_marker: RoadMarker
     traffic_signs: list[Sign] = Field(default_factory=list, description="a set; [] = none or not mentioned")
-    speed_limit_mph: int | None = Field(default=None, ge=5, le=100, description="posted limit [mph]")
+    speed_limit_mph: Annotated[int | None, NotBool] = Field(default=None, ge=5, le=100, description="posted limit [mph]")
     curve_direction: CurveDirection | None = Field(default=None, description="as the ego sees it")
 
     @field_validator("traffic_signs")
@@ -87,7 +97,7 @@ class Actor(BaseModel):
     type: ActorType
     behavior: Behavior
     position: Position
-    speed_mph: float | None = Field(default=None, gt=0, le=200, description="stated travel speed [mph]")
+    speed_mph: Annotated[float | None, NotBool] = Field(default=None, gt=0, le=200, description="stated travel speed [mph]")
 
 
 class OracleEntry(BaseModel):
@@ -146,13 +156,13 @@ class Scenario(BaseModel):
 
     model_config = _STRICT
 
-    dsl_version: Literal[1] = 1
+    dsl_version: Annotated[Literal[1], NotBool] = 1
     scenario_id: str | None = Field(default=None, max_length=120)
     summary: str | None = Field(default=None, max_length=2000)
     environment: Environment
     road_network: RoadNetwork
     actors: dict[str, Actor]
-    oracle: list[OracleEntry] = Field(default_factory=list)
+    oracle: list[OracleEntry] = Field(description="required (dsl.md section 2); [] when the report supports no violation")
     collisions: list[Contact] | None = Field(default=None, description="the crash sequence, first contact first; "
                                              "absent = not written, [] = no contact between actors")
     evidence: dict[str, str] = Field(default_factory=dict)

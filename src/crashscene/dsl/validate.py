@@ -20,10 +20,36 @@ _SIGN_REFERENCES = {RoadElement.STOP_SIGN: Sign.STOP_SIGN, RoadElement.YIELD_SIG
 _JUNCTIONS = (RoadType.INTERSECTION, RoadType.T_INTERSECTION)
 
 
+MAX_ACTORS = 6  # ego + 5 NPCs: CIREN crashes involve at most 3; beyond this placement is rejection sampling for minutes
+
+
 def check(scenario: Scenario) -> list[Diagnostic]:
     """All semantic diagnostics of a schema-valid scenario (no file or line)."""
-    return [*_actor_checks(scenario), *_road_checks(scenario), *_oracle_checks(scenario),
-            *_collision_checks(scenario), *_evidence_checks(scenario)]
+    return [*_actor_checks(scenario), *_placement_checks(scenario), *_road_checks(scenario),
+            *_oracle_checks(scenario), *_collision_checks(scenario), *_evidence_checks(scenario)]
+
+
+def _placement_checks(s: Scenario) -> Iterator[Diagnostic]:
+    """Combinations the renderer cannot place: too many actors, actors placed relative to each other in a cycle."""
+    if len(s.actors) > MAX_ACTORS:
+        yield Diagnostic(f"{len(s.actors)} actors cannot be placed on one rendered map; a scenario keeps the "
+                         f"vehicles of the crash sequence", "actors", value=len(s.actors),
+                         allowed=[f"at most {MAX_ACTORS} actors (ego, npc1 ... npc{MAX_ACTORS - 1})"])
+    refs = {name: actor.position.reference for name, actor in s.actors.items()}
+    reported: set[str] = set()
+    for start in refs:
+        chain, name = [], start
+        while name in refs and name not in chain and name != "ego":
+            chain.append(name)
+            name = refs[name]
+        if name in chain and name not in reported and refs.get(name) != name:
+            cycle = chain[chain.index(name):]
+            reported.update(cycle)
+            paths = [f"actors.{n}.position.reference" for n in cycle]
+            yield Diagnostic("actors placed relative to each other in a cycle (" + ", ".join(
+                f"{n} -> {refs[n]}" for n in cycle) + "): one of them must reference the ego or a road element "
+                "(also at " + ", ".join(paths[1:]) + ")", paths[0], value=refs[cycle[0]],
+                allowed=["ego", *(e.value for e in RoadElement)])
 
 
 def _actor_checks(s: Scenario) -> Iterator[Diagnostic]:

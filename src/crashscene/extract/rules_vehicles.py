@@ -5,14 +5,22 @@ from __future__ import annotations
 
 import re
 
+from crashscene.extract.errors import RulesError
 from crashscene.extract.narrative import DIR, NUM, count_word, subject_of
 from crashscene.extract.rules_state import RulesState, Vehicle
+
+
+_VEHICLE_WORDS = re.compile(r"\b(?:vehicles?|cars?|sedans?|coupes?|trucks?|pickups?|vans?|minivans?|SUVs?|bus(?:es)?|"
+                            r"motorcycles?|tractor|trailer|drivers?|motorists?|crash(?:es|ed)?|collisions?)\b", re.I)
 
 
 def find_vehicles(state: RulesState) -> None:
     """Every labelled vehicle (V1 always; only V1 in a single-vehicle crash), its direction, lane and body type."""
     text = state.t.text
     labels = sorted({int(n) for n in re.findall(r"\bV([1-9])\b", text)})
+    if not labels and not _VEHICLE_WORDS.search(text):
+        raise RulesError("no vehicle found in the narrative (no V1, V2 ... label and no word for a vehicle or its "
+                         "driver); is this a crash report?", state.report.source)
     single = re.search(r"\bsingle[- ]vehicle\b|\bone[- ]vehicle\b", text, re.I)
     if single or not labels:
         labels = [1]

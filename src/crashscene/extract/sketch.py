@@ -109,13 +109,38 @@ def _ocr_engine():
     return RapidOCR(params={"Global.log_level": "error"})
 
 
-def _run_ocr(data: bytes, image: Path) -> list[OcrLine]:
+MAX_SKETCH_PIXELS = 40_000_000  # [pixels] CIREN sketches are 1-5 Mpx; a 20000 x 20000 image would take 2.4 GB
+
+
+def decode_image(data: bytes, image: Path, grey: bool = False):
+    """Decode a sketch with OpenCV after checking its size from the header (no decoding of huge images)."""
+    import io
+    import warnings
+
     import cv2
     import numpy as np
+    from PIL import Image, UnidentifiedImageError
 
-    pixels = cv2.imdecode(np.frombuffer(data, dtype=np.uint8), cv2.IMREAD_COLOR)
+    too_large = f"at most {MAX_SKETCH_PIXELS // 1_000_000} megapixels are decoded (scale the sketch down)"
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+            with Image.open(io.BytesIO(data)) as header:
+                width, height = header.size
+    except Image.DecompressionBombError as exc:  # PIL's own, higher limit
+        raise SketchError(f"image is too large ({exc}); {too_large}", image) from None
+    except (UnidentifiedImageError, OSError, ValueError):
+        raise SketchError("not a readable image (JPEG or PNG expected)", image) from None
+    if width * height > MAX_SKETCH_PIXELS:
+        raise SketchError(f"image is {width} x {height} pixels; {too_large}", image)
+    pixels = cv2.imdecode(np.frombuffer(data, dtype=np.uint8), cv2.IMREAD_GRAYSCALE if grey else cv2.IMREAD_COLOR)
     if pixels is None:
         raise SketchError("not a readable image (JPEG or PNG expected)", image)
+    return pixels
+
+
+def _run_ocr(data: bytes, image: Path) -> list[OcrLine]:
+    pixels = decode_image(data, image)
     try:
         result = _ocr_engine()(pixels)
     except SketchError:
@@ -273,9 +298,7 @@ def _measure_lines(data: bytes, image: Path) -> LineSummary:
     import cv2
     import numpy as np
 
-    grey = cv2.imdecode(np.frombuffer(data, dtype=np.uint8), cv2.IMREAD_GRAYSCALE)
-    if grey is None:
-        raise SketchError("not a readable image (JPEG or PNG expected)", image)
+    grey = decode_image(data, image, grey=True)
     ink = (grey < _INK).astype(np.uint8)
     side = min(grey.shape)
     found = cv2.HoughLinesP(ink * 255, 1, np.pi / 360, threshold=60, minLineLength=int(_LONG * side), maxLineGap=3)

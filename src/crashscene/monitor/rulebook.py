@@ -2,17 +2,20 @@
 
 A rulebook file::
 
-    imports: [my_company.rules]      # optional: modules that register extra rules (@register_rule)
+    imports: [my_company.rules]      # optional, needs --allow-imports: modules that register extra rules
     rules:
       CVC_21703: {min_headway: 1.5}  # override a threshold
       CVC_22349: {enabled: false}    # switch a rule off
       CVC_22108: {}                  # a user rule registered by an imported module
 
 Every error names the file, the rule code, the parameter, the bad value and
-what is allowed.
+what is allowed. A rulebook is data that may be shared: its `imports` run
+code, so they are refused unless the caller opts in (`allow_imports`,
+`--allow-imports` on the command line).
 """
 from __future__ import annotations
 
+import hashlib
 import importlib
 from pathlib import Path
 from typing import Any
@@ -50,7 +53,7 @@ class Rulebook(BaseModel):
                 for code, rule_cls in registered_rules().items()}
 
     @classmethod
-    def from_mapping(cls, data: Any, source: str = "<rulebook>") -> Rulebook:
+    def from_mapping(cls, data: Any, source: str = "<rulebook>", allow_imports: bool = False) -> Rulebook:
         if data is None:
             data = {}
         if not isinstance(data, dict):
@@ -62,6 +65,9 @@ class Rulebook(BaseModel):
         imports = data.get("imports") or []
         if not isinstance(imports, list) or not all(isinstance(m, str) for m in imports):
             raise RulebookError(f"{source}: imports: expected a list of module names (got {imports!r})")
+        if imports and not allow_imports:
+            raise RulebookError(f"{source}: imports: {', '.join(imports)}: importing Python modules from a rulebook "
+                                f"runs their code; allowed only with --allow-imports (allow_imports=True)")
         for module in imports:
             try:
                 importlib.import_module(module)
@@ -101,20 +107,54 @@ def rulebook_yaml(rulebook: Rulebook | None = None) -> str:
     return "\n".join(lines) + "\n"
 
 
-def load_rulebook(path: str | Path) -> Rulebook:
-    """Read a rulebook YAML file."""
+class _UniqueKeyLoader(yaml.SafeLoader):
+    """SafeLoader that refuses a key written twice in one mapping (plain YAML keeps the last one silently)."""
+
+    def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> dict:
+        seen: dict[Any, int] = {}
+        for key_node, _ in node.value:
+            key = self.construct_object(key_node, deep=True)
+            line = key_node.start_mark.line + 1
+            if isinstance(key, (str, int, float, bool)) and key in seen:
+                raise RulebookError(f"{self.name}:{line}: key {key!r} written twice, on lines {seen[key]} and "
+                                    f"{line}; keep one")
+            seen[key] = line
+        return super().construct_mapping(node, deep=deep)
+
+
+def load_rulebook(path: str | Path, allow_imports: bool = False) -> Rulebook:
+    """Read a rulebook YAML file (`imports` only with `allow_imports`)."""
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
+        text = path.read_bytes().decode("utf-8")
     except OSError as exc:
         raise RulebookError(f"{path}: cannot read rulebook: {exc.strerror or exc}") from exc
+    except UnicodeDecodeError as exc:
+        raise RulebookError(f"{path}: not a rulebook: not UTF-8 text (byte {exc.start}); a rulebook is a YAML "
+                            f"file like the output of `crashscene rules`") from None
+    if "\x00" in text:
+        raise RulebookError(f"{path}: not a rulebook: binary data (NUL bytes); a rulebook is a YAML file")
+    loader = _UniqueKeyLoader(text)
+    loader.name = str(path)
     try:
-        data = yaml.safe_load(text)
+        data = loader.get_single_data()
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f"{path}:{mark.line + 1}" if mark is not None else str(path)
         raise RulebookError(f"{where}: not valid YAML: {getattr(exc, 'problem', exc)}") from exc
-    return Rulebook.from_mapping(data, source=str(path))
+    finally:
+        loader.dispose()
+    return Rulebook.from_mapping(data, source=str(path), allow_imports=allow_imports)
+
+
+def rulebook_digest(path: str | Path | None) -> str | None:
+    """sha256 of a rulebook file's bytes (None without a file): what a resumed campaign compares."""
+    if path is None:
+        return None
+    try:
+        return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+    except OSError as exc:
+        raise RulebookError(f"{path}: cannot read rulebook: {exc.strerror or exc}") from exc
 
 
 def _names(model: type[BaseModel]) -> str:

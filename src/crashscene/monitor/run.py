@@ -11,7 +11,7 @@ from crashscene.monitor.errors import MonitorError, TraceError
 from crashscene.monitor.evaluate import evaluate
 from crashscene.monitor.result import MonitorResult
 from crashscene.monitor.rulebook import Rulebook, load_rulebook
-from crashscene.traces import read_table
+from crashscene.traces import read_table, scenario_digest, stored_digest
 
 OUTPUT_FILES = ("rule_results.parquet", "collisions_classified.parquet", "verdicts.parquet", "monitor.json")
 
@@ -28,6 +28,12 @@ def read_run(run_dir: Path) -> tuple[dict, object]:
         scenario = load_file(scenario_path)
     except DslError as exc:
         raise MonitorError(f"{scenario_path}: invalid scenario:\n{exc}") from exc
+    if (run_dir / "traces.parquet").exists():
+        stored = stored_digest(run_dir)
+        if stored is not None and stored != scenario_digest(scenario):
+            raise MonitorError(f"{scenario_path}: is not the scenario the traces in {run_dir} were simulated "
+                               f"from (scenario sha256 {scenario_digest(scenario)[:12]}, traces {stored[:12]}); "
+                               f"simulate it again, or restore the scenario.yaml of that run")
     tables = {}
     for name in ("traces", "actors", "collisions", "variations"):
         try:
@@ -50,10 +56,11 @@ def write_results(run_dir: Path, result: MonitorResult) -> None:
     (run_dir / "monitor.json").write_text(json.dumps(summary, indent=2, sort_keys=False) + "\n", encoding="utf-8")
 
 
-def monitor_run(run_dir: Path, rules_file: Path | None = None) -> MonitorResult:
+def monitor_run(run_dir: Path, rules_file: Path | None = None, allow_imports: bool = False) -> MonitorResult:
     """Evaluate the run directory's traces (scenario.yaml + Parquet tables) and write
-    rule_results.parquet, collisions_classified.parquet, verdicts.parquet and monitor.json into it."""
-    rulebook = load_rulebook(rules_file) if rules_file is not None else Rulebook()
+    rule_results.parquet, collisions_classified.parquet, verdicts.parquet and monitor.json into it.
+    The rulebook's `imports` run only with `allow_imports`."""
+    rulebook = load_rulebook(rules_file, allow_imports) if rules_file is not None else Rulebook()
     tables, scenario = read_run(Path(run_dir))
     result = evaluate(tables, scenario, rulebook)
     write_results(Path(run_dir), result)

@@ -4,6 +4,7 @@ Public entry points: `simulate_scenario` (pipeline), the backend interface in
 `crashscene.simulate.backend`.
 """
 from crashscene.simulate.backend import (
+    AdsError,
     BackendUnavailable,
     BatchResult,
     SceneResult,
@@ -12,11 +13,12 @@ from crashscene.simulate.backend import (
     SimulationSettings,
     Simulator,
     backend_names,
+    backend_target,
     create_simulator,
     get_simulator_class,
     register_backend,
 )
 
-__all__ = ["BackendUnavailable", "BatchResult", "SceneResult", "SimulationError", "SimulationRequest",
-           "SimulationSettings", "Simulator", "backend_names", "create_simulator", "get_simulator_class",
-           "register_backend"]
+__all__ = ["AdsError", "BackendUnavailable", "BatchResult", "SceneResult", "SimulationError", "SimulationRequest",
+           "SimulationSettings", "Simulator", "backend_names", "backend_target", "create_simulator",
+           "get_simulator_class", "register_backend"]

@@ -17,9 +17,12 @@ recorder. Everything else (which actor is the ADS, which dispositions an
 actor gets, table layout) is shared here, in `crashscene.simulate.tables` and
 in the recorder, so every backend yields rows the monitor reads the same way.
 
-Backends are found by name (`get_simulator_class("embedded")`); optional ones
-(`carla`) are imported lazily so a missing extra only fails its own backend,
-with a `BackendUnavailable` error that says what to install.
+Backends are found by name (`get_simulator_class("embedded")`), by an entry
+point of group `crashscene.backends` in an installed package, or by an import
+string 'package.module:Class': a plugin is named by text, so a spawned worker
+process finds it too. Optional ones (`carla`) are imported lazily so a missing
+extra only fails its own backend, with a `BackendUnavailable` error that says
+what to install.
 """
 from __future__ import annotations
 
@@ -46,6 +49,10 @@ DEFAULT_HORIZON = 20.0  # [s]
 
 class SimulationError(Exception):
     """Any failure of the simulate stage; the message says what, where and what is allowed."""
+
+
+class AdsError(SimulationError):
+    """The ADS under test failed (raised in `step`, or returned a bad action): its fault, not the scenario's."""
 
 
 class BackendUnavailable(SimulationError):
@@ -84,6 +91,9 @@ class SimulationSettings(BaseModel):
                                                            description="overrides of the ADS driver's parameters")
     carla_host: str = Field(default="127.0.0.1", description="CARLA server host (carla backend only)")
     carla_port: int = Field(default=2000, ge=1, le=65535, description="CARLA server port (carla backend only)")
+    conditions: dict[str, float] = Field(default_factory=dict, description="the rulebook's CVC_22350 condition "
+                                         "factors and friction coefficients (factor_wet, friction_ice, ...) the "
+                                         "drivers use; missing keys keep the rules.md defaults")
 
     @property
     def steps(self) -> int:
@@ -197,33 +207,56 @@ _REGISTRY: dict[str, str] = {
     "carla": "crashscene.simulate.carla:CarlaSimulator",
     "dummy": "crashscene.simulate.dummy:DummySimulator",
 }
+ENTRY_POINT_GROUP = "crashscene.backends"  # installed packages declare backends here: name = "module:Class"
+
+
+def _entry_points() -> dict[str, str]:
+    from importlib.metadata import entry_points
+
+    return {ep.name: ep.value for ep in entry_points(group=ENTRY_POINT_GROUP)}
 
 
 def backend_names() -> list[str]:
-    """Names accepted by `--backend`."""
-    return list(_REGISTRY)
+    """Names accepted by `--backend` (besides any 'package.module:Class' import string)."""
+    return list(dict.fromkeys([*_REGISTRY, *_entry_points()]))
 
 
 def register_backend(name: str, target: str | type[Simulator]) -> None:
-    """Register a backend under `name`: a Simulator subclass or a 'module:Class' string."""
+    """Register a backend under `name`: a Simulator subclass or a 'module:Class' string. The registration
+    lives in this process; campaigns carry `backend_target(name)` to their workers, which import it."""
     if isinstance(target, type):
         target = f"{target.__module__}:{target.__qualname__}"
     _REGISTRY[name] = target
 
 
+def backend_target(name: str) -> str:
+    """The 'module:Class' import string of backend `name`: a registered name, an entry point of group
+    `crashscene.backends`, or an import string itself. A worker process resolves it without any registration."""
+    if name in _REGISTRY:
+        return _REGISTRY[name]
+    found = _entry_points().get(name)
+    if found is not None:
+        return found
+    module_name, sep, class_name = name.partition(":")
+    if sep and module_name and class_name:
+        return name
+    raise SimulationError(f"unknown backend {name!r}; allowed: {', '.join(backend_names())}, or "
+                          f"'package.module:Class' of a Simulator subclass")
+
+
 def get_simulator_class(name: str) -> type[Simulator]:
-    """The Simulator class registered as `name`; SimulationError if unknown, BackendUnavailable if not importable."""
-    if name not in _REGISTRY:
-        raise SimulationError(f"unknown backend {name!r}; allowed: {', '.join(_REGISTRY)}")
-    module_name, _, class_name = _REGISTRY[name].partition(":")
+    """The Simulator class of backend `name` (see `backend_target`); SimulationError if unknown,
+    BackendUnavailable if not importable."""
+    target = backend_target(name)
+    module_name, _, class_name = target.partition(":")
     try:
         module = importlib.import_module(module_name)
     except ImportError as exc:
         raise BackendUnavailable(f"backend {name!r} cannot be loaded ({exc}); "
-                                 f"install its extra or choose one of: {', '.join(_REGISTRY)}") from exc
+                                 f"install its extra or choose one of: {', '.join(backend_names())}") from exc
     cls = getattr(module, class_name, None)
     if not (isinstance(cls, type) and issubclass(cls, Simulator)):
-        raise BackendUnavailable(f"backend {name!r}: {_REGISTRY[name]} is not a Simulator class")
+        raise BackendUnavailable(f"backend {name!r}: {target} is not a Simulator class")
     return cls
 
 

@@ -12,6 +12,7 @@ import dataclasses
 import itertools
 import json
 import multiprocessing
+import shutil
 import time
 from collections import Counter
 from collections.abc import Callable
@@ -35,17 +36,51 @@ from crashscene.simulate.backend import (
     create_simulator,
     get_simulator_class,
 )
-from crashscene.traces import write_table
+from crashscene.traces import SCENARIO_DIGEST_KEY, scenario_digest, write_table
 
 
-def simulate_scenario(scenario: Scenario, out_dir: Path, n: int, seed: int, first: int = 0, mode: str = "test",
-                      backend: str = "embedded", ego_role: str = "ego", map_mode: str = "generated",
-                      carla_maps: Path | None = None, ads: str | None = None,
-                      ads_params: dict[str, Any] | None = None, dt: float = DEFAULT_DT,
-                      horizon: float = DEFAULT_HORIZON, carla_host: str = "127.0.0.1", carla_port: int = 2000,
-                      monitor: bool = True, progress: Callable[[int], None] | None = None,
-                      workers: int = 1, sampler: str | None = None) -> dict[str, Any]:
-    """Simulate variations [first, first + n) of `scenario` and write the run directory `out_dir`.
+def simulate_scenario(scenario: Scenario, out_dir: Path, n: int, seed: int, **options: Any) -> dict[str, Any]:
+    """Simulate variations [first, first + n) of `scenario` and write the run directory `out_dir` atomically.
+
+    Everything is written into a temporary sibling folder that replaces `out_dir` only when the run
+    succeeded, so a failed run never leaves new files beside old traces (options: see `_write_run`).
+    """
+    out_dir = Path(out_dir)
+    if out_dir.exists() and not out_dir.is_dir():
+        raise SimulationError(f"--out {out_dir}: is a file; give a folder (created if missing, replaced when the "
+                              f"run succeeds)")
+    work = out_dir.with_name(f".{out_dir.name}.partial")
+    old = out_dir.with_name(f".{out_dir.name}.old")
+    for leftover in (work, old):
+        if leftover.exists():
+            shutil.rmtree(leftover)
+    try:
+        summary = _write_run(scenario, work, n, seed, final_dir=out_dir, **options)
+    except BaseException:
+        shutil.rmtree(work, ignore_errors=True)
+        raise
+    if out_dir.exists():
+        out_dir.rename(old)
+    work.rename(out_dir)
+    shutil.rmtree(old, ignore_errors=True)
+    return summary
+
+
+def _write_run(scenario: Scenario, out_dir: Path, n: int, seed: int, first: int = 0, mode: str = "test",
+               backend: str = "embedded", ego_role: str = "ego", map_mode: str = "generated",
+               carla_maps: Path | None = None, ads: str | None = None,
+               ads_params: dict[str, Any] | None = None, dt: float = DEFAULT_DT,
+               horizon: float = DEFAULT_HORIZON, carla_host: str = "127.0.0.1", carla_port: int = 2000,
+               monitor: bool = True, progress: Callable[[int], None] | None = None,
+               workers: int = 1, sampler: str | None = None, final_dir: Path | None = None,
+               rules_file: Path | None = None, allow_imports: bool = False,
+               rendered_dir: Path | None = None) -> dict[str, Any]:
+    """Simulate variations [first, first + n) of `scenario` into `out_dir` (paths in scenes.jsonl name
+    `final_dir`, where the folder will live).
+
+    `rules_file` is the monitor's rulebook (its `imports` only with `allow_imports`); its CVC_22350 condition
+    factors and friction coefficients also reach the drivers. `rendered_dir` holds this scenario's rendered
+    program and map (a campaign renders each case once): they are copied instead of rendered again.
 
     `workers` > 1 simulates contiguous blocks of variations in that many forked processes (embedded backend;
     with `sampler="scenic"` it also samples in them); the tables are the blocks' tables in index order, the
@@ -64,8 +99,14 @@ def simulate_scenario(scenario: Scenario, out_dir: Path, n: int, seed: int, firs
         raise SimulationError(f"n must be >= 1 and first >= 0 (got n={n}, first={first})")
     if workers < 1:
         raise SimulationError(f"workers must be >= 1 (got {workers})")
+    rulebook = None
+    if rules_file is not None:
+        from crashscene.monitor.rulebook import load_rulebook
+
+        rulebook = load_rulebook(rules_file, allow_imports)
     settings = SimulationSettings(dt=dt, horizon=horizon, mode=mode, ego_role=ego_role, ads=ads,
-                                  ads_params=ads_params or {}, carla_host=carla_host, carla_port=carla_port)
+                                  ads_params=ads_params or {}, carla_host=carla_host, carla_port=carla_port,
+                                  conditions=_conditions(rulebook))
     check_ego_role(scenario, settings)
     sampler = _sampler_for(backend, sampler)
     from crashscene.render import RenderError, render
@@ -77,13 +118,19 @@ def simulate_scenario(scenario: Scenario, out_dir: Path, n: int, seed: int, firs
     start = time.perf_counter()
     dump_file(scenario, out_dir / "scenario.yaml")
     try:
-        rendered = render(scenario, out_dir, map_mode=map_mode, carla_maps=carla_maps)
+        if rendered_dir is not None:
+            rendered = _copy_render(Path(rendered_dir), out_dir)
+        else:
+            rendered = render(scenario, out_dir, map_mode=map_mode, carla_maps=carla_maps)
         timings["render"] = time.perf_counter() - start
         t0 = time.perf_counter()
         scenes = sample_scenes(rendered.program, n, seed, first=first, workers=workers, sampler=sampler)
         timings["sample"] = time.perf_counter() - t0
     except RenderError as exc:
         raise SimulationError(f"render/sample failed: {exc}") from exc
+    if final_dir is not None:
+        scenes = [scene.model_copy(update={"map_file": _moved(scene.map_file, out_dir, Path(final_dir))})
+                  for scene in scenes]
     with open(out_dir / "scenes.jsonl", "w", encoding="utf-8") as fh:
         fh.writelines(scene.model_dump_json() + "\n" for scene in scenes)
 
@@ -92,8 +139,9 @@ def simulate_scenario(scenario: Scenario, out_dir: Path, n: int, seed: int, firs
                                 program=Path(rendered.program).read_text(encoding="utf-8"), progress=progress)
     result = simulate_blocks(backend, settings, request, workers)
     timings["simulate"] = time.perf_counter() - t0
+    digest = scenario_digest(scenario)
     for name, table in result.tables.items():
-        write_table(out_dir, name, table)
+        write_table(out_dir, name, table.replace_schema_metadata({SCENARIO_DIGEST_KEY: digest}))
 
     summary = summarize(result.tables)
     summary.update({"backend": result.backend, "sampler": sampler, "workers": workers, "mode": mode,
@@ -101,9 +149,11 @@ def simulate_scenario(scenario: Scenario, out_dir: Path, n: int, seed: int, firs
                     "ads": ads or ("reference" if mode == "test" else None)})
     if result.notes:
         summary["notes"] = result.notes
+    if rendered_dir is not None:
+        summary["rendered_from"] = str(rendered_dir)  # a campaign's case render, copied rather than redone
     if monitor:
         t0 = time.perf_counter()
-        monitored = _monitor(result.tables, scenario, out_dir)
+        monitored = _monitor(result.tables, scenario, out_dir, rulebook)
         if monitored is not None:
             mc = monitored.pop("monitor_collisions")
             summary["collisions"].update(by_class=mc["by_class"], by_pair=mc["by_pair"])
@@ -113,6 +163,13 @@ def simulate_scenario(scenario: Scenario, out_dir: Path, n: int, seed: int, firs
     summary["timings"] = {k: round(v, 3) for k, v in timings.items()}
     (out_dir / "summary.json").write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
     return summary
+
+
+def _moved(path: str, work: Path, final: Path) -> str:
+    try:
+        return str(final / Path(path).relative_to(work))
+    except ValueError:  # a map outside the run folder (a CARLA town): unchanged
+        return path
 
 
 def _sampler_for(backend: str, sampler: str | None) -> str:
@@ -191,7 +248,30 @@ def summarize(tables: dict[str, pa.Table]) -> dict[str, Any]:
     }
 
 
-def _monitor(tables: dict[str, pa.Table], scenario: Scenario, out_dir: Path) -> dict[str, Any] | None:
+def _conditions(rulebook) -> dict[str, float]:
+    """The rulebook's CVC_22350 condition factors and friction coefficients, for the drivers ({}: defaults)."""
+    params = rulebook.params.get("CVC_22350") if rulebook is not None else None
+    if params is None:
+        return {}
+    return {k: float(v) for k, v in params.model_dump().items()
+            if k.startswith(("factor_", "friction_")) and isinstance(v, (int, float))}
+
+
+def _copy_render(src: Path, out_dir: Path):
+    """The rendered program, map and render.json of `src`, copied into `out_dir` (no second render)."""
+    from crashscene.render import Rendered
+
+    out_dir.mkdir(parents=True, exist_ok=True)
+    meta = json.loads((src / "render.json").read_text(encoding="utf-8"))
+    for path in src.iterdir():  # program, map, render.json, the compiled sampler's sampler.json, Scenic's .snet
+        if path.is_file():
+            shutil.copyfile(path, out_dir / path.name)
+    return Rendered(program=out_dir / meta["program"], map=out_dir / meta["map"],
+                    scenario_hash=meta["scenario_hash"], town=meta.get("town"))
+
+
+def _monitor(tables: dict[str, pa.Table], scenario: Scenario, out_dir: Path,
+             rulebook=None) -> dict[str, Any] | None:
     """Run `crashscene.monitor` when installed; write its outputs; the summary keys it contributes."""
     try:
         from crashscene.monitor import evaluate
@@ -200,7 +280,7 @@ def _monitor(tables: dict[str, pa.Table], scenario: Scenario, out_dir: Path) -> 
         return None
     from crashscene.monitor.criticality import write_criticality
 
-    result = evaluate(tables, scenario)
+    result = evaluate(tables, scenario, rulebook) if rulebook is not None else evaluate(tables, scenario)
     write_results(out_dir, result)
     criticality = write_criticality(out_dir, tables, result.collisions)
     s = result.summary()

@@ -116,7 +116,14 @@ class UnsafeSpeedParams(LimitParams):
 
 def condition_factor(ctx: EvalContext, p: UnsafeSpeedParams) -> tuple[float, list[str]]:
     """Product of the environment's factors and the conditions that set them."""
-    weather, surface, time_of_day = ctx.environment()
+    return environment_factor(*ctx.environment(), p)
+
+
+def environment_factor(weather: str, surface: str, time_of_day: str,
+                       p: UnsafeSpeedParams | None = None) -> tuple[float, list[str]]:
+    """Safe speed / posted limit [-] for these conditions, and the conditions that set it (the drivers use
+    the same function, so a rulebook's factors reach them)."""
+    p = p or UnsafeSpeedParams()
     factor, why = 1.0, []
     if surface == "wet" or weather == "rainy":
         factor *= p.factor_wet
@@ -135,6 +142,12 @@ def condition_factor(ctx: EvalContext, p: UnsafeSpeedParams) -> tuple[float, lis
 
 def friction(ctx: EvalContext, p: UnsafeSpeedParams) -> float:
     weather, surface, _ = ctx.environment()
+    return surface_friction(weather, surface, p)
+
+
+def surface_friction(weather: str, surface: str, p: UnsafeSpeedParams | None = None) -> float:
+    """Tyre-road friction coefficient [-] for the weather and surface."""
+    p = p or UnsafeSpeedParams()
     if surface == "icy":
         return p.friction_ice
     if surface == "snowy" or weather == "snowy":

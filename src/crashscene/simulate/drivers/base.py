@@ -21,14 +21,23 @@ The simulator turns the action into motion with a kinematic bicycle model: the
 commanded acceleration is clipped to the vehicle's limits and the steering
 follows the route, shifted by `lateral_offset` (d, [m], left positive) at a
 bounded lateral rate. Units are SI: m, s, m/s, m/s2, rad.
+
+A driver gets read-only copies of the state (writing into an observation
+raises), and the ADS's every action is checked (`ads_step`): numbers, finite,
+shape (V,), a lateral offset within `MAX_LATERAL_OFFSET`; a failure names the
+ADS class, the field, the actor, the step and the variation.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from collections.abc import Sequence
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 
+from crashscene.simulate.backend import AdsError
 from crashscene.simulate.embedded.vehicles import VehicleLimits
+
+MAX_LATERAL_OFFSET = 20.0  # [m] from the route's lane centre: a lane change is ~3.5 m; beyond this is off any road
 
 # integer codes used in observations (index into crashscene.traces vocabularies)
 CONTROL_NONE, CONTROL_SIGNAL, CONTROL_STOP, CONTROL_YIELD = 0, 1, 2, 3  # traces.CONTROLS
@@ -106,6 +115,17 @@ class Observation:
     others_speed: np.ndarray  # (V, A) [m/s]
     collided: np.ndarray  # bool: this actor has already collided (it is stopped by the simulator)
 
+    def read_only(self) -> Observation:
+        """A copy whose arrays are copies marked read-only: a driver cannot change the simulator's state."""
+        values = {}
+        for f in fields(self):
+            value = getattr(self, f.name)
+            if isinstance(value, np.ndarray):
+                value = value.copy()
+                value.flags.writeable = False
+            values[f.name] = value
+        return Observation(**values)
+
 
 @dataclass
 class Action:
@@ -115,6 +135,64 @@ class Action:
     lateral_offset: np.ndarray | None = None  # [m] target d (left positive); None keeps the lane centre (0)
     lose_control: np.ndarray | None = None  # bool: from now on the vehicle skids (yaw spin, friction braking)
     spin_rate: np.ndarray | None = None  # [rad/s] yaw rate while skidding (sign = direction)
+
+
+def ads_step(driver: object, obs: Observation, role: str, step: int, variations: Sequence[int]) -> Action:
+    """`driver.step(obs)` of the ADS under test, checked: AdsError naming the ADS class, the field, the actor
+    (`role`), the step and the variation (`variations[i]` is the index of batch entry i)."""
+    name = type(driver).__name__
+    where = f"ADS {name} driving {role!r} at step {step} (t = {obs.t:.2f} s)"
+    try:
+        action = driver.step(obs)
+    except Exception as exc:  # the user's code: re-raised as its fault, with the traceback chained
+        raise AdsError(f"{where}: step() raised {type(exc).__name__}: {exc}") from exc
+    if not isinstance(action, Action):
+        raise AdsError(f"{where}: step() returned {type(action).__name__}; expected "
+                       f"crashscene.simulate.drivers.base.Action")
+    n_v = obs.speed.shape[0]
+    out = {}
+    for name_, required in (("accel", True), ("lateral_offset", False), ("spin_rate", False)):
+        value = getattr(action, name_)
+        if value is None and not required:
+            out[name_] = None
+            continue
+        out[name_] = _numbers(value, name_, n_v, where, variations)
+    offset = out["lateral_offset"]
+    if offset is not None and np.any(far := np.abs(offset) > MAX_LATERAL_OFFSET):
+        i = int(np.argmax(far))
+        raise AdsError(f"{where}: Action.lateral_offset = {offset[i]:g} m in variation {variations[i]}; allowed: "
+                       f"within +-{MAX_LATERAL_OFFSET:g} m of the route's lane centre (a lane is ~3.5 m)")
+    lose = action.lose_control
+    if lose is not None:
+        lose = np.asarray(lose)
+        if lose.dtype != bool or lose.shape not in ((), (n_v,)):
+            raise AdsError(f"{where}: Action.lose_control must be a bool array of shape ({n_v},) or a bool "
+                           f"(got dtype {lose.dtype}, shape {lose.shape})")
+    return Action(accel=out["accel"], lateral_offset=offset, lose_control=lose, spin_rate=out["spin_rate"])
+
+
+def _numbers(value: object, field_name: str, n_v: int, where: str, variations: Sequence[int]) -> np.ndarray:
+    """`value` as a float array of shape (n_v,) (a scalar broadcasts); AdsError if not numbers or not finite."""
+    allowed = f"a finite number or a float array of shape ({n_v},), one entry per variation"
+    try:
+        array = np.asarray(value)
+    except Exception:  # noqa: BLE001 - any object numpy cannot take is the same user error
+        array = np.asarray(None)
+    if array.dtype == bool or not (np.issubdtype(array.dtype, np.integer) or np.issubdtype(array.dtype, np.floating)):
+        raise AdsError(f"{where}: Action.{field_name} is {_describe(value)}; allowed: {allowed}")
+    if array.shape not in ((), (n_v,)):
+        raise AdsError(f"{where}: Action.{field_name} has shape {array.shape}; allowed: {allowed}")
+    array = np.broadcast_to(array.astype(float), (n_v,))
+    bad = ~np.isfinite(array)
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise AdsError(f"{where}: Action.{field_name} = {array[i]} in variation {variations[i]}; allowed: {allowed}")
+    return array
+
+
+def _describe(value: object) -> str:
+    text = repr(value)
+    return f"a {type(value).__name__} ({text if len(text) <= 60 else text[:57] + '...'})"
 
 
 class Driver:

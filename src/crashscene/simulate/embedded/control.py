@@ -27,7 +27,8 @@ def entry_controls(scenario: Scenario, scene: SampledScene, arrays: RouteArrays,
 
     def first_entry(a: int) -> int | None:
         r = int(route0[a])
-        ahead = np.nonzero(arrays.entry_s[r] > s0[a] - 1.0)[0]
+        # entry_s is padded with inf past a route's last entry: a road without a junction has no entry at all
+        ahead = np.nonzero(np.isfinite(arrays.entry_s[r]) & (arrays.entry_s[r] > s0[a] - 1.0))[0]
         return int(ahead[0]) if len(ahead) else None
 
     ego_col = next((a for a, act in enumerate(scene.actors) if act.role == "ego"), anchor)
@@ -84,7 +85,8 @@ def control_tables(scenario: Scenario, scenes: list[SampledScene], arrays: Route
     for v, scene in enumerate(scenes):
         firsts = []
         for a in range(route.shape[1]):
-            ahead = np.nonzero(arrays.entry_s[route[v, a]] > s0[v, a] - 1.0)[0]
+            entries = arrays.entry_s[route[v, a]]
+            ahead = np.nonzero(np.isfinite(entries) & (entries > s0[v, a] - 1.0))[0]
             firsts.append(int(ahead[0]) if len(ahead) else -1)
         key = (tuple(int(r) for r in route[v]), tuple(firsts), tuple(a.reference for a in scene.actors))
         if key not in cache:

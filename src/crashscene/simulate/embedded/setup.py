@@ -220,14 +220,15 @@ def build(scenario: Scenario, scenes: list[SampledScene], roadmap: RoadMap,
     drifted = np.zeros((n_v, n_a))  # [m] lateral head start of a swerve that began before t = 0
     skids = np.full((n_v, n_a, 3), np.nan)  # planned (spin rate [rad/s], drift [rad], hold [s]) of a loss of control
     runs_red = "CVC_21453" in columns[anchor].dispositions
+    factor = condition_factor(scenario, settings.conditions)
     for v, scene in enumerate(scenes):
         rng = variation_rng(scene.seed, scene.index)
         plan_variation(v, scene, rng, columns, anchor, arrays, route, s0, d0, speed, length, tables[v][0],
                         lateral_target, hold, trigger, scale, phase, conflict_time, runs_red,
-                        condition_factor(scenario), mph(scenario.road_network.speed_limit_mph), planned, moved,
+                        factor, mph(scenario.road_network.speed_limit_mph), planned, moved,
                         settings.mode == "reproduce", drifted, skids, classes, contact_strikers(scenario),
                         first_contact_pair(scenario),
-                        friction(scenario), width,
+                        friction(scenario, settings.conditions), width,
                         float(np.median(lane_width[v])))
     pullout = _pullout(columns, anchor, arrays, route, s0, tables, priority, hold, settings)
     if drifted.any():
@@ -267,7 +268,7 @@ def build(scenario: Scenario, scenes: list[SampledScene], roadmap: RoadMap,
         unseen=unseen_partners(scenario, columns, settings.mode == "reproduce"),
         meeting=_meeting(scenario, columns, arrays, route, s0, length, hold, tables, settings),
         pullout=pullout,
-        condition_factor=condition_factor(scenario), friction=friction(scenario),
+        condition_factor=factor, friction=friction(scenario, settings.conditions),
         invalid=invalid, conflict_time=conflict_time, default_speed_limit=limit * MPH if limit else math.nan,
         lane_width_table=lane_width_table,
         lane_road=np.array([road_names.index(lane.road) for lane in roadmap.lanes]),
@@ -544,30 +545,19 @@ def _straight_route(key: tuple, actor: SampledActor, length: float) -> Route:
                  np.full(n, -1, dtype=np.int32), np.full(n, np.nan), np.full(n, np.nan), [])
 
 
-def condition_factor(scenario: Scenario) -> float:
-    """Safe-speed factor on the posted limit (rules.md rule 6): wet 0.85, fog 0.70, snow/ice 0.60, night 0.90."""
+def condition_factor(scenario: Scenario, conditions: dict[str, float] | None = None) -> float:
+    """Safe-speed factor on the posted limit (rules.md rule 6; the monitor's CVC_22350 parameters, overridden
+    by `conditions` from a rulebook)."""
+    from crashscene.monitor.rules.speed import UnsafeSpeedParams, environment_factor
+
     env = scenario.environment
-    weather, surface, light = str(env.weather), str(env.road_surface), str(env.time_of_day)
-    factor = 1.0
-    if surface == "wet" or weather == "rainy":
-        factor *= 0.85
-    if weather == "foggy":
-        factor *= 0.70
-    if weather == "snowy" or surface in ("snowy", "icy"):
-        factor *= 0.60
-    if light == "nighttime":
-        factor *= 0.90
-    return factor
+    params = UnsafeSpeedParams(**(conditions or {}))
+    return environment_factor(str(env.weather), str(env.road_surface), str(env.time_of_day), params)[0]
 
 
-def friction(scenario: Scenario) -> float:
-    """Tyre-road friction coefficient [-] of the scenario's surface."""
+def friction(scenario: Scenario, conditions: dict[str, float] | None = None) -> float:
+    """Tyre-road friction coefficient [-] of the scenario's surface (as the monitor's CVC_22350 has it)."""
+    from crashscene.monitor.rules.speed import UnsafeSpeedParams, surface_friction
+
     env = scenario.environment
-    weather, surface = str(env.weather), str(env.road_surface)
-    if surface == "icy":
-        return 0.15
-    if surface == "snowy" or weather == "snowy":
-        return 0.3
-    if surface == "wet" or weather == "rainy":
-        return 0.5
-    return 0.8
+    return surface_friction(str(env.weather), str(env.road_surface), UnsafeSpeedParams(**(conditions or {})))

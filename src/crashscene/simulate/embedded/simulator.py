@@ -32,6 +32,7 @@ from crashscene.simulate.drivers.base import (
     Action,
     DriverContext,
     Observation,
+    ads_step,
 )
 from crashscene.simulate.drivers.behaviors import BehaviorDriver
 from crashscene.simulate.embedded import setup as batch_setup
@@ -122,6 +123,7 @@ def run_batch(batch: batch_setup.BatchSetup, recorder: Recorder) -> None:
     recorder.begin(batch)
     _check_collisions(batch, state, recorder, 0.0, initial=True)
     lat_cmd = batch.d0.copy()
+    variations = [scene.index for scene in batch.scenes]
     planned_cruise = batch.cruise.copy()
     meeting = batch.meeting
     for step in range(n_steps + 1):
@@ -136,8 +138,11 @@ def run_batch(batch: batch_setup.BatchSetup, recorder: Recorder) -> None:
             batch.cruise[idx, meeting.follower[idx]] = cruise  # the drivers hold views of these columns
         accel_cmd = np.zeros((n_v, n_a))
         for a, driver in enumerate(drivers):
-            obs = _observe(batch, state, geo, a, t, ranges[a])
-            action: Action = driver.step(obs)
+            obs = _observe(batch, state, geo, a, t, ranges[a]).read_only()
+            if batch.columns[a].is_ads:
+                action: Action = ads_step(driver, obs, batch.columns[a].role, step, variations)
+            else:
+                action = driver.step(obs)
             accel_cmd[:, a] = np.broadcast_to(np.asarray(action.accel, dtype=float), (n_v,))
             if action.lateral_offset is not None:
                 lat_cmd[:, a] = np.broadcast_to(np.asarray(action.lateral_offset, dtype=float), (n_v,))
