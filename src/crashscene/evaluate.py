@@ -282,6 +282,15 @@ def _folder_file(folder: Path) -> Path | None:
 
 def evaluate_dirs(gold_dir: Path | str, pred_dir: Path | str, allow_missing: bool = False) -> EvalResult:
     """Load both directories, match cases by id and score them."""
+    pairs, errors, extra = load_pairs(gold_dir, pred_dir, allow_missing)
+    result = evaluate(pairs, errors)
+    result.ignored_predictions = extra
+    return result
+
+
+def load_pairs(gold_dir: Path | str, pred_dir: Path | str, allow_missing: bool = False
+               ) -> tuple[dict[str, tuple[Scenario, Scenario | None]], dict[str, str], list[str]]:
+    """Case id -> (golden, predicted or None), the load errors per case, and predictions without a golden file."""
     gold_files = case_files(gold_dir)
     pred_files = case_files(pred_dir)
     if not gold_files:
@@ -311,9 +320,7 @@ def evaluate_dirs(gold_dir: Path | str, pred_dir: Path | str, allow_missing: boo
         else:
             errors[case] = "no prediction"
         pairs[case] = (gold, pred)
-    result = evaluate(pairs, errors)
-    result.ignored_predictions = extra
-    return result
+    return pairs, errors, extra
 
 
 def _names(cases: list[str], limit: int = 8) -> str:

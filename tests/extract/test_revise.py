@@ -101,3 +101,25 @@ def test_impossible_oracle_entries_are_flagged_and_pruned() -> None:
     assert [e.code for e in pruned.oracle] == ["CVC_21650", "CVC_21460"] and len(dropped) == 2
     assert pruned.evidence == {"oracle[0]": "V1 drifted across the centerline"}
     validate(pruned)
+
+
+def test_missing_rear_end_code_is_derived_from_the_crash_sequence() -> None:
+    scenario, narrative = golden("120013")  # V1 drove into the rear of the stopped V2
+    found = review(scenario.model_copy(update={"oracle": []}), narrative)
+    assert any(f.path == "oracle" and "CVC_22350" in f.message and "stopped" in f.message for f in found)
+
+
+def test_missing_stop_sign_code_for_a_stop_controlled_actor_in_an_angle_contact() -> None:
+    scenario, narrative = golden("117021")  # V1 from its stop sign, struck on the right by V2
+    found = review(scenario.model_copy(update={"oracle": []}), narrative)
+    assert any("CVC_21802" in f.message and f.message.startswith("ego") for f in found)
+
+
+def test_crash_sequence_is_checked_against_the_impact_sentences() -> None:
+    scenario, narrative = golden("100237")  # the front of V2 struck the right side of V1
+    contact = scenario.collisions[0]
+    swapped = contact.model_copy(update={"striking": contact.struck, "struck": contact.striking})
+    found = review(scenario.model_copy(update={"collisions": [swapped]}), narrative)
+    assert any(f.path == "collisions[0]" and "front of V2 struck the right side of V1" in f.message for f in found)
+    found = review(scenario.model_copy(update={"collisions": []}), narrative)
+    assert any(f.path == "collisions" and "describe 1" in f.message for f in found)

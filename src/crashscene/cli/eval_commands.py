@@ -12,6 +12,9 @@ from crashscene.cli import app
 
 _GOLD_HELP = "Golden scenarios: <case>.yaml files or <case>/golden.yaml folders."
 _PRED_HELP = "Predicted scenarios, same layouts (<case>.yaml, or <case>/ with golden.yaml, scenario.yaml or one .yaml)."
+_FOLDS_HELP = ("Also split the cases into K folds (deterministic: ids ordered by SHA-256, dealt round-robin) and "
+               "score each; a fold no extraction rule was written from (crashscene.extract.rule_sources) is "
+               "reported as held out, with its per-field accuracy.")
 _MISSING_HELP = "Score golden cases without a prediction as 0 and ignore extra predictions instead of failing."
 
 
@@ -22,17 +25,37 @@ def eval_command(
     as_json: Annotated[bool, typer.Option("--json", help="Machine-readable result on stdout.")] = False,
     allow_missing: Annotated[bool, typer.Option("--allow-missing", help=_MISSING_HELP)] = False,
     diffs: Annotated[bool, typer.Option("--diffs/--no-diffs", help="Per-case diffs in the text report.")] = True,
+    folds: Annotated[int | None, typer.Option("--folds", min=2, help=_FOLDS_HELP)] = None,
 ) -> None:
     """Score predictions against golden files (dsl.md section 4): per-component and overall accuracy, oracle
     precision, extensions, a per-field confusion table and per-case diffs. Exit 2 on unusable inputs."""
-    from crashscene.evaluate import EvalError, evaluate_dirs, format_result
+    from crashscene.eval_folds import evaluate_folds, format_folds
+    from crashscene.evaluate import EvalError, evaluate, format_result, load_pairs
+    from crashscene.extract.rule_sources import RULE_SOURCES
 
     try:
-        result = evaluate_dirs(gold, pred, allow_missing=allow_missing)
+        pairs, errors, extra = load_pairs(gold, pred, allow_missing=allow_missing)
+        result = evaluate(pairs, errors)
+        result.ignored_predictions = extra
+        per_fold, held_out = evaluate_folds(pairs, folds, RULE_SOURCES, errors) if folds else ([], None)
     except EvalError as exc:
         typer.echo(f"error: {exc}", err=True)
         raise typer.Exit(2) from None
     if as_json:
-        typer.echo(json.dumps(result.to_json(), indent=2))
+        out = result.to_json()
+        if folds:
+            out["folds"] = [{"fold": f.fold, "cases": f.cases, "held_out": f.held_out, **_summary(f.result)}
+                            for f in per_fold]
+            out["held_out"] = _summary(held_out) if held_out else None
+        typer.echo(json.dumps(out, indent=2))
     else:
         typer.echo(format_result(result, diffs=diffs))
+        if folds:
+            typer.echo("")
+            typer.echo(format_folds(per_fold, held_out))
+
+
+def _summary(result) -> dict:
+    """The headline figures of one result (no per-case diffs)."""
+    full = result.to_json()
+    return {key: full[key] for key in ("overall", "components", "oracle_precision", "extensions", "fields")}

@@ -253,7 +253,8 @@ def from_scenario(scenario: Scenario) -> LlmScenario:
                                     road_marker=road.road_marker, traffic_signs=road.traffic_signs,
                                     speed_limit_mph=road.speed_limit_mph, curve_direction=road.curve_direction),
         ego=ego_reply, npcs=[npc(name, actor) for name, actor in scenario.npcs.items()], oracle=oracle,
-        collisions=[LlmContact(quote=scenario.evidence.get("collisions", "") if index == 0 else "",
+        collisions=[LlmContact(quote=scenario.evidence.get(f"collisions[{index}]")
+                               or (scenario.evidence.get("collisions", "") if index == 0 else ""),
                                striking=c.striking, struck=c.struck, striking_area=c.striking_area,
                                struck_area=c.struck_area, collision_class=c.class_)
                     for index, c in enumerate(scenario.collisions or [])])

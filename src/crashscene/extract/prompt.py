@@ -2,8 +2,10 @@
 
 The system message states what the DSL is, enumerates every allowed token
 (read from `crashscene.dsl.tokens`, so the prompt cannot drift from the
-validator), and walks the model through four constrained decisions in order:
-environment, road network, actors, oracle. Each decision must rest on a quote
+validator), and walks the model through five constrained decisions in order:
+environment, road network, actors, the crash sequence (collisions), oracle; the
+oracle step derives each entry from the decided manoeuvres, devices and contacts
+(dsl.md convention 9). Each decision must rest on a quote
 from the narrative or on a sketch fact; quotes go into the per-section
 `evidence` lists that the structured-output schema places before the values.
 
@@ -32,8 +34,10 @@ from crashscene.dsl.tokens import (
     MONITORED_CODES,
     ActorType,
     Behavior,
+    CollisionClass,
     CurveDirection,
     Heading,
+    ImpactArea,
     Relation,
     RoadElement,
     RoadMarker,
@@ -119,8 +123,29 @@ STEP 3 actors: ego is V1 (the case vehicle); npcs are the other vehicles in repo
   Cross traffic at a junction references the junction element or its device, relation = the side it comes from, heading from_left/from_right, worked out from the travel directions (V1 eastbound, V2 northbound: V2 comes from V1's right).
 - speed_mph: only when the report states that vehicle's speed, else null.
 
-STEP 4 oracle: every California Vehicle Code violation the pre-crash sequence entails, attributed to the \
-actor that committed it, with a one-sentence description and a supporting quote. Monitored codes \
+STEP 4 collisions: the crash sequence, every contact between two actors in the order it happens (first \
+harmful event first; "(Event 2)" numbers give the order). Contacts with trees, poles, barriers, curbs or \
+animals are never listed; a run-off-road crash with no contact between actors has collisions []. For each \
+contact quote the impact sentence, then give:
+- striking and struck: the roles the report says struck and was struck ("the front of V2 struck the right side \
+of V1": striking npc1, struck ego; "V1 was struck by V3": striking npc2). When the report says "V1 struck V2" \
+keep that wording even if V2 moved into V1's path. A vehicle pushed into another by a first impact makes its \
+own later contact ("the impact pushed V1 into V3": striking ego, struck npc2).
+- striking_area, struck_area: {tokens(ImpactArea)}: the plane of each vehicle that touched ("frontal plane" \
+-> front, "back plane" -> rear, "left side" -> left). When the report names no area, use the damage it \
+describes, else the geometry: front into the rear of a vehicle ahead, front into the front of an oncoming one, \
+front into the side of a crossing one (a vehicle crossing from the striker's left is hit on its right side).
+- class: {tokens(CollisionClass)}: front into rear, same direction -> rear_end; front into front -> head_on; \
+front into a side (T-type, L-type, oblique) -> angle; side against side or a glancing corner -> sideswipe. \
+"head-on", "sideswiped", "rear-ended", "front-to-rear", "T-type" in the report settle it.
+
+STEP 5 oracle: every California Vehicle Code violation the pre-crash sequence entails, attributed to the \
+actor that committed it, with a one-sentence description and a supporting quote. Derive each entry from what \
+you decided: the behaviours (cross_centerline or overtake -> CVC_21650, and CVC_21460 too when road_marker is \
+double_solid_line; lose_control -> CVC_22350; a lane change into another vehicle -> CVC_22107), the devices \
+on each approach, the collisions (a vehicle that drove its front into the rear of a moving vehicle ahead -> \
+CVC_21703, of a stopped one -> CVC_22350; never for a contact it was pushed into) and the report's cause \
+statements ("failed to stop", "too fast for conditions", "ran the red light", "speeding"). Monitored codes \
 (code, violation token, when):
 {codes}
   Other codes are allowed when the report clearly supports them (e.g. CVC_21804 driveway_yield: left a \
@@ -149,7 +174,7 @@ def case_message(narrative: str, facts: list[str] | tuple[str, ...], image: dict
     fact_lines = "\n".join(f"- {fact}" for fact in facts) if facts else "- (no sketch facts)"
     text = (f"Crash report narrative:\n<<<\n{narrative.strip()}\n>>>\n\n"
             f"Sketch facts (read offline from the crash sketch; may be partial):\n{fact_lines}\n\n"
-            "Extract the scenario: environment, then road_network, then actors, then oracle.")
+            "Extract the scenario: environment, then road_network, then actors, then collisions, then oracle.")
     if image is None:
         return {"role": "user", "content": text}
     return {"role": "user", "content": [{"type": "text", "text": text},

@@ -10,7 +10,9 @@ Two loops, both bounded:
   sketch facts (evidence quotes that are not in the report, a weather or time
   of day the report never mentions, a speed limit that differs from the stated
   one, a lane count that contradicts the sketch, a behaviour with no support in
-  the text, an oracle that does not follow the behaviour); `revise` sends the
+  the text, an oracle that does not follow convention 9 from the decided
+  behaviours, devices and contacts, a crash sequence that differs from the
+  report's impact sentences as the rules backend reads them); `revise` sends the
   draft and the findings back once for a corrected scenario, which must again
   pass validation. A revision is kept only when it leaves no more findings than
   the draft; findings that remain become warnings of the case.
@@ -24,12 +26,13 @@ import json
 import re
 from collections.abc import Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 from crashscene.dsl import DslError, Scenario, validate
 from crashscene.dsl.errors import Severity
 from crashscene.dsl.model import OracleEntry
-from crashscene.dsl.tokens import Behavior, RoadMarker, RoadType, Sign, TimeOfDay, Weather
+from crashscene.dsl.tokens import Behavior, Heading, RoadMarker, RoadType, Sign, TimeOfDay, Weather
 from crashscene.dsl.validate import check
 from crashscene.extract.errors import ExtractError
 from crashscene.extract.llm_schema import from_scenario, to_scenario
@@ -144,6 +147,8 @@ def review(scenario: Scenario, narrative: str, facts: Sequence[str] = ()) -> lis
     found += _road_findings(scenario, text, sketch)
     found += _actor_findings(scenario, text, sketch)
     found += _oracle_findings(scenario)
+    found += _sequence_findings(scenario)
+    found += _collision_findings(scenario, narrative)
     found += [Finding(d.path, d.message) for d in check(scenario) if d.severity == Severity.WARNING
               and "evidence" not in d.path]
     return found
@@ -267,6 +272,91 @@ def _oracle_findings(s: Scenario) -> list[Finding]:
         problem = oracle_conflict(s, entry)
         if problem:
             found.append(Finding(f"oracle[{index}].code", problem))
+    return found
+
+
+def _sequence_findings(s: Scenario) -> list[Finding]:
+    """Convention 9 read from the draft's own crash sequence and devices: rear-end contacts the striker drove
+    into (CVC_21703 on a moving vehicle, CVC_22350 on a stopped one), a lane change into another vehicle
+    (CVC_22107), and a stop- or yield-controlled actor in an angle contact (CVC_21802/CVC_22450, CVC_21803)."""
+    found = []
+    codes = {(entry.code, entry.actor) for entry in s.oracle}
+    struck_before: set[str] = set()
+    in_contact: set[str] = set()
+    for index, contact in enumerate(s.collisions or []):
+        striker, struck = contact.striking, contact.struck
+        in_contact |= {striker, struck}
+        other = s.actors.get(struck)
+        rear = contact.struck_area.value == "rear" and contact.striking_area.value != "rear"
+        free = striker not in struck_before and s.actors.get(striker) is not None and \
+            s.actors[striker].behavior not in (Behavior.LEAVE_ROAD, Behavior.LOSE_CONTROL, Behavior.STATIC)
+        stopped = other is not None and other.behavior in (Behavior.STOP, Behavior.STATIC)
+        headings = {_heading(s, striker), _heading(s, struck)}
+        in_path = stopped and (None in headings or len(headings) == 1)  # a stopped vehicle in the striker's lane
+        if (rear or in_path) and free and other is not None:
+            code, token = ("CVC_22350", "unsafe_speed") if stopped else ("CVC_21703", "following_too_closely")
+            if (code, striker) not in codes:
+                state = "stopped" if stopped else "moving"
+                found.append(Finding("oracle", f"collisions[{index}]: {striker} drove into the {state} {struck} ahead "
+                                     f": {code} {token} for {striker} is missing (convention 9)"))
+        if contact.class_.value == "angle":
+            for name in (striker, struck):
+                reference = s.actors[name].position.reference if name in s.actors else None
+                if reference == "stop_sign" and not {("CVC_21802", name), ("CVC_22450", name)} & codes:
+                    found.append(Finding("oracle", f"{name} comes from a stop-controlled approach into an angle "
+                                         "contact: CVC_21802 stop_sign_yield (or CVC_22450 stop_sign when the "
+                                         "report says it did not stop) is missing"))
+                if reference == "yield_sign" and ("CVC_21803", name) not in codes:
+                    found.append(Finding("oracle", f"{name} comes from a yield-controlled approach into an angle "
+                                         "contact: CVC_21803 yield_sign is missing"))
+        struck_before.add(struck)
+    for name, actor in s.actors.items():
+        changing = actor.behavior in (Behavior.CHANGE_LANE_LEFT, Behavior.CHANGE_LANE_RIGHT)
+        if changing and name in in_contact and ("CVC_22107", name) not in codes and not any(
+                other.behavior in (Behavior.LOSE_CONTROL, Behavior.CROSS_CENTERLINE, Behavior.LEAVE_ROAD)
+                for other_name, other in s.actors.items() if other_name != name):
+            found.append(Finding("oracle", f"{name} changes lanes into another vehicle: CVC_22107 "
+                                 "unsafe_lane_change is missing"))
+    return found
+
+
+def _heading(s: Scenario, name: str) -> Heading | None:
+    """An actor's travel direction relative to the ego (the ego's own is same_direction)."""
+    if name == "ego":
+        return Heading.SAME_DIRECTION
+    actor = s.actors.get(name)
+    return actor.position.heading if actor is not None else None
+
+
+def _collision_findings(s: Scenario, narrative: str) -> list[Finding]:
+    """The draft's crash sequence against the report's impact sentences, as the rules backend reads them."""
+    from crashscene.extract.report import Report
+    from crashscene.extract.rules import extract_rules
+
+    try:
+        reading = extract_rules(Report(case_id="review", narrative=narrative, source=Path("narrative")), [])
+    except ExtractError:
+        return []
+    expected = reading.collisions or []
+    drafted = s.collisions or []
+    if not expected and not drafted:
+        return []
+
+    def show(contact: Any) -> str:
+        return (f"{contact.striking} {contact.striking_area.value} -> {contact.struck} {contact.struck_area.value} "
+                f"({contact.class_.value})")
+
+    found = []
+    if len(expected) != len(drafted):
+        found.append(Finding("collisions", f"{len(drafted)} contact(s), but the report's impact sentences describe "
+                             f"{len(expected)}: " + ("; ".join(show(c) for c in expected) or "no contact between "
+                                                    "two actors")))
+        return found
+    for index, (mine, theirs) in enumerate(zip(drafted, expected)):
+        if (mine.striking, mine.struck, mine.class_) != (theirs.striking, theirs.struck, theirs.class_):
+            quote = reading.evidence.get(f"collisions[{index}]", "")
+            found.append(Finding(f"collisions[{index}]", f"{show(mine)}, but the report reads {show(theirs)}"
+                                 + (f": {quote!r}" if quote else "")))
     return found
 
 

@@ -33,6 +33,7 @@ from crashscene.extract.narrative import Narrative, clip
 from crashscene.extract.nhtsa_xml import nhtsa_facts
 from crashscene.extract.report import Report
 from crashscene.extract.rules_behavior import decide_behaviors
+from crashscene.extract.rules_collisions import decide_collisions
 from crashscene.extract.rules_environment import decide_environment
 from crashscene.extract.rules_oracle import decide_oracle
 from crashscene.extract.rules_positions import decide_actors
@@ -60,6 +61,7 @@ def extract_rules(report: Report, facts: list[SketchFact] | None = None) -> Scen
     road = decide_road_network(state)
     decide_behaviors(state)
     actors = decide_actors(state, road)
+    collisions = decide_collisions(state, actors)
     oracle = decide_oracle(state, road)
     raw = {
         "scenario_id": f"CIREN-{report.case_id}",
@@ -68,6 +70,7 @@ def extract_rules(report: Report, facts: list[SketchFact] | None = None) -> Scen
         "road_network": road,
         "actors": actors,
         "oracle": oracle,
+        "collisions": collisions,
         "evidence": dict(sorted(state.evidence.items())),
     }
     try:

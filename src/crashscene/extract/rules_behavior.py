@@ -70,6 +70,9 @@ _PROCEED = (r"\b(?:then |and )?(?:proceeded|pulled (?:out|into|forward)|entered|
             r"began to (?:cross|proceed|move))")
 
 
+# "drifted to the left and into the path of V2": into an oncoming vehicle's path is into the opposing lanes
+_INTO_PATH = (r"(?:drift|veer|swerv|steer|travel|mov|cross|went|go)\w*\s+(?:[\w,-]+\s+){0,6}?into the (?:travel )?"
+              r"(?:path|lane) of (V[1-9])\b")
 _INTO_LANE = (r"across the (?:north|south|east|west)bound (?:travel )?lanes?|(?:into|enter(?:ed|ing|s)?|in) the "
               r"(?:north|south|east|west)bound (?:travel )?lanes?(?! of)")
 _RAMP = r"\b(?:entrance|on)[- ]ramp\b|\bacceleration lane\b"
@@ -81,11 +84,11 @@ PHRASES = (
     (_LOSE, "lose_control"), (_CROSS, "cross_centerline"), (_LEAVE, "leave_road"), (_OVERTAKE, "overtake"),
     (_LANE_CHANGE, "lane_change"), (_LANE_CHANGE_SIDE, "lane_change_side"), (_RAMP_MERGE, "ramp_merge"),
     (_TURN_LEFT, "turn_left"), (_TURN_RIGHT, "turn_right"), (_U_TURN, "u_turn"), (_STOPPED, "stop"),
-    (_PARKED, "static"), (_DECEL, "decelerate"), (_INTO_LANE, "into_lane"),
+    (_PARKED, "static"), (_DECEL, "decelerate"), (_INTO_LANE, "into_lane"), (_INTO_PATH, "into_path"),
 )
 # manoeuvres where the first one stated is the primary one (convention 8: crossed first -> cross_centerline)
 _EVENTS = ("lose_control", "cross_centerline", "leave_road", "overtake", "lane_change", "lane_change_side",
-           "ramp_merge", "into_lane")
+           "ramp_merge", "into_lane", "into_path")
 
 Phrase = tuple[int, str, re.Match]  # position in the pre-crash text, token, match
 
@@ -185,7 +188,7 @@ def _resolve(state: RulesState, vehicle: Vehicle, found: list[Phrase]) -> tuple[
     if parked:
         return "static", around(state.t.text, parked, 80)
     for _, token, match in found:
-        event = _event(vehicle, token, match) if token in _EVENTS else None
+        event = _event(vehicle, token, match, state) if token in _EVENTS else None
         if event:
             return event, quote(match)
     stop = next((m for _, t, m in found if t == "stop"), None)
@@ -204,8 +207,12 @@ def _resolve(state: RulesState, vehicle: Vehicle, found: list[Phrase]) -> tuple[
     return "go_forward", None
 
 
-def _event(vehicle: Vehicle, token: str, match: re.Match) -> str | None:
+def _event(vehicle: Vehicle, token: str, match: re.Match, state: RulesState) -> str | None:
     """The behaviour a lane-leaving phrase means for this vehicle, or None when it does not apply."""
+    if token == "into_path":
+        other = state.vehicles.get(match.group(1))
+        oncoming = other is not None and other.direction is not None and _opposite(vehicle, other.direction)
+        return "cross_centerline" if oncoming else None
     if token in ("lose_control", "cross_centerline", "leave_road", "overtake"):
         return token
     if token == "lane_change":

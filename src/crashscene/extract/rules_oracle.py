@@ -1,11 +1,21 @@
 """Rules extractor: the oracle, the California Vehicle Code violations the pre-crash sequence entails
 (dsl.md convention 9), each attributed to its actor.
+
+Every entry follows mechanically from what the earlier steps decided, never from a case's wording:
+the manoeuvre (lose_control -> CVC_22350; cross_centerline/overtake -> CVC_21650, plus CVC_21460 on a
+double solid centre line; a lane change into another vehicle -> CVC_22107), the devices and who they
+control (stop sign -> CVC_22450 when the stop is stated as missed, else CVC_21802; yield sign -> CVC_21803;
+no device -> CVC_21800 for the vehicle without priority; left turn across oncoming traffic -> CVC_21801;
+driveway exit -> CVC_21804), the crash sequence (a rear-end contact the striker drove into: CVC_21703 on a
+moving vehicle, CVC_22350 on a stopped one) and the narrative's cause statements ("too fast for
+conditions", "speeding", "ran the red light", "failed to stop", "failed to yield"), attributed to the
+vehicle the statement is about.
 """
 from __future__ import annotations
 
 import re
 
-from crashscene.extract.narrative import around, clip, label_at
+from crashscene.extract.narrative import around, clip, label_at, last_label_before
 from crashscene.extract.rules_road import driveway_vehicle
 from crashscene.extract.rules_state import RulesState, relative_heading
 
@@ -32,18 +42,46 @@ def decide_oracle(state: RulesState, road: dict) -> list[dict]:
     oracle = _Oracle(state)
     _manoeuvre_oracle(state, road, oracle)
     _junction_oracle(state, road, oracle)
-    _rear_end_oracle(state, oracle)
+    _sequence_oracle(state, oracle)
     return oracle.entries
+
+
+def stated(state: RulesState, pattern: str) -> list[tuple[str, re.Match]]:
+    """The vehicles a cause statement is about: the acting vehicle of the clause ("the driver of V2 failed
+    to stop"), else the last vehicle named before it, else V1 in a single-vehicle report."""
+    text = state.t.text
+    out = []
+    for match in re.finditer(pattern, text, re.I):
+        label = label_at(text, match.start()) or last_label_before(text, match.start())
+        if label is None and len(state.vehicles) == 1:
+            label = "V1"
+        if label in state.vehicles:
+            out.append((label, match))
+    return out
+
+
+_TOO_FAST = (r"\btoo fast\b|excessive (?:speed|rate of speed)|unsafe speed|speed too (?:great|high|fast)|"
+             r"high rate of speed|speed (?:was|as) (?:a|the) (?:\w+ )?factor")
+_SPEEDING = (r"\bspeeding\b|exceed(?:ed|ing) the (?:posted )?speed limit|above the (?:posted )?speed limit|"
+             r"over the (?:posted )?speed limit")
+_RED = (r"red (?:light|signal|indication|traffic signal)|against (?:the|a) (?:steady )?red|ran the red|"
+        r"disregard\w* the (?:traffic )?(?:signal|light)")
+_RAN_STOP = (r"fail(?:ed|ing|s)? to stop (?:at|for) the stop|did not stop at the stop|ran the stop|"
+             r"without stopping|disregarded the stop|rolled through the stop|fail(?:ed|ing|s)? to (?:come to a )?"
+             r"(?:complete |full )?stop\b(?! for (?:the )?(?:traffic|vehicles?|V[1-9]))")
 
 
 def _manoeuvre_oracle(state: RulesState, road: dict, oracle: _Oracle) -> None:
     """Codes that follow from a vehicle's own manoeuvre or stated speed, wherever it happens."""
     text = state.t.text
+    too_fast = {label: match for label, match in reversed(stated(state, _TOO_FAST))}
+    speeding = {label: match for label, match in reversed(stated(state, _SPEEDING))}
+    red = {label: match for label, match in reversed(stated(state, _RED))}
     for label, vehicle in state.vehicles.items():
         role, behavior, quote = vehicle.role, vehicle.behavior, vehicle.behavior_quote
-        too_fast = re.search(rf"\b{label}\b[^.]{{0,80}}(?:too fast for|excessive speed|unsafe speed|speed too great|"
-                             rf"high rate of speed)", text, re.I)
-        if behavior == "lose_control" or too_fast:
+        if label in too_fast and behavior != "lose_control":
+            quote = around(text, too_fast[label])
+        if behavior == "lose_control" or label in too_fast:
             oracle.add("CVC_22350", "unsafe_speed", role,
                        f"{label} lost control or was driven too fast for the conditions.", quote)
         crossed = behavior in ("cross_centerline", "overtake") or (
@@ -59,16 +97,12 @@ def _manoeuvre_oracle(state: RulesState, road: dict, oracle: _Oracle) -> None:
         if behavior.startswith("change_lane") and not other_at_fault:
             oracle.add("CVC_22107", "unsafe_lane_change", role,
                        f"{label} changed lanes into the path of another vehicle.", quote)
-        speeding = re.search(rf"\b{label}\b[^.]{{0,80}}(?:speeding|exceed(?:ed|ing) the (?:posted )?speed limit|"
-                             rf"above the (?:posted )?speed limit)", text, re.I)
-        if speeding:
+        if label in speeding:
             oracle.add("CVC_22349", "speed_limit", role, f"{label} exceeded the posted speed limit.",
-                       around(text, speeding))
-        red = re.search(rf"\b{label}\b[^.]{{0,100}}(?:red (?:light|signal|indication)|against (?:the|a) red|"
-                        rf"ran the red|disregard\w* the (?:traffic )?(?:signal|light))", text, re.I)
-        if red:
+                       around(text, speeding[label]))
+        if label in red and "traffic_light" in road["traffic_signs"]:
             oracle.add("CVC_21453", "red_light", role, f"{label} entered the intersection against a red signal.",
-                       around(text, red))
+                       around(text, red[label]))
 
 
 def _junction_oracle(state: RulesState, road: dict, oracle: _Oracle) -> None:
@@ -78,80 +112,73 @@ def _junction_oracle(state: RulesState, road: dict, oracle: _Oracle) -> None:
     text = state.t.text
     devices = set(road["traffic_signs"]) - {"speed_limit_sign"}
     from_driveway = driveway_vehicle(state)
-    yield_phrase = re.search(r"fail(?:ed|ing|s)? to yield|did not yield", state.t.text, re.I)
-    failed_to_yield = label_at(state.t.text, yield_phrase.start()) if yield_phrase else None
+    failed_to_yield = next((label for label, _ in stated(state, r"fail(?:ed|ing|s)? to yield|did not yield")), None)
+    ran_stop = {label: match for label, match in reversed(stated(state, _RAN_STOP))}
+    ran_red = any(e["code"] == "CVC_21453" for e in oracle.entries)
+    arrow = re.search(r"(?:green|protected) (?:left[- ]turn )?arrow", text, re.I)
     for label, vehicle in state.vehicles.items():
         role, quote = vehicle.role, vehicle.behavior_quote
         headings = {relative_heading(vehicle, other) for other in state.vehicles.values() if other is not vehicle}
-        if vehicle.behavior == "turn_left" and "opposite_direction" in headings and not \
-                re.search(r"(?:green|protected) (?:left[- ]turn )?arrow", text, re.I):
+        oncoming = "opposite_direction" in headings or (headings <= {None} and re.search(
+            r"\boncoming\b|\bopposite direction\b", state.pre_crash + " " + state.crash_sentence, re.I))
+        if vehicle.behavior == "turn_left" and oncoming and not (arrow or ran_red):
             oracle.add("CVC_21801", "left_turn_yield", role,
                        f"{label} turned left across the path of oncoming traffic.", quote)
         if from_driveway == label:
             oracle.add("CVC_21804", "driveway_yield", role, f"{label} left a driveway into the path of traffic.", quote)
             continue
-        if not headings & {"from_left", "from_right"}:
+        if not (headings & {"from_left", "from_right"} or _crossing_contact(state, label)):
             continue
-        ran_stop = re.search(rf"\b{label}\b[^.]{{0,80}}(?:fail(?:ed|ing) to stop|did not stop|ran the stop|"
-                             rf"without stopping|disregarded the stop|rolled through the stop)", text, re.I)
-        if "stop_sign" in devices and label in _controlled(state, state.stop_controlled):
-            if ran_stop:
+        all_way = state.stop_controlled >= set(state.vehicles) and len(state.vehicles) > 1
+        if "stop_sign" in devices and label in state.stop_controlled and not all_way:
+            if label in ran_stop:
                 oracle.add("CVC_22450", "stop_sign", role, f"{label} did not stop at its stop sign.",
-                           around(text, ran_stop))
-            else:  # stopped, or the stop is not stated, then entered into cross traffic
+                           around(text, ran_stop[label]))
+            elif vehicle.behavior not in ("stop", "static"):  # stopped, or the stop is not stated, then entered
                 oracle.add("CVC_21802", "stop_sign_yield", role,
                            f"{label} left its stop-controlled approach into the path of cross traffic.", quote)
-        elif "yield_sign" in devices and label in _controlled(state, state.yield_controlled):
+        elif "yield_sign" in devices and label in state.yield_controlled:
             oracle.add("CVC_21803", "yield_sign", role, f"{label} did not yield at its yield sign to cross traffic.",
                        quote)
-        elif not devices and from_driveway is None and (
+        elif (not devices or all_way) and from_driveway is None and (
                 failed_to_yield == label if failed_to_yield else "from_right" in headings):
-            # uncontrolled junction: the one the report says failed to yield, else the one with the other on its right
+            # uncontrolled (or all-way stop) junction: the one the report says failed to yield, else the one
+            # with the other on its right
             oracle.add("CVC_21800", "intersection_right_of_way", role,
-                       f"{label} entered the uncontrolled intersection without yielding to the vehicle on its right.",
-                       quote)
+                       f"{label} entered the junction without yielding to the vehicle with priority.", quote)
 
 
-def _controlled(state: RulesState, named: set[str]) -> set[str]:
-    """The approaches a sign controls: those the text names, else the crossing traffic's (dsl.md section 3)."""
-    if named:
-        return named
-    ego = state.vehicles["V1"]
-    return {v.label for v in state.vehicles.values()
-            if v is not ego and relative_heading(ego, v) in ("from_left", "from_right")}
+def _crossing_contact(state: RulesState, label: str) -> bool:
+    """Whether the vehicle takes part in an angle contact (directions unknown: the contact shows the crossing)."""
+    return any(c.class_word in (None, "angle") and c.areas and "front" in c.areas.values() and
+               set(c.areas.values()) & {"left", "right"} and label in (c.striking.label, c.struck.label)
+               for c in state.contacts)
 
 
-_NO_LABEL = r"(?:(?!\bV[1-9]\b)[^.]){0,100}?"  # words that name no other vehicle
-_STRIKE = r"(?:struck|strikes?|striking|impacted|rear-ended|hit|contacted)"
-_REAR = (r"(?:the\s+)?(?:rear|back)(?:\s+(?:plane|corner|end|bumper))?\s+of\s+"
-         r"(?:(?:a|an|the)\s+[^.()]{0,60}?\(\s*)?(V[1-9])")  # "the rear of V2", "the rear of a parked Corolla (V2)"
-
-
-def _rear_end_oracle(state: RulesState, oracle: _Oracle) -> None:
-    """Striking the back of a moving vehicle -> CVC_21703, of a stopped one -> CVC_22350 (convention 9).
-
-    Only an impact the striker drives into counts: one it is pushed into ("caused V1 to strike") is an outcome.
-    """
+def _sequence_oracle(state: RulesState, oracle: _Oracle) -> None:
+    """Rear-end contacts the striker drove into (dsl.md convention 9): CVC_21703 on a moving vehicle ahead,
+    CVC_22350 on a stopped one. A contact the striker was pushed into, or made after it was itself struck,
+    is an outcome, not a choice."""
     text = state.t.text
-    for label, vehicle in state.vehicles.items():
-        if vehicle.behavior in ("leave_road", "lose_control", "static"):
-            continue  # off the road or out of control: not a following-distance or speed-in-traffic case
-        striker = rf"(?:(?:front|side|corner)(?:\s+plane)?\s+of\s+{label}|\b{label})\b"
-        for match in re.finditer(rf"{striker}{_NO_LABEL}{_STRIKE}\s+{_REAR}", text, re.I):
-            head = text[max(0, match.start() - 40):match.start()]
-            if re.search(r"\b(?:caus\w+|push\w*|forc\w+|redirect\w*|propell\w+)\s+(?:\w+\s+)?$", head, re.I):
-                continue
-            struck_label = match.group(1)
-            struck = state.vehicles.get(struck_label)
-            if struck is None or struck_label == label:
-                continue
-            stopped = struck.behavior in ("stop", "static") or re.search(
-                rf"{struck_label}\b[^.]{{0,60}}\bstopped|stopped {struck_label}", text, re.I)
+    struck_before: set[str] = set()
+    for contact in state.contacts:
+        striker = state.vehicles[contact.striking.label]
+        struck = state.vehicles[contact.struck.label]
+        # striking a vehicle ahead: its rear is hit (the striker's front or a glancing front side), or any part of
+        # a vehicle stopped in the striker's path (stopped at an angle across the lane)
+        rear_end = contact.areas.get("striking") != "rear" and contact.areas.get("struck") == "rear"
+        stopped = struck.behavior in ("stop", "static") or bool(re.search(
+            rf"\b{struck.label}\b[^.]{{0,60}}\b(?:was|had)\s+(?:\w+\s+)?stopped|stopped {struck.label}\b", text, re.I))
+        in_path = stopped and relative_heading(striker, struck) in (None, "same_direction")
+        free = not contact.pushed and striker.label not in struck_before
+        if (rear_end or in_path) and free and striker.behavior not in ("leave_road", "lose_control", "static"):
             if stopped:
-                oracle.add("CVC_22350", "unsafe_speed", vehicle.role,
-                           f"{label} struck the stopped {struck_label} from behind: too fast for the traffic ahead.",
-                           around(text, match))
+                oracle.add("CVC_22350", "unsafe_speed", striker.role,
+                           f"{striker.label} struck the stopped {struck.label} ahead: too fast for the traffic "
+                           f"ahead.", contact.quote)
             else:
-                oracle.add("CVC_21703", "following_too_closely", vehicle.role,
-                           f"{label} struck the moving {struck_label} from behind.", around(text, match))
-            break
+                oracle.add("CVC_21703", "following_too_closely", striker.role,
+                           f"{striker.label} struck the moving {struck.label} from behind.", contact.quote)
+        struck_before.add(struck.label)
+
+

@@ -35,6 +35,7 @@ def decide_road_network(state: RulesState) -> dict:
     road_type, curve_direction = _road_type(state)
     if road_type in ("intersection", "t_intersection"):
         _sketch_devices(state)
+        _attribute_signs(state)
     ways = _ways(state, road_text)
     lanes = count_lanes(state, road_text, ways)
     speed = _speed_limit(state)
@@ -99,6 +100,48 @@ def _sketch_devices(state: RulesState) -> None:
         if state.fact_texts(fact):
             state.signs.add(sign)
             state.note("road_network.traffic_signs", f"sketch: {fact}")
+
+
+_YIELDED = (r"(?:fail(?:ed|ing|s)? to (?:yield|stop|obey|observe)|did not (?:yield|stop|see|observe)|"
+            r"\bstopped (?:at|for) the (?:stop|yield)|without (?:stopping|yielding)|(?:ran|disregarded) the)\b")
+
+
+def _attribute_signs(state: RulesState) -> None:
+    """Which approaches an unattributed stop or yield sign controls: an all-way stop controls every one; else
+    the vehicle the text says failed to yield or stop (or stopped at the sign); else the vehicle whose label
+    the sketch draws nearest to the sign; else V1's (dsl.md section 3: a device no actor names controls the
+    ego's approach)."""
+    text = state.t.text
+    if "stop_sign" in state.signs and re.search(r"all[- ]way stop|\b(?:four|4)[- ]way stop", text, re.I):
+        state.stop_controlled.update(state.vehicles)
+    sequence = state.pre_crash + " " + state.crash_sentence
+    for sign, controlled in (("stop_sign", state.stop_controlled), ("yield_sign", state.yield_controlled)):
+        if sign not in state.signs or controlled:
+            continue
+        for match in re.finditer(_YIELDED, sequence, re.I):
+            label = label_at(sequence, match.start())
+            if label in state.vehicles:
+                controlled.add(label)
+                break
+        else:
+            controlled.add(_nearest_label(state, sign.replace("_", " ")) or "V1")
+
+
+def _nearest_label(state: RulesState, fact: str) -> str | None:
+    """The vehicle whose sketch label is drawn nearest to a sketch fact (a sign), when both have positions."""
+    def centre(box: tuple[int, int, int, int]) -> tuple[float, float]:
+        return (box[0] + box[2]) / 2, (box[1] + box[3]) / 2
+
+    signs = [centre(f.bbox) for f in state.facts if f.text == fact and f.bbox]
+    labels = [(f.text.rsplit(" ", 1)[-1], centre(f.bbox)) for f in state.facts
+              if f.text.startswith("vehicle label ") and f.bbox]
+    pairs = [((sx - lx) ** 2 + (sy - ly) ** 2, label) for sx, sy in signs for label, (lx, ly) in labels
+             if label in state.vehicles]
+    if not pairs:
+        return None
+    label = min(pairs)[1]
+    state.note("road_network.traffic_signs", f"sketch: {fact} drawn nearest to {label}'s label")
+    return label
 
 
 _FOUR_LEGS = re.compile(r"\b(?:4|four)[- ]leg(?:ged)?\b|\bfour[- ]way intersection|\bcross(?:roads| intersection)",

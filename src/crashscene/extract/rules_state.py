@@ -46,6 +46,7 @@ class RulesState:
     stop_controlled: set[str] = field(default_factory=set)  # labels whose approach has a stop sign
     yield_controlled: set[str] = field(default_factory=set)
     no_controls: bool = False
+    contacts: list = field(default_factory=list)  # rules_collisions.Contact, in sequence order
 
     def fact_texts(self, prefix: str = "") -> list[str]:
         """Texts of the sketch facts starting with `prefix`."""

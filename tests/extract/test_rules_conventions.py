@@ -1,0 +1,222 @@
+"""One test per convention rule of the rules backend (dsl.md section 5), on short synthetic narratives.
+
+Each narrative is written for the test in NHTSA's formulaic style; none is copied from a bundled case.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+from crashscene.extract.report import Report
+from crashscene.extract.rules import extract_rules
+from crashscene.extract.sketch import SketchFact
+
+EAST_NORTH = ("V1 was traveling east in the eastbound lane of a two-lane, two-way road approaching a four-leg "
+              "intersection. V2 was traveling north in the northbound lane of the intersecting road. ")
+EAST_WEST = ("V1 was traveling east in the eastbound lane of a two-lane, two-way road. V2 was traveling west in the "
+             "westbound lane. ")
+EAST_EAST = ("V1 was traveling east in the right eastbound lane of a four-lane, two-way road. V2 was traveling "
+             "east ahead of V1 in the same lane. ")
+
+
+def _text(narrative: str, facts: list[SketchFact] | None = None):
+    return extract_rules(Report(case_id="t", narrative=narrative, source=Path("t.txt")), facts or [])
+
+
+def _oracle(scenario) -> set[tuple[str, str]]:
+    return {(entry.code, entry.actor) for entry in scenario.oracle}
+
+
+def _contacts(scenario) -> list[tuple[str, str, str, str, str]]:
+    return [(c.striking, c.struck, c.striking_area.value, c.struck_area.value, c.class_.value)
+            for c in scenario.collisions]
+
+
+# ---------------------------------------------------------------- convention 11: the crash sequence
+
+
+def test_impact_formula_gives_striker_struck_areas_and_class():
+    s = _text(EAST_NORTH + "V1 and V2 entered the intersection and the front of V2 struck the right side of V1.")
+    assert _contacts(s) == [("npc1", "ego", "front", "right", "angle")]
+    assert "front of V2 struck the right side of V1" in s.evidence["collisions[0]"]
+
+
+def test_passive_formula_and_with_its_plane():
+    s = _text(EAST_NORTH + "The left plane of V1 was struck by the frontal plane of V2 (Event 1).")
+    assert _contacts(s) == [("npc1", "ego", "front", "left", "angle")]
+    s = _text(EAST_EAST + "V1 did not slow and struck the rear plane of V2 with its frontal plane (Event 1).")
+    assert _contacts(s) == [("ego", "npc1", "front", "rear", "rear_end")]
+
+
+def test_possessive_planes_and_event_order():
+    s = _text("V1 was traveling east in the left eastbound lane of a divided highway. V2, V3 and V4 were traveling "
+              "east in the center lane. V1's right side plane struck V2's left side plane (Event 1). "
+              "V3's frontal plane subsequently struck V4's back plane (Event 3). "
+              "V2's frontal plane then struck V3's back plane (Event 2).")
+    assert [(c[0], c[1], c[4]) for c in _contacts(s)] == [
+        ("ego", "npc1", "sideswipe"), ("npc1", "npc2", "rear_end"), ("npc2", "npc3", "rear_end")]
+
+
+def test_collided_head_on_the_vehicle_that_left_its_lane_strikes():
+    s = _text(EAST_WEST + "V2 crossed the center line into the eastbound lane. V1 and V2 collided head-on.")
+    assert _contacts(s) == [("npc1", "ego", "front", "front", "head_on")]
+
+
+def test_unstated_areas_follow_the_travel_directions():
+    s = _text(EAST_NORTH + "V2 entered the intersection and struck V1.")
+    # V1 comes from V2's left (V2 northbound, V1 eastbound): V2's front meets V1's right side
+    assert _contacts(s) == [("npc1", "ego", "front", "right", "angle")]
+
+
+def test_corner_areas_resolved_by_configuration():
+    same = _text(EAST_EAST + "The right front corner of V1 struck the left rear corner of V2.")
+    assert _contacts(same)[0][2:] == ("front", "rear", "rear_end")
+    crossing = _text(EAST_NORTH + "The front of V2 struck the left front of V1 (Event 1).")
+    assert _contacts(crossing)[0][2:] == ("front", "left", "angle")
+
+
+def test_pushed_contact_is_its_own_entry_and_no_violation_of_the_pushed():
+    s = _text("V1 was traveling east in the eastbound lane of a two-lane, two-way road and was stopped in traffic "
+              "behind V3. V2 was traveling east behind V1. V2 failed to stop and the front of V2 struck the rear of "
+              "V1 (Event 1). The impact pushed V1 forward causing V1 to strike the rear of V3 (Event 2).")
+    assert [(c[0], c[1], c[4]) for c in _contacts(s)] == [("npc1", "ego", "rear_end"), ("ego", "npc2", "rear_end")]
+    assert _oracle(s) == {("CVC_22350", "npc1")}  # struck a stopped vehicle; V1's second contact is an outcome
+
+
+def test_contact_with_an_object_only_is_an_empty_sequence():
+    s = _text("V1 was traveling north on a two-lane road. V1 departed the right side of the roadway and the front "
+              "of V1 struck a tree.")
+    assert s.collisions == []
+
+
+def test_avoided_contact_is_not_listed_and_restatement_is_merged():
+    s = _text(EAST_NORTH + "V1 attempted to avoid striking V2 by steering left. V2 struck V1. The front of V2 "
+              "struck the right side of V1 in a T-type configuration.")
+    assert _contacts(s) == [("npc1", "ego", "front", "right", "angle")]
+
+
+# ---------------------------------------------------------------- convention 9: the oracle
+
+
+def test_rear_end_on_a_moving_vehicle_is_following_too_closely():
+    s = _text(EAST_EAST + "V2 was slowing for traffic. The front of V1 struck the rear of V2.")
+    assert _oracle(s) == {("CVC_21703", "ego")}
+
+
+def test_rear_end_on_a_stopped_vehicle_is_unsafe_speed():
+    s = _text(EAST_EAST + "V2 was stopped in its lane for traffic. The front of V1 struck the back of V2.")
+    assert _oracle(s) == {("CVC_22350", "ego")}
+
+
+def test_striking_the_side_of_a_vehicle_stopped_across_the_lane_is_unsafe_speed():
+    s = _text("V1 was traveling north in the northbound lane of a two-lane, two-way road. V2 was stopped at an "
+              "angle, blocking the northbound lane. The front of V1 struck the left side of V2.")
+    assert _oracle(s) == {("CVC_22350", "ego")}
+    assert _contacts(s) == [("ego", "npc1", "front", "left", "angle")]
+
+
+def test_lost_control_is_unsafe_speed_and_crossing_a_double_line_adds_21460():
+    s = _text("V1 was traveling east in the eastbound lane of a two-lane, two-way road divided by double yellow "
+              "lines. V2 was traveling west. V1 lost control on the wet road, crossed the center line and the front "
+              "of V1 struck the front of V2.")
+    assert _oracle(s) == {("CVC_22350", "ego"), ("CVC_21650", "ego"), ("CVC_21460", "ego")}
+
+
+def test_too_fast_statement_is_attributed_to_its_subject():
+    s = _text(EAST_EAST + "The driver of V1 was reportedly driving too fast for the icy conditions. The front of V1 "
+              "struck the rear of V2.")
+    assert ("CVC_22350", "ego") in _oracle(s)
+    assert "too fast" in s.evidence[f"oracle[{[e.code for e in s.oracle].index('CVC_22350')}]"]
+
+
+def test_stated_speeding_is_22349():
+    s = _text(EAST_WEST + "Police reported that V2 was speeding. V2 crossed the center line and the front of V2 "
+              "struck the front of V1.")
+    assert {("CVC_22349", "npc1"), ("CVC_21650", "npc1")} <= _oracle(s)
+
+
+def test_red_light_at_a_signal():
+    s = _text(EAST_NORTH + "The intersection was controlled by traffic signals. V2 ran the red light and the front "
+              "of V2 struck the right side of V1.")
+    assert _oracle(s) == {("CVC_21453", "npc1")}
+
+
+def test_left_turn_across_oncoming_traffic_unless_the_other_ran_the_red():
+    turn = ("V1 was traveling east in the eastbound lane approaching a four-leg intersection controlled by traffic "
+            "signals. V2 was traveling west and began to turn left at the intersection. ")
+    s = _text(turn + "The front of V1 struck the right side of V2.")
+    assert _oracle(s) == {("CVC_21801", "npc1")}
+    s = _text(turn + "V1 entered against the red signal and the front of V1 struck the right side of V2.")
+    assert _oracle(s) == {("CVC_21453", "ego")}
+
+
+def test_stop_sign_missed_is_22450_stopped_then_entered_is_21802():
+    base = ("V1 was traveling east in the eastbound lane approaching a four-leg intersection. V2 was traveling "
+            "north on the intersecting road, which was controlled by a stop sign for northbound traffic. ")
+    s = _text(base + "V2 failed to stop at the stop sign and the front of V2 struck the right side of V1.")
+    assert _oracle(s) == {("CVC_22450", "npc1")}
+    s = _text(base + "V2 stopped at the stop sign, then proceeded into the intersection and the front of V2 struck "
+              "the right side of V1.")
+    assert _oracle(s) == {("CVC_21802", "npc1")}
+    assert s.actors["npc1"].position.reference == "stop_sign"
+
+
+def test_unattributed_sketch_sign_controls_the_ego_approach():
+    s = _text(EAST_NORTH + "Both vehicles entered the intersection and the front of V2 struck the right side of V1.",
+              [SketchFact(text="stop sign")])
+    assert s.actors["ego"].position.reference == "stop_sign"
+    assert _oracle(s) == {("CVC_21802", "ego")}
+
+
+def test_sketch_sign_drawn_beside_a_vehicle_label_controls_that_vehicle():
+    facts = [SketchFact(text="yield sign", bbox=(400, 400, 440, 420)),
+             SketchFact(text="vehicle label V1", bbox=(100, 100, 120, 120)),
+             SketchFact(text="vehicle label V2", bbox=(420, 440, 440, 460))]
+    s = _text(EAST_NORTH + "Both vehicles entered the intersection and the front of V2 struck the right side of V1.",
+              facts)
+    assert s.actors["npc1"].position.reference == "yield_sign"
+    assert _oracle(s) == {("CVC_21803", "npc1")}
+
+
+def test_uncontrolled_junction_the_vehicle_without_priority():
+    s = _text(EAST_NORTH + "There were no traffic controls. V1 failed to yield and the front of V2 struck the "
+              "right side of V1.")
+    assert _oracle(s) == {("CVC_21800", "ego")}
+
+
+def test_lane_change_into_another_vehicle():
+    s = _text("V1 was traveling north in the right northbound lane of a four-lane divided highway. V2 was traveling "
+              "north in the left lane beside V1. V1 changed lanes to the left and the left side of V1 struck the "
+              "right side of V2.")
+    assert _oracle(s) == {("CVC_22107", "ego")}
+    assert _contacts(s)[0][4] == "sideswipe"
+
+
+def test_run_off_road_without_a_stated_cause_has_no_oracle():
+    s = _text("V1 was traveling north on a two-lane, two-way road. V1 departed the right side of the road and "
+              "struck a utility pole.")
+    assert s.oracle == []
+    assert s.collisions == []
+
+
+def test_drifting_into_the_path_of_an_oncoming_vehicle_is_crossing_the_centre_line():
+    s = _text(EAST_WEST + "V2 drifted to the left and into the path of V1. The front of V2 struck the front of V1.")
+    assert s.actors["npc1"].behavior.value == "cross_centerline"
+    assert ("CVC_21650", "npc1") in _oracle(s)
+    # into the path of a crossing vehicle is not a centre-line crossing
+    s = _text(EAST_NORTH + "V2 moved into the path of V1 and the front of V1 struck the left side of V2.")
+    assert s.actors["npc1"].behavior.value != "cross_centerline"
+
+
+def test_left_turn_in_front_of_oncoming_traffic_without_stated_directions():
+    s = _text("V1 was approaching a four-leg intersection. V2 was approaching from the opposite direction and began "
+              "to turn left in front of V1. The front of V1 struck the right side of V2.")
+    assert s.actors["npc1"].behavior.value == "turn_left"
+    assert ("CVC_21801", "npc1") in _oracle(s)
+
+
+def test_pair_named_without_a_striker_is_settled_by_a_later_formula_or_the_manoeuvre():
+    s = _text(EAST_WEST + "V2 drifted left of center. The two vehicles collided. The front of V1 struck the front "
+              "of V2 (Event 1).")
+    assert _contacts(s) == [("ego", "npc1", "front", "front", "head_on")]
+    s = _text(EAST_WEST + "V2 drifted left of center, resulting in a head-on collision with V1.")
+    assert _contacts(s) == [("npc1", "ego", "front", "front", "head_on")]
