@@ -63,9 +63,9 @@ CONFIGURATIONS = {
         oracle("CVC_21801", "left_turn_yield", "npc1"), contact("ego", "npc1", "front", "right", "angle")),
     "turning_into_the_lane": scenario(
         "tee", "stop_sign, speed_limit_sign", 40,
-        actor("ego", "go_forward", "reference: intersection, relation: behind")
-        + actor("npc1", "turn_left", "reference: intersection, relation: right, heading: from_right"),
-        oracle("CVC_21802", "stop_sign_yield", "npc1"), contact("ego", "npc1", "front", "left", "angle")),
+        actor("ego", "turn_right", "reference: stop_sign, relation: behind")
+        + actor("npc1", "go_forward", "reference: intersection, relation: left, heading: from_left"),
+        oracle("CVC_21802", "stop_sign_yield", "ego"), contact("npc1", "ego", "front", "left", "angle")),
     "merging_lane_change": scenario(
         "one_way", "speed_limit_sign", 55,
         actor("ego", "go_forward", "reference: road, relation: behind")
@@ -112,8 +112,8 @@ def run(text: str, tmp_path, n: int = N, seed: int = 7) -> dict:
 
 KNOWN_GAPS = {  # configurations the planner does not reproduce yet (issue 10): kept as strict expected failures
     "head_on_wrong_way_divided": "the wrong-way vehicle is placed in the other carriageway of a divided road",
-    "merging_lane_change": "the lane change is timed to the partner only in about 70% of variations",
-    "turning_into_the_lane": "a turn from the side road is met early in its arc (sideswipe, not angle)",
+    "turning_into_the_lane": "a right turn into the through lane is met in about half the variations (the "
+                             "striker cannot slow enough once the turner pulls away from its stop line)",
 }
 
 

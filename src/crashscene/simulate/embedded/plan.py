@@ -95,12 +95,29 @@ def plan_variation(v: int, scene: SampledScene, rng: np.random.Generator, column
                 if closing < planned[a] + planned[partner]:
                     scale[v, partner] = max(timing.SPEED_SCALE[0], (closing - planned[a]) / planned[partner])
                     planned[partner] *= scale[v, partner]
-            skid = None
             contact = classes.get(frozenset((col.role, p_col.role)))
+            if contact == "sideswipe" and not opposite and col.behavior in ("change_lane_left", "change_lane_right"):
+                # side by side when it reaches the partner's lane: it starts where it will be alongside then
+                rate = timing.lateral_rate(col.behavior)
+                t_trig = float(draws["trigger"][a])
+                touch = t_trig + max(abs(dist) - 0.5 * (width[v, a] + width[v, partner]), 0.0) / rate
+                want_gap = (planned[a] - planned[partner]) * touch + (draws["lead"][a] - 1.4) * 1.5
+                placed = _shift_start(arrays, v, a, route, s0, gap - want_gap, length, d0)
+                if placed is not None:
+                    s0[v, a] = placed
+                    moved[v, a] = True
+                    trigger[v, a] = t_trig
+                    continue
+            skid = None
             if col.behavior == "lose_control" or (contact == "angle" and col.behavior in VEER_BEHAVIORS):
                 # a lateral manoeuvre that ends in an angle contact is a sudden veer: planned as a skid
                 moves_in = p_col.behavior in ("change_lane_left", "change_lane_right") and not opposite
-                skid = skid_plan.plan(planned[a], gap, planned[partner], opposite,
+                # the partner's front meets the skidding car's side (its front, end-on) before the centres align
+                reach = {"angle": length[v, partner] / 2 + width[v, a] / 2,
+                         "head_on": (length[v, partner] + length[v, a]) / 2,
+                         "rear_end": (length[v, partner] + length[v, a]) / 2}.get(contact or "", 0.0)
+                ahead = 1.0 if (opposite or gap > 0) else -1.0
+                skid = skid_plan.plan(planned[a], gap - ahead * reach, planned[partner], opposite,
                                       (0.0 if moves_in else lateral) - d0[v, a],
                                       lane_width, friction, float(length[v, a]), float(width[v, a]),
                                       skid_plan.rotation_for(contact, opposite, float(draws["rotation"][a])),
@@ -162,9 +179,11 @@ def plan_variation(v: int, scene: SampledScene, rng: np.random.Generator, column
             r_t, cs_t = (r, cs_a) if t_idx == a else (ra, cs_e)
             s_t0 = s0[v, t_idx]
             v_struck = _effective_speed(arrays, r_t, max(cs_t - 10.0, s_t0), cs_t, planned[t_idx], columns[t_idx])
-            # ...behind the middle of its side: its centre has passed the striker's path by a quarter length
+            r_s, cs_s = (ra, cs_e) if t_idx == a else (r, cs_a)
+            u = struck_offset(arrays, r_t, cs_t, r_s, cs_s, float(length[v, t_idx]),
+                              classes.get(frozenset((col.role, anchor_col.role))))
             side_hit = (length[v, s_idx] / 2 + width[v, t_idx] / 2) / max(planned[s_idx], 1.0) \
-                + length[v, t_idx] / 4 / max(v_struck, 1.0)
+                + u / max(v_struck, 1.0)
             jitter = offset - timing.ARRIVAL_OFFSET_MEAN * (timing.REPRODUCE_OFFSET_SCALE if reproduce else 1.0)
             offset = (side_hit if s_idx == a else -side_hit) + jitter
         target = arrival_anchor + offset
@@ -251,6 +270,28 @@ def plan_variation(v: int, scene: SampledScene, rng: np.random.Generator, column
     t_junction = (ahead[0] - s0[v, anchor]) / va if len(ahead) else 5.0
     green = float(scene.params.get("SIGNAL_GREEN_REMAINING", draws["green"]))
     phase[v] = float(signals.phase_for(np.array(t_junction), np.array(green), runs_red))
+
+
+CLASS_RELATIVE = {"angle": math.pi / 2}  # [rad] relative heading at contact the class is judged by (rules.md)
+
+
+def struck_offset(arrays: RouteArrays, r_t: int, cs_t: float, r_s: int, cs_s: float, length_t: float,
+                  contact_class: str | None) -> float:
+    """How far [m] past the striker's path the struck actor's centre is when the striker's front meets its side:
+    where along its body the heading relative to the striker is closest to the class's (an angle contact: the
+    part of a turn that is most nearly square to the striker); a quarter length behind the middle otherwise."""
+    default = length_t / 4
+    target = CLASS_RELATIVE.get(contact_class or "")
+    if target is None:
+        return default
+    reach = max(length_t / 2 - 0.6, 0.0)
+    u = np.linspace(-reach, reach, 9)
+    n = arrays.yaw.shape[1] - 1
+    k = np.clip(((cs_t + u) / ROUTE_DS).astype(int), 0, n)
+    yaw_s = arrays.yaw[r_s, min(int(cs_s / ROUTE_DS), n)]
+    rel = np.abs(np.remainder(arrays.yaw[r_t, k] - yaw_s + np.pi, 2 * np.pi) - np.pi)
+    miss = np.abs(rel - target) + 0.02 * np.abs(u - default)
+    return float(u[int(np.argmin(miss))])
 
 
 def _same_lane(route: np.ndarray, d0: np.ndarray | None, v: int, a: int, b: int) -> bool:

@@ -19,7 +19,7 @@ from crashscene.simulate.backend import SimulationError, SimulationSettings
 from crashscene.simulate.drivers.behaviors import NO_YIELD_CODES
 from crashscene.simulate.embedded import timing
 from crashscene.simulate.embedded.control import control_tables, entry_before, priorities
-from crashscene.simulate.embedded.plan import mph, plan_variation, stop_dist
+from crashscene.simulate.embedded.plan import mph, plan_variation, stop_dist, struck_offset
 from crashscene.simulate.embedded.pullout import PullOut, line_station
 from crashscene.simulate.embedded.sync import Meeting
 from crashscene.simulate.embedded.vehicles import VehicleLimits, limits_for
@@ -207,6 +207,8 @@ def build(scenario: Scenario, scenes: list[SampledScene], roadmap: RoadMap,
     entry_control = np.stack([t[0] for t in tables])[vidx, route]  # (V, A, J)
     entry_group = np.stack([t[1] for t in tables])[vidx, route]
     priority = priorities(arrays, route, tables)
+    if settings.mode == "reproduce":
+        _oracle_priority(scenario, columns, priority)
 
     # ---- timing plans and signal phases, per variation from its own generator
     hold = np.zeros((n_v, n_a))
@@ -238,9 +240,13 @@ def build(scenario: Scenario, scenes: list[SampledScene], roadmap: RoadMap,
         y[vv, aa] += np.cos(ryaw) * drifted[vv, aa]
     if moved.any():
         # actors advanced along their approach by the timing plan start on their lane centre there
+        # (a lane changer keeps its offset from the target lane's route)
         vv, aa = np.nonzero(moved)
-        x[vv, aa], y[vv, aa], yaw[vv, aa] = arrays.point(route[vv, aa], s0[vv, aa])
-        d0[vv, aa] = 0.0
+        keep = np.abs(d0[vv, aa]) > 1.0
+        d0[vv, aa] = np.where(keep, d0[vv, aa], 0.0)
+        px, py, yaw[vv, aa] = arrays.point(route[vv, aa], s0[vv, aa])
+        x[vv, aa] = px - np.sin(yaw[vv, aa]) * d0[vv, aa]
+        y[vv, aa] = py + np.cos(yaw[vv, aa]) * d0[vv, aa]
         # ...at a speed from which it can still take the curve ahead
         reach = np.full(len(vv), 60.0)
         entry_speed = arrays.curve_speed(route[vv, aa], s0[vv, aa], reach, 2.5, 2.0)
@@ -284,6 +290,19 @@ def contact_classes(scenario: Scenario) -> dict[frozenset[str], str]:
         pair = frozenset((str(contact.striking), str(contact.struck)))
         out.setdefault(pair, str(getattr(contact.class_, "value", contact.class_)))
     return out
+
+
+def _oracle_priority(scenario: Scenario, columns: list[ActorColumn], priority: np.ndarray) -> None:
+    """An actor the oracle charges with not yielding (a yield code) was the one to yield: its contact partners
+    have priority over it whatever the map's signs say (reproduce mode)."""
+    roles = [c.role for c in columns]
+    for contact in getattr(scenario, "collisions", None) or []:
+        pair = (str(contact.striking), str(contact.struck))
+        if not all(r in roles for r in pair) or pair[0] == pair[1]:
+            continue
+        for x, y in (pair, pair[::-1]):
+            if columns[roles.index(x)].dispositions & NO_YIELD_CODES:
+                priority[:, roles.index(y), roles.index(x)] = False
 
 
 def first_contact_pair(scenario: Scenario) -> frozenset[str] | None:
@@ -372,6 +391,9 @@ def _meeting(scenario: Scenario, columns: list[ActorColumn], arrays: RouteArrays
             meeting.cs_follower[v] = cs_s if f == si else cs_t
             meeting.cs_leader[v] = cs_t if f == si else cs_s
             meeting.follower_strikes[v] = f == si
+            meeting.struck_offset[v] = struck_offset(arrays, route[v, ti], cs_t, route[v, si], cs_s,
+                                                     float(length[v, ti]), str(getattr(first.class_, "value",
+                                                                                       first.class_)))
             stop = stop_dist(arrays, route[v, l_], s0[v, l_], tables[v][0], columns[l_])
             if stop is not None:
                 meeting.leader_stop[v] = s0[v, l_] + stop

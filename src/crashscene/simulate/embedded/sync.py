@@ -37,11 +37,12 @@ class Meeting:
     cs_leader: np.ndarray
     follower_strikes: np.ndarray
     leader_stop: np.ndarray  # [m] station of the stop line the leader stops at first, -inf if none
+    struck_offset: np.ndarray  # [m] how far past the striker's path the struck centre is at contact (plan)
 
     @classmethod
     def none(cls, n_v: int) -> "Meeting":
         return cls(np.full(n_v, -1), np.full(n_v, -1), np.full(n_v, np.nan), np.full(n_v, np.nan),
-                   np.zeros(n_v, dtype=bool), np.full(n_v, -np.inf))
+                   np.zeros(n_v, dtype=bool), np.full(n_v, -np.inf), np.zeros(n_v))
 
     def cruise(self, s: np.ndarray, v: np.ndarray, accel: np.ndarray, length: np.ndarray, width: np.ndarray, planned: np.ndarray,
                current: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -60,7 +61,7 @@ class Meeting:
         t_i = np.where(strikes, l_, f)
         v_s = np.maximum(v[idx, s_i], 1.0)
         v_t = np.maximum(v[idx, t_i], 1.0)
-        side_hit = (length[idx, s_i] / 2 + width[idx, t_i] / 2) / v_s + length[idx, t_i] / 4 / v_t
+        side_hit = (length[idx, s_i] / 2 + width[idx, t_i] / 2) / v_s + self.struck_offset[idx] / v_t
         gaining = accel[idx, l_] > 0.2
         eta_l = np.where(gaining, arrival_time(dist_l, v_l, planned[idx, l_]), dist_l / np.maximum(v_l, 0.1))
         want = eta_l + np.where(strikes, side_hit, -side_hit)

@@ -189,19 +189,32 @@ class RouteArrays:
         return np.abs(self.curvature[r[..., None], k]).max(axis=-1)
 
 
+MERGE_TOLERANCE = 0.5  # [m] two routes closer than this share a lane: a vehicle on one is in the way of the other
+
+
 def _conflicts(routes: list[Route]) -> tuple[np.ndarray, np.ndarray]:
     """First meeting point of every ordered pair of routes (stations on the first route)."""
     n = len(routes)
     conflict_s = np.full((n, n), np.nan)
     angle = np.full((n, n), np.nan)
     lines = [shapely.LineString(r.xy) for r in routes]
+    points: list = [None] * n
     for i in range(n):
         for j in range(n):
             if i == j or routes[i].key[0] == routes[j].key[0]:
                 continue  # the same start lane: following, not crossing
             meet = lines[i].intersection(lines[j])
             if meet.is_empty:
-                continue
+                if lines[i].distance(lines[j]) > MERGE_TOLERANCE:
+                    continue
+                # merging paths (a turn into a lane, a lane drop) join without crossing: the first point of
+                # route i that comes within MERGE_TOLERANCE of route j is their meeting point
+                if points[i] is None:
+                    points[i] = shapely.points(routes[i].xy)
+                near = np.flatnonzero(shapely.distance(points[i], lines[j]) < MERGE_TOLERANCE)
+                if not len(near):
+                    continue
+                meet = points[i][near[0]]
             pts = shapely.get_coordinates(meet)
             s_i = np.array([lines[i].project(shapely.Point(p)) for p in pts])
             k = int(np.argmin(s_i))
