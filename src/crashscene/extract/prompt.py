@@ -140,8 +140,8 @@ CVC_21703, of a stopped one -> CVC_22350; never for a contact it was pushed into
 statements ("failed to stop", "too fast for conditions", "ran the red light", "speeding"). Monitored codes \
 (code, violation token, when):
 {codes}
-  Other codes are allowed when the report clearly supports them (e.g. CVC_21804 driveway_yield: left a \
-driveway into traffic). List only what the report supports (usually one or two entries, never a code whose device, junction or manoeuvre is absent from the scenario). When no cause is stated (a drift with no reason, an animal strike), oracle is [].
+  Other codes are allowed when the report clearly supports them (e.g. CVC_22106 unsafe_start: started from \
+a parked position into traffic). List only what the report supports (usually one or two entries, never a code whose device, junction or manoeuvre is absent from the scenario). When no cause is stated (a drift with no reason, an animal strike), oracle is [].
 
 summary: one sentence, who did what, where."""
 
