@@ -115,3 +115,17 @@ def test_initial_speed_above_limit_is_the_tests_condition_not_a_violation(check)
     speed[:35] = LIMIT + 3  # still too fast 1.5 s after the grace
     assert check(tables({"ego": track(60, speed=speed, speed_limit=LIMIT)}), "CVC_22349", "ego")["verdict"] \
         == "violated"
+
+
+def test_a_car_shoved_by_an_impact_has_not_lost_control(check):
+    """The leader is rear-ended at t ~ 1.6 s; its slide after the impact (lateral acceleration far beyond the
+    tyres' grip, the simulator's skid flag) is not the driver losing control. The same slide before any contact is."""
+    slide = np.zeros(60)
+    slide[20:40] = 12.0  # [m/s2]
+    skid = np.zeros(60, dtype=bool)
+    skid[20:40] = True
+    struck = track(60, x0=20.0, speed=5.0, speed_limit=LIMIT, lat_accel=slide, lost_control=skid)
+    actors = {"ego": track(60, speed=15.0, speed_limit=LIMIT), "npc1": struck}
+    assert check(tables(actors), "CVC_22350", "npc1")["verdict"] == "satisfied"
+    alone = {"ego": track(60, y0=30.0, speed=5.0, speed_limit=LIMIT), "npc1": struck}
+    assert check(tables(alone), "CVC_22350", "npc1")["verdict"] == "violated"

@@ -179,8 +179,12 @@ class UnsafeSpeed(Rule):
         out = _speed_outcome(ctx, excess, threshold)
 
         mu_g = friction(ctx, p) * G
-        lat = np.abs(np.where(a.alive, a.floats["lat_accel"], np.nan))
-        skid = (lat > mu_g) | a.flag("lost_control")
+        # a car shoved or spun by an impact is not a driver losing control: only steps before its first contact
+        steps = np.arange(a.shape[2])
+        contact = ctx.first_contact[..., None]
+        driven = a.alive & ((contact < 0) | (steps < contact))
+        lat = np.abs(np.where(driven, a.floats["lat_accel"], np.nan))
+        skid = ((lat > mu_g) | a.flag("lost_control")) & driven
         # A backend that cannot tell loss of control: a non-ADS actor scripted to lose control counts.
         lost_unknown = ~a.known("lost_control").any(axis=2)
         scripted = (a.behavior == "lose_control") & ~a.is_ads & lost_unknown & a.present
