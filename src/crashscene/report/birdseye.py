@@ -21,7 +21,8 @@ from pathlib import Path
 import numpy as np
 from PIL import Image, ImageDraw, ImageFont
 
-from crashscene.report.framing import Focus, Frame, footprint
+from crashscene.geometry import footprint_corners
+from crashscene.report.framing import Focus, Frame
 from crashscene.report.palette import color_of, rgb
 from crashscene.report.roadmap import MapGeometry
 from crashscene.report.tracks import ActorTrack
@@ -113,7 +114,7 @@ def _draw_map(draw: ImageDraw.ImageDraw, canvas: Canvas, geometry: MapGeometry) 
 
 def _vehicle(draw: ImageDraw.ImageDraw, canvas: Canvas, tr: ActorTrack, time: float, fill, outline) -> None:
     x, y, yaw = tr.at(time)
-    draw.polygon(_flat(canvas.px(footprint(x, y, yaw, tr.length, tr.width))), fill=fill, outline=outline,
+    draw.polygon(_flat(canvas.px(footprint_corners(x, y, yaw, tr.length, tr.width))), fill=fill, outline=outline,
                  width=max(1, canvas.scale))
     # the sketches' white arrow-head: a triangle in the front half pointing the way the vehicle faces
     c, s = math.cos(yaw), math.sin(yaw)
@@ -143,7 +144,7 @@ def _star(cx: float, cy: float, r: float) -> list[float]:
 def _tag(draw: ImageDraw.ImageDraw, canvas: Canvas, tr: ActorTrack, time: float, k: int, fill, text_fill,
          role_fill, halo) -> None:
     """The vehicle's report label in its colour, the role in small type, beside the vehicle."""
-    box = canvas.px(footprint(*tr.at(time), tr.length, tr.width))
+    box = canvas.px(footprint_corners(*tr.at(time), tr.length, tr.width))
     px = float(box[:, 0].mean())
     py = float(box[:, 1].min()) - 11 if k % 2 == 0 else float(box[:, 1].max()) + 11
     bold, small = _font(12, True), _font(9)

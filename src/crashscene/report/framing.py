@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from crashscene.geometry import footprint_corners
 from crashscene.report.roadmap import MapGeometry
 from crashscene.report.tracks import ActorTrack
 
@@ -49,14 +50,6 @@ class Frame:
     hy: float
 
 
-def footprint(x: float, y: float, yaw: float, length: float, width: float) -> np.ndarray:
-    """Corners [m] of an oriented rectangle: front-left, front-right, rear-right, rear-left."""
-    c, s = math.cos(yaw), math.sin(yaw)
-    half = np.array([[length / 2, width / 2], [length / 2, -width / 2], [-length / 2, -width / 2],
-                     [-length / 2, width / 2]])
-    return half @ np.array([[c, s], [-s, c]]) + (x, y)
-
-
 def closest_approach(tracks: list[ActorTrack], involving: str | None = None) -> Focus | None:
     """The moment two vehicles came closest (footprint gap), or None with fewer than two vehicles.
 
@@ -75,7 +68,7 @@ def closest_approach(tracks: list[ActorTrack], involving: str | None = None) -> 
             centre = np.hypot(*(pa_ - pb_).T)
             for k in np.argsort(centre, kind="stable")[:5]:  # the footprint gap is near the centre minimum
                 t = float(times[k])
-                fa, fb = Polygon(footprint(*a.at(t), a.length, a.width)), Polygon(footprint(*b.at(t), b.length, b.width))
+                fa, fb = Polygon(footprint_corners(*a.at(t), a.length, a.width)), Polygon(footprint_corners(*b.at(t), b.length, b.width))
                 gap = float(fa.distance(fb))
                 if best is None or gap < best[0] - 1e-9:
                     near = nearest_points(fa, fb)
