@@ -73,24 +73,30 @@ def footprint_corners(x, y, yaw, length, width) -> np.ndarray:
     return np.stack([cx, cy], axis=-1)
 
 
-def footprints_overlap(xa, ya, yawa, la, wa, xb, yb, yawb, lb, wb) -> np.ndarray:
-    """True where footprint a (centre, yaw, length, width [m, rad]) overlaps or touches footprint b.
-
-    The separating-axis test on the four candidate axes (a's and b's long and
-    lateral axes); a NaN pose never overlaps.
-    """
+def footprint_separation(xa, ya, yawa, la, wa, xb, yb, yawb, lb, wb) -> np.ndarray:
+    """[m] the largest gap between footprints a and b (centre, yaw, length, width [m, rad]) along the four
+    separating axes (a's and b's long and lateral axes): positive when apart (a lower bound of their
+    distance, exact when a face separates them), zero or negative when they overlap or touch; NaN for a
+    NaN pose."""
     dx, dy = xb - xa, yb - ya
     ca, sa = np.cos(yawa), np.sin(yawa)
     cb, sb = np.cos(yawb), np.sin(yawb)
     axes = ((ca, sa), (-sa, ca), (cb, sb), (-sb, cb))
-    overlap = np.ones(np.broadcast(dx, dy, ca, cb).shape, dtype=bool)
+    gap = np.full(np.broadcast(dx, dy, ca, cb).shape, -np.inf)
     for ux, uy in axes:
         dist = np.abs(dx * ux + dy * uy)
         # half extent of each rectangle projected on the axis
         ra = la / 2 * np.abs(ca * ux + sa * uy) + wa / 2 * np.abs(-sa * ux + ca * uy)
         rb = lb / 2 * np.abs(cb * ux + sb * uy) + wb / 2 * np.abs(-sb * ux + cb * uy)
-        overlap &= dist <= ra + rb
-    return overlap
+        gap = np.maximum(gap, dist - (ra + rb))
+    return gap
+
+
+def footprints_overlap(xa, ya, yawa, la, wa, xb, yb, yawb, lb, wb) -> np.ndarray:
+    """True where footprint a (centre, yaw, length, width [m, rad]) overlaps or touches footprint b
+    (the separating-axis test, `footprint_separation` <= 0); a NaN pose never overlaps."""
+    with np.errstate(invalid="ignore"):
+        return footprint_separation(xa, ya, yawa, la, wa, xb, yb, yawb, lb, wb) <= 0
 
 
 def classify_contact(rel_heading, lon=None, lat=None, half_len=None, half_wid=None) -> np.ndarray:

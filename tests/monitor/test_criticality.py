@@ -106,3 +106,12 @@ def test_vectorised_speed_2000_variations():
     table = criticality_table(arrays)
     assert table.num_rows == 2000 * 3
     assert time.perf_counter() - start < 15.0  # ~1-2 s measured on 2 shared cores
+
+
+def test_min_gap_of_a_pair_side_by_side():
+    # two 2 m wide cars side by side at the same speed, centres 3.5 m apart: never on a collision course,
+    # closest gap 3.5 - 2 = 1.5 m
+    row = _row(tables({"ego": track(steps=30, x0=0.0, speed=10.0, length=4.5, width=2.0),
+                       "npc1": track(steps=30, x0=2.0, y0=3.5, speed=10.0, length=4.5, width=2.0)}))
+    assert np.isnan(row["min_ttc"])
+    assert row["min_gap"] == pytest.approx(1.5)

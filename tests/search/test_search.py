@@ -127,3 +127,30 @@ def test_search_pins_parameters_and_repeats(tmp_path):
     for scene, row in zip(scenes, values):
         assert [scene.params[n] for n in names] == pytest.approx(list(row))
     assert load_file(tmp_path / "run0" / "scenario.yaml").actors["ego"]
+
+
+def test_ttc_objective_orders_every_outcome():
+    """A harder impact < a softer one < a collision course < a near miss < a wide berth; invalid is NaN."""
+    import pyarrow as pa
+
+    from crashscene.monitor.criticality import CRITICALITY_SCHEMA
+    from crashscene.search.objective import FULL_BRAKING, TTC_CAP, objective_values, worst_value
+
+    nan = float("nan")
+    rows = [  # variation, min_ttc, min_gap, impact_speed
+        (0, 0.0, 0.0, 12.0), (1, 0.0, 0.0, 4.0), (2, 1.5, 0.8, nan), (3, nan, 0.5, nan), (4, nan, 30.0, nan),
+        (5, nan, 1.0, nan)]
+    crit = pa.table({name: pa.nulls(len(rows), field.type) for name, field in
+                     zip(CRITICALITY_SCHEMA.names, CRITICALITY_SCHEMA)}, schema=CRITICALITY_SCHEMA)
+    crit = crit.set_column(0, "variation", pa.array([r[0] for r in rows], pa.int32()))
+    for name, k in (("min_ttc", 1), ("min_gap", 2), ("impact_speed", 3)):
+        crit = crit.set_column(crit.schema.get_field_index(name), name, pa.array([r[k] for r in rows], pa.float64()))
+    crit = crit.set_column(crit.schema.get_field_index("involves_ads"), "involves_ads", pa.array([True] * len(rows)))
+    verdicts = pa.table({"variation": pa.array(range(6), pa.int32()),
+                         "verdict": ["collision", "collision", "pass", "pass", "pass", "invalid"]})
+    values = objective_values("ttc", np.arange(6), verdicts, None, None, crit)
+    assert values[0] == pytest.approx(-12.0 / FULL_BRAKING)
+    assert values[1] == pytest.approx(-4.0 / FULL_BRAKING)
+    assert values[2] == pytest.approx(1.5)
+    assert values[0] < values[1] < values[2] < TTC_CAP < values[3] < values[4] <= worst_value("ttc")
+    assert np.isnan(values[5])

@@ -16,6 +16,10 @@ For every unordered pair of actors (a, b) of every variation:
 - `min_thw` [s]: minimum time headway, the bumper-to-bumper gap to an actor
   ahead in the follower's path (heading difference under 30 deg, lateral
   offset under the two half widths) divided by the follower's speed.
+- `min_gap` [m]: the smallest gap between the two footprints (the
+  separating-axis gap of `crashscene.geometry.footprint_separation`, a lower
+  bound of their distance), 0 from the first contact on: how close a pair
+  came that never got onto a collision course.
 - `max_drac` [m/s2]: maximum deceleration rate to avoid the crash: the
   relative speed |v_b - v_a| that must be cancelled over the distance it closes
   before contact, |v_rel| / (2 TTC) (for a car closing on a stopped one:
@@ -36,7 +40,7 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.compute as pc
 
-from crashscene.geometry import heading_difference, relative_position
+from crashscene.geometry import footprint_separation, heading_difference, relative_position
 from crashscene.monitor.arrays import TraceArrays
 from crashscene.monitor.collisions import pair_overlaps
 from crashscene.monitor.timeseries import first_index, last_index
@@ -49,7 +53,7 @@ MIN_FOLLOWER_SPEED = 0.1  # [m/s] slower followers have no meaningful headway
 PATH_STRIDE = 4  # steps between path samples when looking for the crossing point
 CHUNK = 512  # variations per vectorised block (bounds memory)
 
-METRICS = ("min_ttc", "pet", "min_thw", "max_drac", "impact_speed", "delta_v_a", "delta_v_b")
+METRICS = ("min_ttc", "min_gap", "pet", "min_thw", "max_drac", "impact_speed", "delta_v_a", "delta_v_b")
 
 CRITICALITY_SCHEMA = pa.schema([
     ("variation", pa.int32()),
@@ -58,6 +62,7 @@ CRITICALITY_SCHEMA = pa.schema([
     ("involves_ads", pa.bool_()),     # one of the two is under test (is_ads)
     ("min_ttc", pa.float64()),        # [s] NaN: never on a collision course
     ("min_ttc_t", pa.float64()),      # [s] when the minimum occurred
+    ("min_gap", pa.float64()),        # [m] 0 at contact; NaN: never both present
     ("pet", pa.float64()),            # [s] NaN: no crossing conflict
     ("min_thw", pa.float64()),        # [s] NaN: never following
     ("max_drac", pa.float64()),       # [m/s2] NaN: never closing
@@ -106,7 +111,7 @@ def _velocity(speed: np.ndarray, yaw: np.ndarray) -> np.ndarray:
 
 
 def _pair_ttc(arrays: TraceArrays, sl: slice, a: int, b: int, contact: np.ndarray):
-    """(min TTC, its time, max DRAC) for pair (a, b) over variations `sl`; `contact` first contact step."""
+    """(min TTC, its time, max DRAC, min gap) for pair (a, b) over variations `sl`; `contact` first contact step."""
     f = arrays.floats
     n_steps = arrays.shape[2]
     both = arrays.alive[sl, a] & arrays.alive[sl, b]
@@ -133,7 +138,12 @@ def _pair_ttc(arrays: TraceArrays, sl: slice, a: int, b: int, contact: np.ndarra
     with np.errstate(all="ignore"):
         max_drac = np.where(np.isfinite(drac).any(axis=1), np.nanmax(np.where(np.isfinite(drac), drac, -1), axis=1),
                             np.nan)
-    return min_ttc, min_t, max_drac
+    gap = footprint_separation(get("x", a), get("y", a), get("yaw", a), arrays.length[sl, a][:, None],
+                               arrays.width[sl, a][:, None], get("x", b), get("y", b), get("yaw", b),
+                               arrays.length[sl, b][:, None], arrays.width[sl, b][:, None])
+    gap = np.where(use, np.maximum(gap, 0.0), np.inf).min(axis=1)
+    min_gap = np.where(collided, 0.0, np.where(np.isfinite(gap), gap, np.nan))
+    return min_ttc, min_t, max_drac, min_gap
 
 
 def _pair_thw(arrays: TraceArrays, sl: slice, a: int, b: int) -> np.ndarray:
@@ -238,13 +248,15 @@ def criticality_table(arrays: TraceArrays, collisions: pa.Table | None = None) -
     recorded = _recorded_delta_v(arrays, collisions)
     parts = []
     for p, (a, b) in enumerate(zip(ia, ib)):
-        cols: dict[str, list[np.ndarray]] = {m: [] for m in ("min_ttc", "min_ttc_t", "max_drac", "min_thw", "pet")}
+        cols: dict[str, list[np.ndarray]] = {m: [] for m in ("min_ttc", "min_ttc_t", "max_drac", "min_gap", "min_thw",
+                                                             "pet")}
         for lo in range(0, n_var, CHUNK):
             sl = slice(lo, min(n_var, lo + CHUNK))
-            ttc, ttc_t, drac = _pair_ttc(arrays, sl, a, b, contact[sl, p])
+            ttc, ttc_t, drac, gap = _pair_ttc(arrays, sl, a, b, contact[sl, p])
             cols["min_ttc"].append(ttc)
             cols["min_ttc_t"].append(ttc_t)
             cols["max_drac"].append(drac)
+            cols["min_gap"].append(gap)
             cols["min_thw"].append(_pair_thw(arrays, sl, a, b))
             cols["pet"].append(_pair_pet(arrays, sl, a, b))
         merged = {k: np.concatenate(v) for k, v in cols.items()}
@@ -260,6 +272,7 @@ def criticality_table(arrays: TraceArrays, collisions: pa.Table | None = None) -
             "involves_ads": pa.array((arrays.is_ads[rows, a] | arrays.is_ads[rows, b])),
             "min_ttc": pa.array(merged["min_ttc"][rows]),
             "min_ttc_t": pa.array(merged["min_ttc_t"][rows]),
+            "min_gap": pa.array(merged["min_gap"][rows]),
             "pet": pa.array(merged["pet"][rows]),
             "min_thw": pa.array(merged["min_thw"][rows]),
             "max_drac": pa.array(merged["max_drac"][rows]),
@@ -317,17 +330,17 @@ def _impact(arrays: TraceArrays, a: int, b: int, contact: np.ndarray, recorded: 
 
 
 def ads_objectives(table: pa.Table) -> dict[int, dict[str, float]]:
-    """Per variation, over pairs involving an actor under test: min TTC (0 at contact), min PET, min THW,
-    max DRAC, max impact speed (NaN where none)."""
+    """Per variation, over pairs involving an actor under test: min TTC (0 at contact), min gap, min PET,
+    min THW, max DRAC, max impact speed (NaN where none)."""
     out: dict[int, dict[str, float]] = {}
     if not table.num_rows:
         return out
     rows = table.filter(table["involves_ads"]).to_pydict()
+    picks = (("min_ttc", np.fmin), ("min_gap", np.fmin), ("pet", np.fmin), ("min_thw", np.fmin),
+             ("max_drac", np.fmax), ("impact_speed", np.fmax))
     for i, v in enumerate(rows["variation"]):
-        cur = out.setdefault(int(v), {"min_ttc": np.nan, "pet": np.nan, "min_thw": np.nan, "max_drac": np.nan,
-                                      "impact_speed": np.nan})
-        for key, pick in (("min_ttc", np.fmin), ("pet", np.fmin), ("min_thw", np.fmin), ("max_drac", np.fmax),
-                          ("impact_speed", np.fmax)):
+        cur = out.setdefault(int(v), {key: np.nan for key, _ in picks})
+        for key, pick in picks:
             value = rows[key][i]
             cur[key] = float(pick(cur[key], np.nan if value is None else value))
     return out
