@@ -75,7 +75,8 @@ def test_chunks_of_a_campaign_equal_one_run(tmp_path):
 def test_any_worker_count_writes_the_same_bytes(case, tmp_path):
     """Variation i depends only on (scenario, seed, i): 1 process, 2 and 3 processes, and a resumed tail agree."""
     scenario = load_file(EXAMPLES / case / "golden.yaml")
-    names = ["scenes.jsonl"] + [f"{name}.parquet" for name in TABLES] + ["verdicts.parquet", "rule_results.parquet"]
+    names = (["scenes.jsonl", "monitor.json"] + [f"{name}.parquet" for name in TABLES]
+             + [f"{name}.parquet" for name in ("verdicts", "rule_results", "collisions_classified", "criticality")])
     for workers in (1, 2, 3):
         simulate_scenario(scenario, tmp_path / f"w{workers}", n=320, seed=9, mode="reproduce", workers=workers)
     for workers in (2, 3):

@@ -359,16 +359,3 @@ def summarize(table: pa.Table) -> dict[str, dict[str, float | int | None]]:
                        "p5": round(float(np.percentile(values, 5)), 4),
                        "median": round(float(np.median(values)), 4)}
     return out
-
-
-def write_criticality(run_dir, tables: dict[str, pa.Table], collisions: pa.Table | None = None) -> dict:
-    """Compute the metrics of a batch, write `run_dir/criticality.parquet`, return `summarize` of it."""
-    from pathlib import Path
-
-    import pyarrow.parquet as pq
-
-    from crashscene.monitor.arrays import build_arrays
-
-    table = criticality_table(build_arrays(tables), collisions)
-    pq.write_table(table, Path(run_dir) / "criticality.parquet", compression="zstd")
-    return summarize(table)

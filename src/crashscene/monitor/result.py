@@ -114,6 +114,24 @@ class MonitorResult:
         }
 
 
+def combine(parts: list[MonitorResult]) -> MonitorResult:
+    """One result from the results of consecutive blocks of variations (each evaluated alone: the monitor
+    judges every variation by itself): tables concatenated in block order, oracle observations summed."""
+    first = parts[0]
+    oracle = dict(first.oracle)
+    entries = [dict(e) for e in first.oracle.get("oracle", [])]
+    for part in parts[1:]:
+        for entry, more in zip(entries, part.oracle.get("oracle", [])):
+            if entry["observed"] is not None:
+                entry["observed"] += more["observed"]
+    if "oracle" in oracle:
+        oracle["oracle"] = entries
+    return MonitorResult(rule_results=pa.concat_tables([p.rule_results for p in parts]),
+                         collisions=pa.concat_tables([p.collisions for p in parts]),
+                         verdicts=pa.concat_tables([p.verdicts for p in parts]),
+                         rules=first.rules, oracle=oracle, rulebook=first.rulebook)
+
+
 def _json_number(value: float) -> float | None:
     return round(float(value), 4) if np.isfinite(value) else None
 

@@ -104,10 +104,9 @@ def search_scenario(scenario: Scenario, out_dir: Path, *, budget: int, sampler: 
 def _evaluate(simulator, settings, scenario, compiled, program: Path, rendered, values: np.ndarray, seed: int,
               first: int, objective: str) -> tuple[list[dict[str, Any]], pa.Table]:
     """Simulate and monitor one round; one row per variation (objective NaN for invalid ones)."""
-    from crashscene.monitor import evaluate
-    from crashscene.monitor.arrays import build_arrays
-    from crashscene.monitor.criticality import CRITICALITY_SCHEMA, ads_objectives, criticality_table
+    from crashscene.monitor.criticality import CRITICALITY_SCHEMA, ads_objectives
     from crashscene.simulate.backend import SimulationRequest
+    from crashscene.simulate.pipeline import judge_block
 
     drawn = pinned_scenes(compiled, program, values, seed, first)
     scenes = [s for s in drawn if not isinstance(s, str)]
@@ -117,9 +116,8 @@ def _evaluate(simulator, settings, scenario, compiled, program: Path, rendered, 
         return rows, CRITICALITY_SCHEMA.empty_table()
     request = SimulationRequest(scenario=scenario, scenes=scenes, map_file=Path(rendered.map), settings=settings,
                                 program=program.read_text(encoding="utf-8"))
-    tables = simulator.simulate(request).tables
-    result = evaluate(tables, scenario)
-    crit = criticality_table(build_arrays(tables), result.collisions)
+    judged = judge_block(simulator.simulate(request).tables, scenario)
+    result, crit = judged.result, judged.criticality
     variations = np.array([s.index for s in scenes])
     obj = objective_values(objective, variations, result.verdicts, result.rule_results, result.collisions, crit)
     verdict = dict(zip(result.verdicts["variation"].to_pylist(), result.verdicts["verdict"].to_pylist()))

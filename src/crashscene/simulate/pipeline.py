@@ -9,6 +9,7 @@ collisions_classified.parquet, verdicts.parquet, monitor.json, criticality.parqu
 from __future__ import annotations
 
 import dataclasses
+import functools
 import itertools
 import json
 import multiprocessing
@@ -137,8 +138,9 @@ def _write_run(scenario: Scenario, out_dir: Path, n: int, seed: int, first: int 
     t0 = time.perf_counter()
     request = SimulationRequest(scenario=scenario, scenes=scenes, map_file=Path(rendered.map), settings=settings,
                                 program=Path(rendered.program).read_text(encoding="utf-8"), progress=progress)
-    result = simulate_blocks(backend, settings, request, workers)
-    timings["simulate"] = time.perf_counter() - t0
+    judge = functools.partial(judge_block, scenario=scenario, rulebook=rulebook) if monitor else None
+    result, judged = simulate_blocks(backend, settings, request, workers, judge)
+    timings["simulate"] = time.perf_counter() - t0 - (judged.seconds if judged is not None else 0.0)
     digest = scenario_digest(scenario)
     for name, table in result.tables.items():
         write_table(out_dir, name, table.replace_schema_metadata({SCENARIO_DIGEST_KEY: digest}))
@@ -151,14 +153,13 @@ def _write_run(scenario: Scenario, out_dir: Path, n: int, seed: int, first: int 
         summary["notes"] = result.notes
     if rendered_dir is not None:
         summary["rendered_from"] = str(rendered_dir)  # a campaign's case render, copied rather than redone
-    if monitor:
+    if judged is not None:
         t0 = time.perf_counter()
-        monitored = _monitor(result.tables, scenario, out_dir, rulebook)
-        if monitored is not None:
-            mc = monitored.pop("monitor_collisions")
-            summary["collisions"].update(by_class=mc["by_class"], by_pair=mc["by_pair"])
-            summary.update(monitored)
-        timings["monitor"] = time.perf_counter() - t0
+        monitored = _write_monitored(judged, out_dir)
+        mc = monitored.pop("monitor_collisions")
+        summary["collisions"].update(by_class=mc["by_class"], by_pair=mc["by_pair"])
+        summary.update(monitored)
+        timings["monitor"] = judged.seconds + time.perf_counter() - t0
     summary["seconds"] = round(time.perf_counter() - start, 3)
     summary["timings"] = {k: round(v, 3) for k, v in timings.items()}
     (out_dir / "summary.json").write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
@@ -186,9 +187,33 @@ MIN_BLOCK = 100  # variations per process below which forking costs more than it
 _INHERITED: dict[str, Any] = {}  # the request, read by forked children only
 
 
-def simulate_blocks(backend: str, settings: SimulationSettings, request: SimulationRequest,
-                    workers: int) -> BatchResult:
-    """`request` simulated in up to `workers` forked processes, one contiguous block of scenes each.
+@dataclasses.dataclass
+class Judged:
+    """The monitor's result and the criticality metrics of a batch, and the wall time they took [s] (the
+    longest block's, when blocks ran in parallel)."""
+
+    result: Any  # crashscene.monitor.result.MonitorResult
+    criticality: pa.Table
+    seconds: float
+
+
+def judge_block(tables: dict[str, pa.Table], scenario: Scenario, rulebook=None) -> Judged:
+    """Monitor and criticality metrics of one block of variations (each variation is judged by itself, so
+    blocks judged apart and concatenated equal the whole batch judged at once)."""
+    from crashscene.monitor import evaluate
+    from crashscene.monitor.arrays import build_arrays
+    from crashscene.monitor.criticality import criticality_table
+
+    start = time.perf_counter()
+    result = evaluate(tables, scenario, rulebook) if rulebook is not None else evaluate(tables, scenario)
+    criticality = criticality_table(build_arrays(tables), result.collisions)
+    return Judged(result, criticality, time.perf_counter() - start)
+
+
+def simulate_blocks(backend: str, settings: SimulationSettings, request: SimulationRequest, workers: int,
+                    judge: Callable[[dict[str, pa.Table]], Judged] | None = None) -> tuple[BatchResult, Judged | None]:
+    """`request` simulated in up to `workers` forked processes, one contiguous block of scenes each, and each
+    block judged (`judge`: monitor and metrics) in its process.
 
     Variation i depends only on its scene, so the concatenated tables equal one process's. Only the embedded
     backend is split (a CARLA server is one shared world; Newtonian runs scene by scene anyway).
@@ -197,30 +222,41 @@ def simulate_blocks(backend: str, settings: SimulationSettings, request: Simulat
     workers = min(workers, max(1, len(scenes) // MIN_BLOCK)) if backend == "embedded" else 1
     if workers == 1:
         with create_simulator(backend, settings) as simulator:
-            return simulator.simulate(request)
+            result = simulator.simulate(request)
+        return result, (judge(result.tables) if judge is not None else None)
     start = time.perf_counter()
     bounds = [len(scenes) * k // workers for k in range(workers + 1)]
-    _INHERITED.update(backend=backend, settings=settings, request=request)
+    _INHERITED.update(backend=backend, settings=settings, request=request, judge=judge)
     try:
         context = multiprocessing.get_context("fork")  # children inherit the imports and the parsed map
         with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
             futures = [pool.submit(_simulate_block, lo, hi) for lo, hi in itertools.pairwise(bounds)]
             if request.progress is not None:
                 for fut in as_completed(futures):
-                    request.progress(fut.result()[1])
-            parts = [fut.result()[0] for fut in futures]
+                    request.progress(fut.result()[2])
+            parts = [fut.result() for fut in futures]
     finally:
         _INHERITED.clear()
-    tables = {name: pa.concat_tables([part.tables[name] for part in parts]) for name in parts[0].tables}
-    notes = list(dict.fromkeys(note for part in parts for note in part.notes))
-    return BatchResult(backend=parts[0].backend, tables=tables, seconds=time.perf_counter() - start, notes=notes)
+    tables = {name: pa.concat_tables([part[0].tables[name] for part in parts]) for name in parts[0][0].tables}
+    notes = list(dict.fromkeys(note for part in parts for note in part[0].notes))
+    result = BatchResult(backend=parts[0][0].backend, tables=tables, seconds=time.perf_counter() - start,
+                         notes=notes)
+    if judge is None:
+        return result, None
+    from crashscene.monitor.result import combine
+
+    judged = [part[1] for part in parts]
+    return result, Judged(combine([j.result for j in judged]), pa.concat_tables([j.criticality for j in judged]),
+                          max(j.seconds for j in judged))
 
 
-def _simulate_block(lo: int, hi: int) -> tuple[BatchResult, int]:
+def _simulate_block(lo: int, hi: int) -> tuple[BatchResult, Judged | None, int]:
     backend, settings, request = _INHERITED["backend"], _INHERITED["settings"], _INHERITED["request"]
+    judge = _INHERITED["judge"]
     block = dataclasses.replace(request, scenes=list(request.scenes)[lo:hi], progress=None)
     with create_simulator(backend, settings) as simulator:
-        return simulator.simulate(block), hi - lo
+        result = simulator.simulate(block)
+    return result, (judge(result.tables) if judge is not None else None), hi - lo
 
 
 def summarize(tables: dict[str, pa.Table]) -> dict[str, Any]:
@@ -270,19 +306,16 @@ def _copy_render(src: Path, out_dir: Path):
                     scenario_hash=meta["scenario_hash"], town=meta.get("town"))
 
 
-def _monitor(tables: dict[str, pa.Table], scenario: Scenario, out_dir: Path,
-             rulebook=None) -> dict[str, Any] | None:
-    """Run `crashscene.monitor` when installed; write its outputs; the summary keys it contributes."""
-    try:
-        from crashscene.monitor import evaluate
-        from crashscene.monitor.run import write_results
-    except ImportError:
-        return None
-    from crashscene.monitor.criticality import write_criticality
+def _write_monitored(judged: Judged, out_dir: Path) -> dict[str, Any]:
+    """Write the monitor's outputs and criticality.parquet; the summary keys they contribute."""
+    import pyarrow.parquet as pq
 
-    result = evaluate(tables, scenario, rulebook) if rulebook is not None else evaluate(tables, scenario)
+    from crashscene.monitor.criticality import summarize as summarize_criticality
+    from crashscene.monitor.run import write_results
+
+    result = judged.result
     write_results(out_dir, result)
-    criticality = write_criticality(out_dir, tables, result.collisions)
+    pq.write_table(judged.criticality, out_dir / "criticality.parquet", compression="zstd")
     s = result.summary()
     by_class = {k: v for k, v in s.get("collisions", {}).items() if v}
     return {
@@ -298,5 +331,5 @@ def _monitor(tables: dict[str, pa.Table], scenario: Scenario, out_dir: Path,
                                "total": sum(by_class.values())},
         "expected_collision": s.get("expected_collision"),
         "expected_sequence": s.get("expected_sequence"),
-        "criticality": criticality,
+        "criticality": summarize_criticality(judged.criticality),
     }
