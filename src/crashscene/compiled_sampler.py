@@ -73,22 +73,20 @@ class CompiledSampler:
 
     def __init__(self, program: Path, map_path: Path | None = None):
         import shapely
-        from scenic.domains.driving.roads import Network
 
-        from crashscene.render import scenic_support
+        from crashscene.cache import pickled
 
         self.plan = plan = load_plan(program)
         self.map_path = Path(map_path) if map_path is not None else Path(program).parent / plan["map"]
-        network = Network.fromFile(str(self.map_path))
-        spec = plan["candidates"]
-        combos = scenic_support.candidates(network, spec["actors"], spec["topology"], spec["hint"],
-                                           spec["curve_sign"], spec["ego_roads"], spec["map_name"],
-                                           spec["room"])
         self.actors = plan["actors"]
         self.roles = [a["role"] for a in self.actors]
-        self.combo_routes, self.routes, self.passed = _tabulate(combos, self.roles)
-        region = network.drivableRegion.union(network.shoulderRegion)
-        self.region = getattr(region, "footprint", region).polygons
+        # the candidate routes and the drivable region depend only on the map and the candidate spec: computed
+        # once per (map, spec, version of the code that derives them), so a later run skips Scenic altogether
+        spec = plan["candidates"]
+        inputs = [Path(__file__).read_bytes(), _support_source(), self.map_path.read_bytes(),
+                  json.dumps([spec, self.roles], sort_keys=True).encode()]
+        self.combo_routes, self.routes, self.passed, self.region = pickled(
+            "sampler-candidates", inputs, lambda: _candidates(self.map_path, spec, self.roles))
         shapely.prepare(self.region)
         self.param_names = [p["name"] for p in plan["params"]]
         self.low = np.array([p["low"] for p in plan["params"]], dtype=float)
@@ -238,6 +236,30 @@ class CompiledSampler:
                             "route_lanes": self.routes.lanes_text[route]}))
         return SampledScene(index=index, seed=seed, scenario_hash=digest, map_file=map_file, params=params,
                             actors=actors)
+
+
+def _support_source() -> bytes:
+    """The source of the module that finds the candidates (part of their cache key), found without importing
+    it (its import pulls in Scenic)."""
+    import importlib.util
+
+    spec = importlib.util.find_spec("crashscene.render.scenic_support")
+    return Path(spec.origin).read_bytes() if spec is not None and spec.origin else b""
+
+
+def _candidates(map_path: Path, spec: dict[str, Any], roles: list[str]):
+    """(candidate x actor -> route number, the routes, crossing lengths, the drivable region polygons) of the
+    map: Scenic's road network and `render.scenic_support.candidates`, as the Scenic program does."""
+    from scenic.domains.driving.roads import Network
+
+    from crashscene.render import scenic_support
+
+    network = Network.fromFile(str(map_path))
+    combos = scenic_support.candidates(network, spec["actors"], spec["topology"], spec["hint"], spec["curve_sign"],
+                                       spec["ego_roads"], spec["map_name"], spec["room"])
+    combo_routes, routes, passed = _tabulate(combos, roles)
+    region = network.drivableRegion.union(network.shoulderRegion)
+    return combo_routes, routes, passed, getattr(region, "footprint", region).polygons
 
 
 def _tabulate(combos: list[Any], roles: list[str]) -> tuple[np.ndarray, _Routes, np.ndarray]:

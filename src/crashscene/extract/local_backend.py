@@ -22,6 +22,7 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
+from crashscene.cache import cache_dir
 from crashscene.extract.errors import ExtractError
 from crashscene.extract.openai_backend import ChatBackend, RetryPolicy
 
@@ -37,14 +38,6 @@ LOCAL_TIMEOUT = 600.0  # [s] per request: a 2-core CPU generates ~30 tokens/s wh
 
 class LocalModelError(ExtractError):
     """The local model is missing, corrupt, or its server cannot start."""
-
-
-def cache_dir() -> Path:
-    """The user cache: $CRASHSCENE_CACHE_DIR, else $XDG_CACHE_HOME/crashscene, else ~/.cache/crashscene."""
-    if os.environ.get("CRASHSCENE_CACHE_DIR"):
-        return Path(os.environ["CRASHSCENE_CACHE_DIR"])
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "crashscene"
 
 
 def installed_parts() -> list[Path]:

@@ -25,6 +25,7 @@ from pathlib import Path
 
 from pydantic import BaseModel, ConfigDict
 
+from crashscene.cache import cache_dir
 from crashscene.extract.errors import SketchError
 from crashscene.units import KMH_PER_MPH
 
@@ -84,14 +85,6 @@ def ocr_lines(image: Path, use_cache: bool = True) -> list[OcrLine]:
     if use_cache:
         _write_cache(cache_file, lines)
     return lines
-
-
-def cache_dir() -> Path:
-    """The user cache directory of crashscene (created on first write, never inside the repo)."""
-    if os.environ.get("CRASHSCENE_CACHE_DIR"):
-        return Path(os.environ["CRASHSCENE_CACHE_DIR"])
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "crashscene"
 
 
 # ---------------------------------------------------------------- OCR

@@ -11,6 +11,7 @@ import os
 import shutil
 from pathlib import Path
 
+from crashscene.cache import cache_dir
 from crashscene.convert import CARLA_TOWNS, RenderError, RenderPlan
 
 MAP_FORMAT_VERSION = "3"  # bump when generated maps change, to invalidate caches
@@ -18,11 +19,8 @@ MAP_MODES = ("generated", "carla")
 
 
 def default_cache_dir() -> Path:
-    """`$CRASHSCENE_CACHE/maps`, else `$XDG_CACHE_HOME/crashscene/maps`, else ~/.cache/crashscene/maps."""
-    if os.environ.get("CRASHSCENE_CACHE"):
-        return Path(os.environ["CRASHSCENE_CACHE"]) / "maps"
-    base = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
-    return base / "crashscene" / "maps"
+    """`maps` in the user cache directory (`crashscene.cache.cache_dir`)."""
+    return cache_dir() / "maps"
 
 
 def carla_town(plan: RenderPlan) -> str:

@@ -142,7 +142,12 @@ class RoadMap:
             raise SimulationError(f"{path}: map file not found")
         key = (str(path.resolve()), path.stat().st_mtime)
         if key not in cls._cache:
-            cls._cache[key] = cls._parse(path)
+            from crashscene.cache import pickled
+
+            # parsed once per map content and version of this module: a later run skips Scenic's import and parse
+            road_map = pickled("roadmaps", [Path(__file__).read_bytes(), path.read_bytes()], lambda: cls._parse(path))
+            road_map.path = path
+            cls._cache[key] = road_map
         return cls._cache[key]
 
     @classmethod
