@@ -4,10 +4,12 @@ The directory is `$CRASHSCENE_CACHE_DIR`, else `$CRASHSCENE_CACHE` (both
 spellings are accepted), else `$XDG_CACHE_HOME/crashscene`, else
 `~/.cache/crashscene`. Everything in it can be deleted at any time: it is
 rebuilt from the inputs. Pickled entries are written by crashscene itself, and
-their key includes a format version, so a changed layout is never read back.
+their key includes the hash of crashscene's own source, so what an older or
+edited version of the code derived is never read back.
 """
 from __future__ import annotations
 
+import functools
 import hashlib
 import os
 import pickle
@@ -29,12 +31,35 @@ def cache_dir() -> Path:
     return Path(base) / "crashscene"
 
 
+DERIVING_PACKAGES = ("scenic", "shapely", "numpy")  # whose versions change what cached values hold
+
+
+@functools.cache
+def code_fingerprint() -> bytes:
+    """SHA-256 of every Python source file of the crashscene package and of the versions of DERIVING_PACKAGES
+    (a few ms, once per process)."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    digest = hashlib.sha256()
+    for name in DERIVING_PACKAGES:
+        try:
+            digest.update(f"{name}=={version(name)}".encode())
+        except PackageNotFoundError:
+            digest.update(f"{name} absent".encode())
+    package = Path(__file__).resolve().parent
+    for path in sorted(package.rglob("*.py")):
+        digest.update(str(path.relative_to(package)).encode())
+        digest.update(path.read_bytes())
+    return digest.digest()
+
+
 def pickled(kind: str, inputs: list[bytes], build: Callable[[], T]) -> T:
-    """`build()`, or the value an earlier call with the same `kind` and `inputs` stored under `cache_dir()/kind`.
+    """`build()`, or the value an earlier call with the same `kind`, `inputs` and code (`code_fingerprint`)
+    stored under `cache_dir()/kind`.
 
     A cache that cannot be read or written (read-only, damaged entry) only costs the rebuild.
     """
-    digest = hashlib.sha256()
+    digest = hashlib.sha256(code_fingerprint())
     for part in inputs:
         digest.update(hashlib.sha256(part).digest())
     path = cache_dir() / kind / f"{digest.hexdigest()}.pkl"

@@ -81,10 +81,9 @@ class CompiledSampler:
         self.actors = plan["actors"]
         self.roles = [a["role"] for a in self.actors]
         # the candidate routes and the drivable region depend only on the map and the candidate spec: computed
-        # once per (map, spec, version of the code that derives them), so a later run skips Scenic altogether
+        # once per (map, spec, code), so a later run skips Scenic altogether
         spec = plan["candidates"]
-        inputs = [Path(__file__).read_bytes(), _support_source(), self.map_path.read_bytes(),
-                  json.dumps([spec, self.roles], sort_keys=True).encode()]
+        inputs = [self.map_path.read_bytes(), json.dumps([spec, self.roles], sort_keys=True).encode()]
         self.combo_routes, self.routes, self.passed, self.region = pickled(
             "sampler-candidates", inputs, lambda: _candidates(self.map_path, spec, self.roles))
         shapely.prepare(self.region)
@@ -236,15 +235,6 @@ class CompiledSampler:
                             "route_lanes": self.routes.lanes_text[route]}))
         return SampledScene(index=index, seed=seed, scenario_hash=digest, map_file=map_file, params=params,
                             actors=actors)
-
-
-def _support_source() -> bytes:
-    """The source of the module that finds the candidates (part of their cache key), found without importing
-    it (its import pulls in Scenic)."""
-    import importlib.util
-
-    spec = importlib.util.find_spec("crashscene.render.scenic_support")
-    return Path(spec.origin).read_bytes() if spec is not None and spec.origin else b""
 
 
 def _candidates(map_path: Path, spec: dict[str, Any], roles: list[str]):

@@ -144,8 +144,8 @@ class RoadMap:
         if key not in cls._cache:
             from crashscene.cache import pickled
 
-            # parsed once per map content and version of this module: a later run skips Scenic's import and parse
-            road_map = pickled("roadmaps", [Path(__file__).read_bytes(), path.read_bytes()], lambda: cls._parse(path))
+            # parsed once per map content (and code): a later run skips Scenic's import and parse
+            road_map = pickled("roadmaps", [path.read_bytes()], lambda: cls._parse(path))
             road_map.path = path
             cls._cache[key] = road_map
         return cls._cache[key]
