@@ -275,7 +275,7 @@ def _monitor(tables: dict[str, pa.Table], scenario: Scenario, out_dir: Path,
     """Run `crashscene.monitor` when installed; write its outputs; the summary keys it contributes."""
     try:
         from crashscene.monitor import evaluate
-        from crashscene.monitor.run import write_results
+        from crashscene.monitor.run_folder import write_results
     except ImportError:
         return None
     from crashscene.monitor.criticality import write_criticality
