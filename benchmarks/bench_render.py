@@ -14,10 +14,10 @@ import time
 import warnings
 from pathlib import Path
 
-from crashscene.convert import convert
 from crashscene.dsl import load_file
 from crashscene.maps.generated import build_map
 from crashscene.render import render
+from crashscene.render.plan import convert
 from crashscene.sample import compile_program, sample_scenes
 
 REPO = Path(__file__).resolve().parent.parent

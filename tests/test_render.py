@@ -9,9 +9,11 @@ import pytest
 from typer.testing import CliRunner
 
 from crashscene.cli import app
-from crashscene.convert import RenderError, convert
 from crashscene.dsl import load_file, loads
 from crashscene.render import comment, py, render, render_program
+from crashscene.render.errors import RenderError
+from crashscene.render.plan import convert
+
 from tests.conftest import CASES, EXAMPLES
 
 CACHE = Path(__file__).resolve().parent.parent / ".crashscene-cache" / "maps"  # git-ignored, shared across runs

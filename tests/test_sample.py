@@ -11,12 +11,13 @@ import pytest
 from typer.testing import CliRunner
 
 from crashscene.cli import app
-from crashscene.convert import HEADING_ANGLE
 from crashscene.dsl import load_file
 from crashscene.dsl.tokens import Heading
 from crashscene.render import render
+from crashscene.render.plan import HEADING_ANGLE
 from crashscene.sample import NEWTONIAN_MODEL, compile_program, sample_scenes
 from crashscene.scene import SampledScene
+
 from tests.conftest import CARLA_MAPS, CASES, EXAMPLES
 from tests.test_render import CACHE, hostile_scenario
 

@@ -30,8 +30,8 @@ from typing import Any
 
 import numpy as np
 
-from crashscene.convert import RenderError
 from crashscene.geometry import wrap_angle
+from crashscene.render.errors import SampleError
 from crashscene.scene import SampledActor, SampledScene
 
 CARLA_MODEL = "scenic.simulators.carla.model"
@@ -40,10 +40,6 @@ MAX_ITERATIONS = 2000  # rejection-sampling attempts per scene before giving up
 SAMPLERS = ("compiled", "scenic")
 _SKIP_PARAMS = {"map", "map_options", "render", "use2DMap", "verifaiSamplerType", "verifaiSamplerParams",
                 "snapToGroundDefault", "address", "port", "timeout", "timestep", "debugRender"}
-
-
-class SampleError(RenderError):
-    """A program cannot be compiled or sampled (part of the render stage's exception family)."""
 
 
 def _cache_model_parses() -> None:

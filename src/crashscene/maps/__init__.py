@@ -11,7 +11,8 @@ import os
 import shutil
 from pathlib import Path
 
-from crashscene.convert import CARLA_TOWNS, RenderError, RenderPlan
+from crashscene.render.errors import RenderError
+from crashscene.render.plan import CARLA_TOWNS, RenderPlan
 
 MAP_FORMAT_VERSION = "3"  # bump when generated maps change, to invalidate caches
 MAP_MODES = ("generated", "carla")

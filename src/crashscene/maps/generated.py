@@ -28,8 +28,8 @@ from pathlib import Path
 from scenariogeneration import xodr
 from scenariogeneration.helpers import printToFile
 
-from crashscene.convert import MapSpec
 from crashscene.geometry import LANE_WIDTH
+from crashscene.render.plan import MapSpec
 
 ARM_ANGLE = {"ego": math.pi, "left": math.pi / 2, "opposite": 0.0, "right": 3 * math.pi / 2}  # [rad] on the circle
 OPENDRIVE_REVISION = ("1", "8")  # (major, minor) written to the header

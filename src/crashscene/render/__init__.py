@@ -27,17 +27,17 @@ from typing import Any
 
 import jinja2
 
-from crashscene.convert import (
+from crashscene.dsl.model import Scenario
+from crashscene.render.errors import RenderError
+from crashscene.render.plan import (
     BLUEPRINT_DIMS,
     Placement,
     Range,
-    RenderError,
     RenderPlan,
     convert,
     placement_order,
     scenario_hash,
 )
-from crashscene.dsl.model import Scenario
 from crashscene.render.sampling_plan import SAMPLING_PLAN_NAME, sampling_plan, write_sampling_plan
 
 __all__ = ["RenderError", "Rendered", "render", "render_program"]
@@ -172,7 +172,7 @@ def program_context(plan: RenderPlan, *, carla_town: str | None = None, map_name
         pool = actor.blueprints
         for bp in pool:
             if bp not in BLUEPRINT_DIMS:
-                raise RenderError(f"blueprint {bp!r} has no dimensions in convert.BLUEPRINT_DIMS")
+                raise RenderError(f"blueprint {bp!r} has no dimensions in crashscene.render.plan.BLUEPRINT_DIMS")
         if len(pool) == 1:
             bp_expr = py(pool[0])
             length_expr, width_expr = py(BLUEPRINT_DIMS[pool[0]][0]), py(BLUEPRINT_DIMS[pool[0]][1])

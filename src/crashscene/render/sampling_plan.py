@@ -17,7 +17,7 @@ import json
 from pathlib import Path
 from typing import Any
 
-from crashscene.convert import BLUEPRINT_DIMS
+from crashscene.render.plan import BLUEPRINT_DIMS
 
 SAMPLING_PLAN_NAME = "sampler.json"
 PLAN_FORMAT = 1

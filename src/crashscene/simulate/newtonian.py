@@ -400,7 +400,7 @@ def scenes_from_program(program: str, map_file: Path, scenario, n: int, seed: in
 
 def _program_actor(obj, role: str, scenario, behavior_enum) -> SampledActor:
     """A SampledActor for a Scenic object, the DSL actor of its role filling what Scenic does not know."""
-    from crashscene.convert import ROUTE_INTENT
+    from crashscene.render.plan import ROUTE_INTENT
 
     dsl = scenario.actors[role]
     lane = getattr(obj, "_lane", None)
