@@ -15,8 +15,8 @@ import warnings
 from pathlib import Path
 
 from crashscene.dsl import load_file
-from crashscene.maps.generated import build_map
 from crashscene.render import render
+from crashscene.render.opendrive import build_map
 from crashscene.render.plan import convert
 from crashscene.sample import compile_program, sample_scenes
 

@@ -257,7 +257,7 @@ def _cruise(actor, plan: RenderPlan) -> Range:
 def render(scenario: Scenario, out_dir: Path, map_mode: str = "generated", carla_maps: Path | None = None,
            cache_dir: Path | None = None, town_override: dict[str, str] | None = None) -> Rendered:
     """Write out_dir/scenario.scenic and out_dir/map.xodr for the scenario."""
-    from crashscene.maps import install_map, prepare_map
+    from crashscene.render.maps import install_map, prepare_map
 
     out_dir = Path(out_dir)
     plan = convert(scenario)
