@@ -35,7 +35,7 @@ def _range(value: Any) -> tuple[float, float]:
 
 
 def sampling_plan(context: dict[str, Any], program_text: str) -> dict[str, Any]:
-    """The plan for a program rendered from `context` (see `crashscene.render.program_context`)."""
+    """The plan for a program rendered from `context` (see `crashscene.render.program.program_context`)."""
     plan = context["plan"]
     params = []
     actors = []
