@@ -18,7 +18,7 @@ from crashscene.dsl import load_file
 from crashscene.render import render
 from crashscene.render.opendrive import build_map
 from crashscene.render.plan import convert
-from crashscene.sample import compile_program, sample_scenes
+from crashscene.render.sample import compile_program, sample_scenes
 
 REPO = Path(__file__).resolve().parent.parent
 EXAMPLES = REPO / "examples" / "ciren"

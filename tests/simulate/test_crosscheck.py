@@ -60,7 +60,8 @@ oracle: []
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory):
     """(scenes, embedded tables, newtonian tables, settings) for the same rendered scenario and scenes."""
-    from crashscene import render, sample
+    from crashscene import render
+    from crashscene.render import sample
     scenario = loads(SCENARIO)
     out = tmp_path_factory.mktemp("crosscheck")
     rendered = render.render(scenario, out, cache_dir=out / "maps")

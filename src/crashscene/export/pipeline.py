@@ -163,7 +163,7 @@ def export_scenario(scenario_path: Path, out_dir: Path, run_dir: Path | None = N
                     seed: int = 0) -> Exported:
     """Export `scenario_path` to `out_dir`; with `run_dir`, also its chosen (or failing, or all valid) variations."""
     from crashscene.render import RenderError, render
-    from crashscene.sample import sample_scenes
+    from crashscene.render.sample import sample_scenes
 
     scenario_path, out_dir = Path(scenario_path), Path(out_dir)
     if (variations is not None or failing) and run_dir is None:

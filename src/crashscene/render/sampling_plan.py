@@ -4,7 +4,7 @@
 the sampled global parameters (uniform ranges, in declaration order), the
 program's constant parameters, each actor's placement rule, blueprint pool and
 `cs_*` tokens, and the arguments the program hands to
-`scenic_support.candidates`. `crashscene.compiled_sampler` draws scenes from it
+`scenic_support.candidates`. `crashscene.render.compiled_sampler` draws scenes from it
 with numpy instead of Scenic's interpreter: same candidates, same placement
 arithmetic, same built-in requirements (every car inside road-or-shoulder, no
 two cars overlapping). The plan carries the sha256 of the program it was
