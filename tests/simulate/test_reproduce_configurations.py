@@ -8,7 +8,7 @@ import pyarrow.parquet as pq
 import pytest
 
 from crashscene.dsl import loads
-from crashscene.simulate.pipeline import simulate_scenario
+from crashscene.pipeline.simulate import simulate_scenario
 
 N = 20  # variations per configuration (0.9 of 20: at most 2 misses)
 
