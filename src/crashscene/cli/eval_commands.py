@@ -29,8 +29,8 @@ def eval_command(
 ) -> None:
     """Score predictions against golden files (dsl.md section 4): per-component and overall accuracy, oracle
     precision, extensions, a per-field confusion table and per-case diffs. Exit 2 on unusable inputs."""
-    from crashscene.eval_folds import evaluate_folds, format_folds
-    from crashscene.evaluate import EvalError, evaluate, format_result, load_pairs
+    from crashscene.evaluation.folds import evaluate_folds, format_folds
+    from crashscene.evaluation.score import EvalError, evaluate, format_result, load_pairs
     from crashscene.extract.rule_sources import RULE_SOURCES
 
     try:

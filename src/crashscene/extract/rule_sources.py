@@ -1,7 +1,7 @@
 """The record of which bundled cases each extraction rule was written from (issue 11).
 
 An honest held-out figure needs to know which cases were looked at while a rule was written: `crashscene
-eval --folds K` splits the bundled cases into K folds (`crashscene.eval_folds.assign_folds`) and reports a
+eval --folds K` splits the bundled cases into K folds (`crashscene.evaluation.folds.assign_folds`) and reports a
 fold as held out only when no rule below names one of its cases. Every rule rests on at least two cases
 (`tests/extract/test_rule_sources.py` checks that, and that every case named exists).
 

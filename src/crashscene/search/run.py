@@ -59,7 +59,7 @@ def search_scenario(scenario: Scenario, out_dir: Path, *, budget: int, sampler: 
     The returned dict has SUMMARY_KEYS plus `rounds` (convergence), `rules` (failure region), `parameters`.
     """
     from crashscene.render import RenderError, render
-    from crashscene.sample import compile_program
+    from crashscene.render.sample import compile_program
     from crashscene.simulate.backend import SimulationSettings, check_ego_role, create_simulator
 
     start = time.perf_counter()
@@ -106,7 +106,7 @@ def _evaluate(simulator, settings, scenario, compiled, program: Path, rendered, 
     """Simulate and monitor one round; one row per variation (objective NaN for invalid ones)."""
     from crashscene.monitor.criticality import CRITICALITY_SCHEMA, ads_objectives
     from crashscene.simulate.backend import SimulationRequest
-    from crashscene.simulate.pipeline import judge_block
+    from crashscene.pipeline.simulate import judge_block
 
     drawn = pinned_scenes(compiled, program, values, seed, first)
     scenes = [s for s in drawn if not isinstance(s, str)]

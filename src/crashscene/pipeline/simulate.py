@@ -27,9 +27,9 @@ from crashscene.dsl import Scenario, dump_file
 from crashscene.geometry import classify_contact, heading_difference
 from crashscene.simulate.backend import (
     DEFAULT_DT,
-    BatchResult,
     DEFAULT_HORIZON,
     MODES,
+    BatchResult,
     SimulationError,
     SimulationRequest,
     SimulationSettings,
@@ -86,7 +86,7 @@ def _write_run(scenario: Scenario, out_dir: Path, n: int, seed: int, first: int 
     `workers` > 1 simulates contiguous blocks of variations in that many forked processes (embedded backend;
     with `sampler="scenic"` it also samples in them); the tables are the blocks' tables in index order, the
     same bytes as one process. Keep 1 when the caller already runs in a process pool (a campaign worker).
-    `sampler`: "compiled" (numpy) or "scenic" (the reference), see `crashscene.sample.sample_scenes`; None: the
+    `sampler`: "compiled" (numpy) or "scenic" (the reference), see `crashscene.render.sample.sample_scenes`; None: the
     backend's (`Simulator.scene_sampler`: compiled for embedded, scenic for backends that replay Scenic scenes).
 
     Returns the JSON summary (also written to summary.json): variations, valid,
@@ -111,7 +111,7 @@ def _write_run(scenario: Scenario, out_dir: Path, n: int, seed: int, first: int 
     check_ego_role(scenario, settings)
     sampler = _sampler_for(backend, sampler)
     from crashscene.render import RenderError, render
-    from crashscene.sample import sample_scenes
+    from crashscene.render.sample import sample_scenes
 
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -311,7 +311,7 @@ def _write_monitored(judged: Judged, out_dir: Path) -> dict[str, Any]:
     import pyarrow.parquet as pq
 
     from crashscene.monitor.criticality import summarize as summarize_criticality
-    from crashscene.monitor.run import write_results
+    from crashscene.monitor.run_folder import write_results
 
     result = judged.result
     write_results(out_dir, result)
