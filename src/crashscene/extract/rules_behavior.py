@@ -210,6 +210,8 @@ def _resolve(state: RulesState, vehicle: Vehicle, found: list[Phrase]) -> tuple[
 def _event(vehicle: Vehicle, token: str, match: re.Match, state: RulesState) -> str | None:
     """The behaviour a lane-leaving phrase means for this vehicle, or None when it does not apply."""
     if token == "into_path":
+        if not state.uses("rules_behavior.into_oncoming_path"):
+            return None
         other = state.vehicles.get(match.group(1))
         oncoming = other is not None and other.direction is not None and _opposite(vehicle, other.direction)
         return "cross_centerline" if oncoming else None

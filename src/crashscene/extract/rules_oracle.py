@@ -42,7 +42,8 @@ def decide_oracle(state: RulesState, road: dict) -> list[dict]:
     oracle = _Oracle(state)
     _manoeuvre_oracle(state, road, oracle)
     _junction_oracle(state, road, oracle)
-    _sequence_oracle(state, oracle)
+    if state.uses("rules_oracle.sequence_rear_end"):
+        _sequence_oracle(state, oracle)
     return oracle.entries
 
 
@@ -51,6 +52,8 @@ def stated(state: RulesState, pattern: str) -> list[tuple[str, re.Match]]:
     to stop"), else the last vehicle named before it, else V1 in a single-vehicle report."""
     text = state.t.text
     out = []
+    if not state.uses("rules_oracle.cause_statements"):
+        return out
     for match in re.finditer(pattern, text, re.I):
         label = label_at(text, match.start()) or last_label_before(text, match.start())
         if label is None and len(state.vehicles) == 1:
@@ -116,10 +119,11 @@ def _junction_oracle(state: RulesState, road: dict, oracle: _Oracle) -> None:
     ran_stop = {label: match for label, match in reversed(stated(state, _RAN_STOP))}
     ran_red = any(e["code"] == "CVC_21453" for e in oracle.entries)
     arrow = re.search(r"(?:green|protected) (?:left[- ]turn )?arrow", text, re.I)
+    stated_oncoming = state.uses("rules_oracle.left_turn_stated_oncoming")
     for label, vehicle in state.vehicles.items():
         role, quote = vehicle.role, vehicle.behavior_quote
         headings = {relative_heading(vehicle, other) for other in state.vehicles.values() if other is not vehicle}
-        oncoming = "opposite_direction" in headings or (headings <= {None} and re.search(
+        oncoming = "opposite_direction" in headings or (headings <= {None} and stated_oncoming and re.search(
             r"\boncoming\b|\bopposite direction\b", state.pre_crash + " " + state.crash_sentence, re.I))
         if vehicle.behavior == "turn_left" and oncoming and not (arrow or ran_red):
             oracle.add("CVC_21801", "left_turn_yield", role,

@@ -35,7 +35,8 @@ def decide_road_network(state: RulesState) -> dict:
     road_type, curve_direction = _road_type(state)
     if road_type in ("intersection", "t_intersection"):
         _sketch_devices(state)
-        _attribute_signs(state)
+        if state.uses("rules_road.attribute_signs"):
+            _attribute_signs(state)
     ways = _ways(state, road_text)
     lanes = count_lanes(state, road_text, ways)
     speed = _speed_limit(state)
