@@ -220,3 +220,123 @@ def test_pair_named_without_a_striker_is_settled_by_a_later_formula_or_the_manoe
     assert _contacts(s) == [("ego", "npc1", "front", "front", "head_on")]
     s = _text(EAST_WEST + "V2 drifted left of center, resulting in a head-on collision with V1.")
     assert _contacts(s) == [("npc1", "ego", "front", "front", "head_on")]
+
+
+# ---------------------------------------------------------------- issue 11, second session: general phrasings
+
+
+TWO_WAY_NORTH = "V1 was traveling north on a two-lane, two-way roadway{road}. V2 was traveling south. "
+
+
+def test_a_road_divided_by_a_painted_line_is_two_way_and_a_solid_yellow_line_is_solid_line():
+    s = _text(TWO_WAY_NORTH.format(road=" divided by a solid yellow line")
+              + "V1 crossed over the solid yellow line and the front of V1 struck the front of V2.")
+    assert s.road_network.number_of_ways == 2 and s.road_network.road_marker.value == "solid_line"
+    assert _oracle(s) == {("CVC_21650", "ego")}
+    off = extract_rules(Report(case_id="t", narrative=s.evidence["actors.ego.position"], source=Path("t.txt")),
+                        off=["rules_road.divided_by_a_line_is_not_divided", "rules_road.marker_phrasings"])
+    assert off.road_network.number_of_ways == 1
+
+
+def test_no_centerline_is_none_and_a_centre_left_turn_lane_away_from_junctions_is_solid_and_broken():
+    s = _text(TWO_WAY_NORTH.format(road=" that had no centerline") + "The front of V2 struck the front of V1.")
+    assert s.road_network.road_marker.value == "none"
+    s = _text("V1 was traveling east on a five-lane roadway with a center left-turn lane. V2 was traveling east "
+              "ahead of V1 in the same lane. The front of V1 struck the rear of V2.")
+    assert s.road_network.road_marker.value == "solid_and_broken_line" and s.road_network.number_of_lanes == 4
+    # at a junction a middle left-turn lane is a turn bay: the marking stays unstated
+    s = _text("V1 was traveling north on a five-lane road approaching a four-leg intersection. V2 was traveling south "
+              "in the middle left-turn lane and turned left at the intersection. The front of V1 struck the right "
+              "side of V2.")
+    assert s.road_network.road_marker.value == "not_mentioned"
+
+
+def test_a_marking_label_on_the_sketch_names_no_road():
+    facts = [SketchFact(text="text: Solid Yellow Line", source="sketch:ocr")]
+    s = _text(EAST_WEST + "V2 crossed the center line and the front of V2 struck the front of V1.", facts)
+    assert s.road_network.road_marker.value == "not_mentioned"
+
+
+def test_lanes_in_each_direction_count_both_directions_or_the_carriageway():
+    s = _text("The roadway consisted of three lanes in each direction separated by a raised median. V1 was traveling "
+              "west in the center lane. V2 was traveling west in the left lane and changed lanes to the right. The "
+              "right side of V2 struck the left side of V1.")
+    assert (s.road_network.number_of_ways, s.road_network.number_of_lanes) == (1, 3)
+    s = _text("V1 was traveling east on an undivided road with two travel lanes in each direction. V2 was traveling "
+              "east ahead of V1. The front of V1 struck the rear of V2.")
+    assert (s.road_network.number_of_ways, s.road_network.number_of_lanes) == (2, 4)
+
+
+def test_a_flashing_red_faced_by_one_vehicle_controls_its_approach_only():
+    s = _text(EAST_NORTH.replace("approaching a four-leg intersection", "approaching a four-leg intersection "
+                                 "controlled by a flashing yellow signal")
+              + "V2 faced a flashing red signal. V2 entered the intersection and the front of V2 struck the right "
+                "side of V1.")
+    assert [t.value for t in s.road_network.traffic_signs] == ["stop_sign"]
+    assert s.actors["npc1"].position.reference == "stop_sign"
+    assert s.actors["ego"].position.reference == "intersection"
+    assert _oracle(s) == {("CVC_21802", "npc1")}
+
+
+def test_traffic_without_a_stated_direction_on_one_carriageway_goes_the_ego_s_way():
+    s = _text("V1 was traveling west in the right lane of a three-lane interstate. V2 was entering the interstate "
+              "from an on-ramp. V2 merged into the right lane and the left side of V2 struck the right side of V1.")
+    npc = s.actors["npc1"]
+    assert npc.behavior.value == "change_lane_left"
+    assert (npc.position.reference, npc.position.relation.value, npc.position.heading.value) == (
+        "ego", "right", "same_direction")
+    assert _oracle(s) == {("CVC_22107", "npc1")}
+
+
+def test_a_manoeuvre_told_after_the_impact_verb_is_pre_crash():
+    s = _text(EAST_WEST.replace("two-lane, two-way road", "two-lane, two-way road with a double yellow centerline")
+              + "The front of V2 struck the front of V1 after V2 drifted across the centerline.")
+    assert s.actors["npc1"].behavior.value == "cross_centerline"
+    assert _oracle(s) == {("CVC_21650", "npc1"), ("CVC_21460", "npc1")}
+
+
+def test_snow_lying_on_the_road_is_the_surface_not_the_weather():
+    s = _text("V1 was traveling west on a two-lane, two-way road covered in snow and ice. V1 lost control and the "
+              "front of V2 struck the right side of V1. V2 was traveling east.")
+    assert (s.environment.weather.value, s.environment.road_surface.value) == ("not_mentioned", "icy")
+    s = _text("It was snowing. " + EAST_WEST + "The front of V2 struck the front of V1.")
+    assert s.environment.weather.value == "snowy"
+
+
+def test_a_red_light_waited_at_is_not_run():
+    s = _text("V1 was traveling north approaching a signalized intersection. V2 was stopped for a red light ahead of "
+              "V1. The front of V1 struck the rear of V2.")
+    assert _oracle(s) == {("CVC_22350", "ego")}
+    s = _text(EAST_NORTH.replace("four-leg intersection", "four-leg intersection controlled by traffic signals")
+              + "V2 ran the red light and the front of V2 struck the right side of V1.")
+    assert _oracle(s) == {("CVC_21453", "npc1")}
+
+
+def test_a_stated_speed_above_the_stated_limit_is_22349():
+    s = _text("The posted speed limit was 45 mph. V1 was traveling north at 70 mph on a two-lane, two-way road. V1 "
+              "crossed the centerline and struck the front of V2, which was traveling south.")
+    assert s.actors["ego"].speed_mph == 70 and s.road_network.speed_limit_mph == 45
+    assert _oracle(s) == {("CVC_21650", "ego"), ("CVC_22349", "ego")}
+    assert s.actors["npc1"].position.heading.value == "opposite_direction"
+
+
+def test_rear_end_on_a_vehicle_that_stopped_then_turned_is_following_too_closely():
+    s = _text("V1 was traveling east on a two-lane road. V2 was stopped at a stop sign on the northbound approach of "
+              "the intersecting road and then turned right onto the eastbound lane. The front of V1 struck the rear "
+              "of V2.")
+    assert _oracle(s) == {("CVC_21802", "npc1"), ("CVC_21703", "ego")}
+
+
+def test_crossing_a_grass_median_into_the_opposing_carriageway_counts_both():
+    s = _text("V1 was traveling north on a four-lane divided highway. V1 crossed the grass median and entered the "
+              "southbound lanes, where the front of V1 struck the front of V2, which was traveling south.")
+    assert (s.road_network.number_of_ways, s.road_network.number_of_lanes) == (2, 4)
+    assert s.actors["npc1"].position.heading.value == "opposite_direction"
+    assert _contacts(s) == [("ego", "npc1", "front", "front", "head_on")]
+
+
+def test_a_vehicle_which_was_pushed_into_another_is_its_own_contact():
+    s = _text("V1, V2 and V3 were traveling east in the same lane of a two-lane road. V2 and V3 were stopped in "
+              "traffic. The front of V1 struck the rear of V2, which was pushed into the rear of V3.")
+    assert [(c[0], c[1], c[4]) for c in _contacts(s)] == [("ego", "npc1", "rear_end"), ("npc1", "npc2", "rear_end")]
+    assert _oracle(s) == {("CVC_22350", "ego")}  # the pushed V2 chose nothing

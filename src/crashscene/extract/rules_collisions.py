@@ -144,7 +144,8 @@ def _contacts(state: RulesState) -> list[Contact]:
             contact = _finish(text, match, Side(striker), Side(struck), match.end())
             contact.guessed = True
             found.append(contact)
-    for match in re.finditer(r"\b(V[1-9])\s+(?:was|were)\s+(?:then\s+)?(?:pushed|propelled|redirected|forced)\s+"
+    which = r",\s*(?:which|that)" if state.uses("rules_collisions.which_was_pushed_into") else r"(?!)"
+    for match in re.finditer(rf"\b(V[1-9])(?:{which})?\s+(?:was|were)\s+(?:then\s+)?(?:pushed|propelled|redirected|forced)\s+"
                              r"(?:\w+\s+){0,4}?into\s+(?:the\s+(?:rear|back|side|front)\s+of\s+)?(V[1-9])\b",
                              text, re.I):
         contact = _finish(text, match, Side(match.group(1)), Side(match.group(2)), match.end())

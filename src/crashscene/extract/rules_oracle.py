@@ -79,7 +79,8 @@ def _manoeuvre_oracle(state: RulesState, road: dict, oracle: _Oracle) -> None:
     text = state.t.text
     too_fast = {label: match for label, match in reversed(stated(state, _TOO_FAST))}
     speeding = {label: match for label, match in reversed(stated(state, _SPEEDING))}
-    red = {label: match for label, match in reversed(stated(state, _RED))}
+    red = {label: match for label, match in reversed(stated(state, _RED)) if not (
+        state.uses("rules_oracle.red_light_only_when_disobeyed") and _obeyed(text, match))}
     for label, vehicle in state.vehicles.items():
         role, behavior, quote = vehicle.role, vehicle.behavior, vehicle.behavior_quote
         if label in too_fast and behavior != "lose_control":
@@ -103,9 +104,23 @@ def _manoeuvre_oracle(state: RulesState, road: dict, oracle: _Oracle) -> None:
         if label in speeding:
             oracle.add("CVC_22349", "speed_limit", role, f"{label} exceeded the posted speed limit.",
                        around(text, speeding[label]))
+        limit, speed = road.get("speed_limit_mph"), state.speeds.get(label)
+        if limit and speed and speed > limit and state.uses("rules_oracle.stated_speed_above_the_limit"):
+            oracle.add("CVC_22349", "speed_limit", role,
+                       f"{label} was traveling at {speed:g} mph where {limit} mph is posted.",
+                       state.evidence.get(f"actors.{role}.speed_mph"))
         if label in red and "traffic_light" in road["traffic_signs"]:
             oracle.add("CVC_21453", "red_light", role, f"{label} entered the intersection against a red signal.",
                        around(text, red[label]))
+
+
+def _obeyed(text: str, match: re.Match) -> bool:
+    """'was stopped for a red light', 'waiting at the red signal': the red is named, not run."""
+    head = text[max(0, text.rfind(". ", 0, match.start()), match.start() - 50):match.start()]
+    if re.search(r"\b(?:fail\w*\s+to|did\s+not|didn't|never|without)\s+(?:\w+\s+){0,3}$", head, re.I):
+        return False  # "failed to stop for the red light"
+    return bool(re.search(r"\b(?:stopped|stopping|waiting|slowed|slowing|stop|queued)\s+(?:\w+\s+){0,2}"
+                          r"(?:for|at|by)\s+(?:a|the)\s+(?:steady\s+)?$", head, re.I))
 
 
 def _junction_oracle(state: RulesState, road: dict, oracle: _Oracle) -> None:
@@ -159,6 +174,10 @@ def _crossing_contact(state: RulesState, label: str) -> bool:
                for c in state.contacts)
 
 
+# manoeuvres made under way: a vehicle stopped at a sign that then turned or changed lanes was moving when struck
+_MOVING = ("turn_left", "turn_right", "u_turn", "change_lane_left", "change_lane_right", "overtake")
+
+
 def _sequence_oracle(state: RulesState, oracle: _Oracle) -> None:
     """Rear-end contacts the striker drove into (dsl.md convention 9): CVC_21703 on a moving vehicle ahead,
     CVC_22350 on a stopped one. A contact the striker was pushed into, or made after it was itself struck,
@@ -171,8 +190,9 @@ def _sequence_oracle(state: RulesState, oracle: _Oracle) -> None:
         # striking a vehicle ahead: its rear is hit (the striker's front or a glancing front side), or any part of
         # a vehicle stopped in the striker's path (stopped at an angle across the lane)
         rear_end = contact.areas.get("striking") != "rear" and contact.areas.get("struck") == "rear"
-        stopped = struck.behavior in ("stop", "static") or bool(re.search(
-            rf"\b{struck.label}\b[^.]{{0,60}}\b(?:was|had)\s+(?:\w+\s+)?stopped|stopped {struck.label}\b", text, re.I))
+        moving = struck.behavior in _MOVING and state.uses("rules_oracle.a_turning_vehicle_is_moving")
+        stopped = struck.behavior in ("stop", "static") or (not moving and bool(re.search(
+            rf"\b{struck.label}\b[^.]{{0,60}}\b(?:was|had)\s+(?:\w+\s+)?stopped|stopped {struck.label}\b", text, re.I)))
         in_path = stopped and relative_heading(striker, struck) in (None, "same_direction")
         free = not contact.pushed and striker.label not in struck_before
         if (rear_end or in_path) and free and striker.behavior not in ("leave_road", "lose_control", "static"):

@@ -48,6 +48,7 @@ class RulesState:
     yield_controlled: set[str] = field(default_factory=set)
     no_controls: bool = False
     contacts: list = field(default_factory=list)  # rules_collisions.Contact, in sequence order
+    speeds: dict[str, float] = field(default_factory=dict)  # label -> stated travel speed [mph]
     off: frozenset[str] = frozenset()  # recorded rules switched off (rule_sources): held-out extraction
     consulted: set[str] = field(default_factory=set)  # recorded rules this extraction asked for
 

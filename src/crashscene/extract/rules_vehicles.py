@@ -61,6 +61,13 @@ def _direction_of(state: RulesState, label: str) -> tuple[str | None, str | None
             if number:
                 state.vehicles[label].lane_number = count_word(number.group(1))
             return next(g for g in match.groups() if g).lower(), side
+    if state.uses("rules_vehicles.direction_in_a_which_clause"):
+        # "struck the front of V2, which was traveling south": the direction told in a relative clause
+        match = re.search(rf"\b{label}\b\s*(?:\([^)]*\))?,\s*(?:which|that|who)\s+(?:was|had been)\s+"
+                          rf"(?:travel+ing|driving|heading|proceeding|going)\s+{DIR}(?:bound|ward)?\b", state.t.text, re.I)
+        if match:
+            state.note(f"actors.{state.vehicles[label].role}.position", match.group(0))
+            return match.group(1).lower(), None
     return None, None
 
 
@@ -115,6 +122,11 @@ def split_pre_crash(state: RulesState) -> None:
         if impact:
             head = sentence[: impact.start()]
             kept.append(head)
+            # "V2 struck V1 after V2 drifted across the centerline": the manoeuvre is told after the impact verb
+            after = re.search(r"\b(?:after|as|when|while)\b\s+(?:the\s+driver\s+of\s+)?(?:V[1-9]|it|he|she)\b"
+                              r"[^.;]*", sentence[impact.end():], re.I)
+            if after and state.uses("rules_vehicles.manoeuvre_after_the_impact_verb"):
+                kept.append(after.group(0))
             state.crash_sentence = sentence
             between = []
             for later in sentences[index + 1:]:
