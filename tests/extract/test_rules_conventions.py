@@ -229,11 +229,12 @@ TWO_WAY_NORTH = "V1 was traveling north on a two-lane, two-way roadway{road}. V2
 
 
 def test_a_road_divided_by_a_painted_line_is_two_way_and_a_solid_yellow_line_is_solid_line():
-    s = _text(TWO_WAY_NORTH.format(road=" divided by a solid yellow line")
-              + "V1 crossed over the solid yellow line and the front of V1 struck the front of V2.")
+    narrative = (TWO_WAY_NORTH.format(road=" divided by a solid yellow line")
+                 + "V1 crossed over the solid yellow line and the front of V1 struck the front of V2.")
+    s = _text(narrative)
     assert s.road_network.number_of_ways == 2 and s.road_network.road_marker.value == "solid_line"
     assert _oracle(s) == {("CVC_21650", "ego")}
-    off = extract_rules(Report(case_id="t", narrative=s.evidence["actors.ego.position"], source=Path("t.txt")),
+    off = extract_rules(Report(case_id="t", narrative=narrative, source=Path("t.txt")),
                         off=["rules_road.divided_by_a_line_is_not_divided", "rules_road.marker_phrasings"])
     assert off.road_network.number_of_ways == 1
 
@@ -340,3 +341,57 @@ def test_a_vehicle_which_was_pushed_into_another_is_its_own_contact():
               "traffic. The front of V1 struck the rear of V2, which was pushed into the rear of V3.")
     assert [(c[0], c[1], c[4]) for c in _contacts(s)] == [("ego", "npc1", "rear_end"), ("npc1", "npc2", "rear_end")]
     assert _oracle(s) == {("CVC_22350", "ego")}  # the pushed V2 chose nothing
+
+
+def test_a_direction_stated_in_its_own_clause_wins_over_the_lane_entered():
+    s = _text("The roadway was straight and level. V1 was traveling east and V2 was traveling west. V2 crossed into "
+              "the eastbound lane and the front of V2 struck the front of V1.")
+    npc = s.actors["npc1"]
+    assert (npc.behavior.value, npc.position.heading.value) == ("cross_centerline", "opposite_direction")
+    assert _oracle(s) == {("CVC_21650", "npc1")}
+
+
+def test_all_way_stop_the_vehicle_with_the_other_on_its_right_lacks_priority():
+    s = _text("V1 was traveling north and V2 was traveling east approaching an intersection controlled by a four-way "
+              "stop. Both vehicles stopped and then entered the intersection. The front of V2 struck the right side "
+              "of V1.")
+    assert _oracle(s) == {("CVC_21800", "npc1")}
+
+
+def test_a_junction_named_only_to_locate_the_crash_plays_no_part():
+    s = _text("V1 was traveling north on a two-lane road approximately 100 meters south of an intersection. V2 was "
+              "traveling north ahead of V1 and slowed for traffic. The front of V1 struck the rear of V2.")
+    assert s.road_network.road_type.value == "straight"
+    assert s.actors["ego"].position.reference == "road"
+
+
+def test_leaving_a_parking_lot_is_a_three_leg_junction_and_its_side_gives_the_heading():
+    s = _text("V1 was traveling east on a four-lane road. V2 was exiting a parking lot on the south side of the road "
+              "attempting to turn left. The front of V1 struck the left side of V2.")
+    assert s.road_network.road_type.value == "t_intersection"
+    npc = s.actors["npc1"].position
+    assert (npc.reference, npc.relation.value, npc.heading.value) == ("intersection", "right", "from_right")
+    assert _oracle(s) == {("CVC_21804", "npc1")}
+
+
+def test_a_white_lane_line_is_not_the_centre_line():
+    s = _text("V1 was traveling east on a four-lane, two-way roadway. The eastbound lanes were separated by a broken "
+              "white line. V2 was traveling east in the right lane and changed lanes into the left lane. The left "
+              "side of V2 struck the right side of V1.")
+    assert s.road_network.road_marker.value == "not_mentioned"
+    assert s.actors["npc1"].behavior.value == "change_lane_left"
+
+
+def test_merging_from_an_entrance_ramp_is_a_change_to_the_left():
+    s = _text("V1 was traveling north in the right lane of a four-lane divided interstate. V2 was traveling on the "
+              "entrance ramp and merged into the right lane in front of V1. The front of V1 struck the rear of V2.")
+    assert s.actors["npc1"].behavior.value == "change_lane_left"
+    assert ("CVC_22107", "npc1") in _oracle(s)
+
+
+def test_a_vehicle_stated_as_oncoming_is_opposite_direction():
+    s = _text("V1 was proceeding straight through the intersection on a green signal. V2, traveling in the opposite "
+              "direction, turned left in front of V1. The front of V1 struck the right side of V2.")
+    npc = s.actors["npc1"].position
+    assert (npc.reference, npc.relation.value, npc.heading.value) == ("ego", "front", "opposite_direction")
+    assert _oracle(s) == {("CVC_21801", "npc1")}

@@ -62,10 +62,16 @@ RULE_SOURCES: dict[str, tuple[str, ...]] = {
     "rules_oracle.red_light_only_when_disobeyed": (),
     "rules_oracle.stated_speed_above_the_limit": (),
     "rules_oracle.a_turning_vehicle_is_moving": (),
-    "rules_vehicles.direction_in_a_which_clause": (),
+    "rules_vehicles.direction_in_any_clause": (),
     "rules_road.crossed_the_median_words": (),
     "rules_collisions.which_was_pushed_into": (),
     "rules_positions.limit_words_in_the_same_sentence": (),
+    "rules_road.a_junction_some_distance_away_plays_no_part": (),
+    "rules_road.leaving_an_access_is_a_junction": (),
+    "rules_road.white_lines_separate_lanes": (),
+    "rules_behavior.merging_from_a_ramp_is_to_the_left": (),
+    "rules_positions.stated_opposite_direction": (),
+    "rules_positions.access_side": (),
 }
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import re
 
-from crashscene.extract.narrative import around, label_at
+from crashscene.extract.narrative import COMPASS, around, label_at
 from crashscene.extract.rules_state import RulesState, Vehicle, has_cross_traffic, relative_heading
 from crashscene.units import KMH_PER_MPH
 
@@ -109,6 +109,15 @@ def _guess_heading(state: RulesState, ego: Vehicle, npc: Vehicle, at_junction: b
     label = npc.label
     if npc.behavior in ("cross_centerline", "overtake") or ego.behavior == "cross_centerline":
         return "opposite_direction"
+    if state.uses("rules_positions.stated_opposite_direction") and re.search(
+            rf"\b{label}\b[^.]{{0,60}}\b(?:in the opposite direction|oncoming|opposing direction)", text, re.I):
+        return "opposite_direction"
+    side = re.search(rf"\b{label}\b[^.]{{0,100}}\b(?:on|from) the (north|south|east|west) side of the "
+                     rf"(?:road|roadway|street|highway)", text, re.I)
+    if side and ego.direction and at_junction and state.uses("rules_positions.access_side"):
+        origin = (COMPASS[side.group(1).lower()] - COMPASS[ego.direction]) % 360  # where it comes from
+        if origin in (90, 270):
+            return "from_right" if origin == 90 else "from_left"
     if state.uses("rules_positions.same_direction_on_one_carriageway") and not at_junction and (
             one_way or npc.behavior.startswith("change_lane")):
         return "same_direction"  # one carriageway (divided, one-way) or a lane change: traffic goes V1's way

@@ -178,9 +178,17 @@ def _road_type(state: RulesState) -> tuple[str, str | None]:
                  state.pre_crash + " " + state.crash_sentence, flags=re.I)
     four = _FOUR_LEGS.search(text)
     three = _THREE_LEGS.search(text)
+    if state.uses("rules_road.a_junction_some_distance_away_plays_no_part"):
+        # "approximately 100 meters south of an intersection": the junction only locates the crash
+        pre = re.sub(r"\b\d+(?:\.\d+)?\s*(?:m|meters?|metres?|ft|feet|yards?|miles?|km)\b\s+(?:\w+\s+){0,2}?"
+                     r"(?:of|from|before|past|beyond)\s+(?:an?|the)\s+(?:[\w-]+\s+){0,2}?(?:intersection|junction)",
+                     " ", pre, flags=re.I)
     junction = re.search(r"\bintersection\b|\bjunction\b|\bintersecting\b", pre, re.I)
     turns_in = re.search(rf"\b(?:into|onto|to enter)\s+(?:a |the |an )?{_DRIVEWAY}", pre, re.I)
     from_access = bool(three and _ACCESS.search(three.group(0)) and (driveway_vehicle(state) is not None or turns_in))
+    if not from_access and driveway_vehicle(state) is not None and state.uses("rules_road.leaving_an_access_is_a_junction"):
+        # "exiting a parking lot", "pulled out of a private drive": the access is the third leg (convention 2)
+        three, from_access = re.search(_DRIVEWAY, text, re.I), True
     legs = None
     if from_access or (junction and three and not four and not _ACCESS.search(three.group(0))):
         legs = 3
@@ -343,6 +351,9 @@ def _marker(state: RulesState, road_text: str, ways: int) -> str:
             extra["solid_and_broken_line"] += r"|(?:cent(?:er|re)|middle) left[- ]turn(?:ing)? lane"
         markers = tuple((f"{pattern}|{extra[token]}" if token in extra else pattern, token)
                         for pattern, token in MARKERS)
+    if state.uses("rules_road.white_lines_separate_lanes"):  # a white line is a lane line, never the centre line
+        markers = tuple((pattern.replace("(?:yellow |white )?", "(?:yellow )?(?!white)"), token)
+                        for pattern, token in markers)
     for (pattern, token), (sketch_pattern, _) in zip(markers, MARKERS):
         match = _on_ego_road(state, pattern, text)
         if match:
