@@ -395,3 +395,52 @@ def test_a_vehicle_stated_as_oncoming_is_opposite_direction():
     npc = s.actors["npc1"].position
     assert (npc.reference, npc.relation.value, npc.heading.value) == ("ego", "front", "opposite_direction")
     assert _oracle(s) == {("CVC_21801", "npc1")}
+
+
+ONCOMING = "V1 was traveling east on a two-lane, two-way road. V2 was traveling west. "
+AHEAD = "V1 was traveling east on a four-lane road. V2 was traveling east ahead of V1. "
+
+
+def test_sliding_yawing_lost_traction_and_overcorrecting_are_losing_control():
+    for told in ("V1 began to slide sideways and entered the westbound lane. The front of V2 struck the right side "
+                 "of V1.",
+                 "V1 entered a clockwise yaw and crossed the centerline. The front of V2 struck the right side of V1.",
+                 "V1 lost traction on the icy road and crossed the center line. The front of V1 struck the front of "
+                 "V2."):
+        s = _text(ONCOMING + told)
+        assert s.actors["ego"].behavior.value == "lose_control", told
+        assert _oracle(s) == {("CVC_22350", "ego"), ("CVC_21650", "ego")}, told
+    s = _text(AHEAD + "V2 stopped. V1 skidded for 20 meters before the front of V1 struck the rear of V2.")
+    assert s.actors["ego"].behavior.value == "go_forward"  # a braking skid is no loss of control
+
+
+def test_off_the_road_then_back_across_the_centre_line_into_another_vehicle():
+    s = _text(ONCOMING + "V1 drifted onto the right shoulder. The driver overcorrected to the left and V1 crossed into "
+              "the westbound lane, where the front of V1 struck the front of V2.")
+    assert s.actors["ego"].behavior.value == "lose_control"
+    s = _text(ONCOMING + "V1 departed the right side of the roadway, returned to the road and crossed the centerline. "
+              "The front of V1 struck the front of V2.")
+    assert s.actors["ego"].behavior.value == "cross_centerline"
+    s = _text("V1 was traveling north. V1 departed the right side of the roadway and struck a utility pole.")
+    assert s.actors["ego"].behavior.value == "leave_road" and s.oracle == []
+
+
+def test_stopped_or_sitting_in_traffic_ahead_is_a_stop():
+    s = _text(AHEAD + "V2 was sitting in traffic. The front of V1 struck the rear of V2.")
+    assert s.actors["npc1"].behavior.value == "stop" and _oracle(s) == {("CVC_22350", "ego")}
+    s = _text(AHEAD + "V2 came to a stop in the lane to make a left turn. The front of V1 struck the rear of V2.")
+    assert s.actors["npc1"].behavior.value == "stop" and _oracle(s) == {("CVC_22350", "ego")}
+
+
+def test_pulling_into_the_opposing_lane_to_pass_is_overtaking():
+    s = _text("V1 was traveling east on a two-lane, two-way road. V2 was traveling east behind V1. V2 pulled into the "
+              "westbound lane to pass V1 and the right side of V2 struck the left side of V1.")
+    npc = s.actors["npc1"]
+    assert (npc.behavior.value, npc.position.relation.value) == ("overtake", "behind")
+    assert _oracle(s) == {("CVC_21650", "npc1")}
+
+
+def test_a_vehicle_named_as_parked_in_apposition_is_static():
+    s = _text("V1 was traveling north on a residential street. V1 ran off the right side of the road and struck V2, "
+              "a parked car.")
+    assert s.actors["npc1"].behavior.value == "static"

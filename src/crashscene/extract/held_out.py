@@ -40,6 +40,8 @@ class RuleEffect(BaseModel):
     @property
     def verdict(self) -> str:
         won_elsewhere = sum(v for v in self.elsewhere.values() if v > 0)
+        if any(v < 0 for v in self.elsewhere.values()):
+            return f"loses {-sum(v for v in self.elsewhere.values() if v < 0)} elsewhere, wins {won_elsewhere}"
         if won_elsewhere:
             return "generalises"
         if any(v > 0 for v in self.on_sources.values()):
