@@ -20,7 +20,7 @@ CIREN = Path(__file__).resolve().parents[2] / "examples" / "ciren"
 
 # written for this test, NHTSA style; not from a bundled case
 STRUCK = ("V1 was traveling east in the eastbound lane of a two-lane, two-way road. V2 was traveling east ahead of V1 "
-          "in the same lane and was slowing. The front of V1 struck the rear of V2.")
+          "in the same lane and was slowing. V2 was struck in the rear by the front of V1.")
 GOLDEN = """environment: {weather: not_mentioned, time_of_day: not_mentioned}
 road_network: {road_type: straight, number_of_ways: 2, number_of_lanes: 2, road_marker: not_mentioned,
                traffic_signs: []}
@@ -51,8 +51,12 @@ def test_switching_a_rule_off_falls_back_to_what_the_extractor_does_without_it()
     on = extract_rules(_report(STRUCK))
     assert [(c.striking, c.struck) for c in on.collisions] == [("ego", "npc1")]
     assert {(e.code, e.actor) for e in on.oracle} == {("CVC_21703", "ego")}
+    # switched off, the rear-end codes come from the first round's reading, which has no passive formula
     off = extract_rules(_report(STRUCK), off=["rules_oracle.sequence_rear_end"])
     assert off.oracle == [] and off.collisions == on.collisions
+    active = STRUCK.replace("V2 was struck in the rear by the front of V1.", "The front of V1 struck the rear of V2.")
+    assert {(e.code, e.actor) for e in extract_rules(_report(active), off=["rules_oracle.sequence_rear_end"]).oracle} \
+        == {("CVC_21703", "ego")}
     none = extract_rules(_report(STRUCK), off=["rules_collisions.impact_formula"])
     assert none.collisions == []
 

@@ -6,7 +6,8 @@ named in `RULE_SOURCES` rests on at least two cases (`tests/test_eval_folds.py` 
 case named exists), or on none: written from dsl.md section 5 and synthetic narratives, such a rule changes no
 bundled case's extraction (`tests/extract/test_held_out.py` checks that). Each is a switch in the code: the rules extractor consults it with
 `RulesState.uses(name)` and, when it is switched off (`extract_rules(..., off=...)`), falls back to what the
-extractor does without it (the convention default). `crashscene eval --held-out` extracts every bundled case
+extractor did before the rule: the first round's reading where the rule replaced one (rear-end codes by
+phrase, cause statements by label window), else nothing (the convention default). `crashscene eval --held-out` extracts every bundled case
 with each rule whose sources include that case switched off (with `--folds K`: any case of its fold), so a
 case is scored only by rules written from other cases (`crashscene.extract.held_out`).
 

@@ -44,6 +44,8 @@ def decide_oracle(state: RulesState, road: dict) -> list[dict]:
     _junction_oracle(state, road, oracle)
     if state.uses("rules_oracle.sequence_rear_end"):
         _sequence_oracle(state, oracle)
+    else:
+        _rear_end_by_phrase(state, oracle)
     return oracle.entries
 
 
@@ -53,6 +55,11 @@ def stated(state: RulesState, pattern: str) -> list[tuple[str, re.Match]]:
     text = state.t.text
     out = []
     if not state.uses("rules_oracle.cause_statements"):
+        # switched off: the first round's reading, a statement within the sentence after a vehicle's label
+        for label in state.vehicles:
+            match = re.search(rf"\b{label}\b[^.]{{0,100}}?(?:{pattern})", text, re.I)
+            if match:
+                out.append((label, match))
         return out
     for match in re.finditer(pattern, text, re.I):
         label = label_at(text, match.start()) or last_label_before(text, match.start())
@@ -206,3 +213,34 @@ def _sequence_oracle(state: RulesState, oracle: _Oracle) -> None:
         struck_before.add(struck.label)
 
 
+_NO_LABEL = r"(?:(?!\bV[1-9]\b)[^.]){0,100}?"  # words that name no other vehicle
+_STRIKE = r"(?:struck|strikes?|striking|impacted|rear-ended|hit|contacted)"
+_REAR = (r"(?:the\s+)?(?:rear|back)(?:\s+(?:plane|corner|end|bumper))?\s+of\s+"
+         r"(?:(?:a|an|the)\s+[^.()]{0,60}?\(\s*)?(V[1-9])")  # "the rear of V2", "the rear of a parked Corolla (V2)"
+
+
+def _rear_end_by_phrase(state: RulesState, oracle: _Oracle) -> None:
+    """The first round's rear-end codes, used when `rules_oracle.sequence_rear_end` (which replaced them) is
+    switched off: a vehicle striking the rear of a moving vehicle -> CVC_21703, of a stopped one -> CVC_22350;
+    one pushed into it ("caused V1 to strike") chose nothing."""
+    text = state.t.text
+    for label, vehicle in state.vehicles.items():
+        if vehicle.behavior in ("leave_road", "lose_control", "static"):
+            continue
+        striker = rf"(?:(?:front|side|corner)(?:\s+plane)?\s+of\s+{label}|\b{label})\b"
+        for match in re.finditer(rf"{striker}{_NO_LABEL}{_STRIKE}\s+{_REAR}", text, re.I):
+            head = text[max(0, match.start() - 40):match.start()]
+            if re.search(r"\b(?:caus\w+|push\w*|forc\w+|redirect\w*|propell\w+)\s+(?:\w+\s+)?$", head, re.I):
+                continue
+            struck = state.vehicles.get(match.group(1))
+            if struck is None or struck.label == label:
+                continue
+            if struck.behavior in ("stop", "static") or re.search(
+                    rf"{struck.label}\b[^.]{{0,60}}\bstopped|stopped {struck.label}", text, re.I):
+                oracle.add("CVC_22350", "unsafe_speed", vehicle.role,
+                           f"{label} struck the stopped {struck.label} from behind: too fast for the traffic ahead.",
+                           around(text, match))
+            else:
+                oracle.add("CVC_21703", "following_too_closely", vehicle.role,
+                           f"{label} struck the moving {struck.label} from behind.", around(text, match))
+            break
