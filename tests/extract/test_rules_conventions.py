@@ -444,3 +444,20 @@ def test_a_vehicle_named_as_parked_in_apposition_is_static():
     s = _text("V1 was traveling north on a residential street. V1 ran off the right side of the road and struck V2, "
               "a parked car.")
     assert s.actors["npc1"].behavior.value == "static"
+
+
+def test_lanes_each_way_and_a_lane_change_from_the_ramp_is_to_the_left():
+    s = _text("V1 was traveling east on an undivided roadway with two lanes each way. V2 was traveling east ahead of "
+              "V1. The front of V1 struck the rear of V2.")
+    assert s.road_network.number_of_lanes == 4
+    s = _text("V1 was traveling east on a two-lane interstate. V2 was entering from the on-ramp. V2 changed lanes into "
+              "the right lane and struck the right side of V1.")
+    assert (s.road_network.number_of_ways, s.road_network.number_of_lanes) == (1, 3)
+    assert s.actors["npc1"].behavior.value == "change_lane_left"
+
+
+def test_at_a_junction_without_devices_the_vehicle_that_failed_to_stop_lacks_priority():
+    s = _text("V1 was traveling east on a two-lane road. The road ended at a T-intersection with a north/south road. "
+              "V2 was traveling south on that road. V1 failed to stop and the front of V1 struck the left side of V2.")
+    assert s.road_network.road_type.value == "t_intersection"
+    assert _oracle(s) == {("CVC_21800", "ego")}

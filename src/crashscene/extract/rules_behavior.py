@@ -246,7 +246,8 @@ def _event(vehicle: Vehicle, token: str, match: re.Match, state: RulesState) -> 
         if bound.endswith("bound") and _opposite(vehicle, bound[:-5]):
             return "cross_centerline"  # "veered left into the southbound lane" while northbound
         side = (match.group(1) or (target if target in ("left", "right") else "") or "").lower()
-        if match.group(0).lower().startswith("merg") and re.search(_RAMP, state.pre_crash, re.I) and \
+        from_ramp = re.search(rf"\b{vehicle.label}\b[^.]{{0,80}}(?:{_RAMP})", state.pre_crash, re.I)
+        if (match.group(0).lower().startswith("merg") and re.search(_RAMP, state.pre_crash, re.I) or from_ramp) and \
                 state.uses("rules_behavior.merging_from_a_ramp_is_to_the_left"):
             side = "left"  # "merged into the right lane" from an on-ramp: ramps join from the right
         return f"change_lane_{side}" if side in ("left", "right") else None

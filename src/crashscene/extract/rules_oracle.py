@@ -139,6 +139,9 @@ def _junction_oracle(state: RulesState, road: dict, oracle: _Oracle) -> None:
     from_driveway = driveway_vehicle(state)
     failed_to_yield = next((label for label, _ in stated(state, r"fail(?:ed|ing|s)? to yield|did not yield")), None)
     ran_stop = {label: match for label, match in reversed(stated(state, _RAN_STOP))}
+    if not failed_to_yield and not devices and ran_stop and \
+            state.uses("rules_oracle.failed_to_stop_at_an_uncontrolled_junction"):
+        failed_to_yield = next(iter(ran_stop))  # no device: the one stated as not stopping lacks priority
     ran_red = any(e["code"] == "CVC_21453" for e in oracle.entries)
     arrow = re.search(r"(?:green|protected) (?:left[- ]turn )?arrow", text, re.I)
     stated_oncoming = state.uses("rules_oracle.left_turn_stated_oncoming")
