@@ -461,3 +461,12 @@ def test_at_a_junction_without_devices_the_vehicle_that_failed_to_stop_lacks_pri
               "V2 was traveling south on that road. V1 failed to stop and the front of V1 struck the left side of V2.")
     assert s.road_network.road_type.value == "t_intersection"
     assert _oracle(s) == {("CVC_21800", "ego")}
+
+
+def test_a_device_on_a_side_road_away_from_the_crash_is_left_out():
+    s = _text("V1 was traveling east on a two-lane road. A side street controlled by a stop sign joined the road from "
+              "the north. V2 was traveling east ahead of V1 and slowed. The front of V1 struck the rear of V2.")
+    assert s.road_network.road_type.value == "straight" and s.road_network.traffic_signs == []
+    s = _text("V1 was traveling north approaching an intersection controlled by traffic signals. V2 was stopped for "
+              "the red signal ahead of V1. The front of V1 struck the rear of V2.")
+    assert [t.value for t in s.road_network.traffic_signs] == ["traffic_light"]  # the queue of its signal

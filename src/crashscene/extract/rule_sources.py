@@ -81,6 +81,7 @@ RULE_SOURCES: dict[str, tuple[str, ...]] = {
     "rules_behavior.stopped_to_turn_is_a_stop": (),
     "rules_behavior.parked_in_apposition": (),
     "rules_oracle.failed_to_stop_at_an_uncontrolled_junction": (),
+    "rules_road.junction_devices_only_at_a_junction": (),
 }
 
 

@@ -44,6 +44,14 @@ def decide_road_network(state: RulesState) -> dict:
     lanes = count_lanes(state, road_text, ways)
     speed = _speed_limit(state)
     marker = _marker(state, road_text, ways)
+    if road_type not in ("intersection", "t_intersection") and \
+            state.uses("rules_road.junction_devices_only_at_a_junction"):
+        # convention 6: a stop sign, yield sign or signal away from the crash's junction controls no involved approach
+        dropped = state.signs & {"stop_sign", "yield_sign", "traffic_light"}
+        if dropped:
+            state.signs -= dropped
+            state.evidence.pop("road_network.traffic_signs", None)
+            state.note("road_network.traffic_signs", f"no junction in the crash: {', '.join(sorted(dropped))} left out")
     signs = set(state.signs)
     if speed is not None:
         signs.add("speed_limit_sign")
