@@ -26,9 +26,9 @@ from pathlib import Path
 
 from crashscene.dsl import Scenario, load_file
 from crashscene.extract.pipeline import extract_case
-from crashscene.monitor.evaluate import evaluate as monitor
-from crashscene.monitor.run import read_run
-from crashscene.simulate.pipeline import simulate_scenario
+from crashscene.monitor.check_traces import evaluate as monitor
+from crashscene.monitor.run_folder import read_run
+from crashscene.pipeline.simulate import simulate_scenario
 
 REPO = Path(__file__).resolve().parents[1]
 

@@ -12,8 +12,8 @@ import time
 from pathlib import Path
 
 from crashscene.dsl import dumps, load_file
-from crashscene.evaluate import evaluate, format_result
-from crashscene.extract.report import load_report
+from crashscene.evaluation.score import evaluate, format_result
+from crashscene.extract.case_input import load_report
 from crashscene.extract.rules import extract_rules
 from crashscene.extract.sketch import sketch_facts
 

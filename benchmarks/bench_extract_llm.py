@@ -15,7 +15,7 @@ import time
 from pathlib import Path
 
 from crashscene.dsl import load_file
-from crashscene.evaluate import evaluate, format_result
+from crashscene.evaluation.score import evaluate, format_result
 from crashscene.extract.pipeline import ExtractOptions, extract_batch
 
 CIREN = Path(__file__).resolve().parent.parent / "examples" / "ciren"

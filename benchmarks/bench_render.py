@@ -14,11 +14,11 @@ import time
 import warnings
 from pathlib import Path
 
-from crashscene.convert import convert
 from crashscene.dsl import load_file
-from crashscene.maps.generated import build_map
 from crashscene.render import render
-from crashscene.sample import compile_program, sample_scenes
+from crashscene.render.opendrive import build_map
+from crashscene.render.plan import convert
+from crashscene.render.sample import compile_program, sample_scenes
 
 REPO = Path(__file__).resolve().parent.parent
 EXAMPLES = REPO / "examples" / "ciren"

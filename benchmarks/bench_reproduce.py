@@ -17,7 +17,7 @@ import time
 from pathlib import Path
 
 from crashscene.dsl import load_file
-from crashscene.simulate.pipeline import simulate_scenario
+from crashscene.pipeline.simulate import simulate_scenario
 
 REPO = Path(__file__).resolve().parents[1]
 RATES = ("reproduction_rate", "first_contact_rate", "sequence_rate", "area_match_rate")

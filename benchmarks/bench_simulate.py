@@ -91,7 +91,7 @@ def newtonian_seconds(case: Path, k: int, mode: str, tmp: Path) -> tuple[float, 
     """([s] wall, [s] CPU) per variation in Scenic's Newtonian simulator, over k variations (compile excluded)."""
     from crashscene.dsl import load_file
     from crashscene.render import render
-    from crashscene.sample import sample_scenes
+    from crashscene.render.sample import sample_scenes
     from crashscene.simulate.backend import SimulationRequest, SimulationSettings
     from crashscene.simulate.newtonian import NewtonianSimulator
 

@@ -15,6 +15,7 @@ from crashscene.campaign.runner import _SIM_FLAGS
 from crashscene.cli import app
 from crashscene.cli.campaign_commands import build_config
 from crashscene.simulate import register_backend
+
 from tests.campaign.fakes import fake_chunk
 
 runner = CliRunner()
@@ -179,8 +180,8 @@ def test_a_chunk_with_rules_is_monitored_once_with_that_rulebook(tmp_path, monke
 def test_rulebook_condition_factors_reach_the_drivers():
     from crashscene.dsl import load_file
     from crashscene.monitor.rulebook import Rulebook
+    from crashscene.pipeline.simulate import _conditions
     from crashscene.simulate.embedded.setup import condition_factor, friction
-    from crashscene.simulate.pipeline import _conditions
 
     night = load_file(Path(__file__).resolve().parents[2] / "examples" / "ciren" / "120013" / "golden.yaml")
     night = night.model_copy(update={"environment": night.environment.model_copy(

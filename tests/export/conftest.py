@@ -25,7 +25,7 @@ def case_export(tmp_path_factory):
     """case name -> CaseExport (simulated and exported on first use, then reused)."""
     from crashscene.dsl import load_file
     from crashscene.export.pipeline import export_scenario
-    from crashscene.simulate.pipeline import simulate_scenario
+    from crashscene.pipeline.simulate import simulate_scenario
 
     cache: dict[str, CaseExport] = {}
 

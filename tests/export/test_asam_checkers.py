@@ -2,7 +2,7 @@
 
 Pass = no error-level issue and no checker skipped because a prerequisite failed. The
 only skips allowed are rules not applicable to the declared version (the OpenDRIVE rule
-defined up to 1.7 only, checked on the maps in tests/test_maps.py) and, for
+defined up to 1.7 only, checked on the maps in tests/render/test_maps.py) and, for
 distribution.xosc and parameter_sets.xosc, the reference checks that need a scenario
 definition (those files are ParameterValueDistributions; the checks run on scenario.xosc).
 """

@@ -14,6 +14,7 @@ from crashscene.export import ExportError
 from crashscene.export.pipeline import RUN_FILES, export_scenario, parse_variations
 from crashscene.export.xosc_common import write_atomic
 from crashscene.traces import VARIATION_SCHEMA
+
 from tests.conftest import EXAMPLES
 
 CASE = EXAMPLES / "100237" / "golden.yaml"
@@ -33,8 +34,8 @@ def fake_run(tmp_path: Path, scenario_hash: str = "0" * 16, map_mode: str = "gen
 
 
 def real_hash() -> str:
-    from crashscene.convert import scenario_hash
     from crashscene.dsl import load_file
+    from crashscene.render.plan import scenario_hash
 
     return scenario_hash(load_file(CASE), map_mode="generated", town="")
 

@@ -11,7 +11,7 @@ from typer.testing import CliRunner
 from crashscene.cli import app
 from crashscene.dsl import dumps
 from crashscene.extract.held_out import evaluate_held_out
-from crashscene.extract.report import Report, load_report
+from crashscene.extract.case_input import Report, load_report
 from crashscene.extract.rule_sources import FROM_CONVENTIONS, RULE_SOURCES, rules_written_from
 from crashscene.extract.rules import extract_rules
 

@@ -6,9 +6,9 @@ from pathlib import Path
 
 import pytest
 
-from crashscene.extract.errors import ReportError
+from crashscene.extract.errors import CaseInputError
 from crashscene.extract.nhtsa_xml import nhtsa_facts
-from crashscene.extract.report import load_report
+from crashscene.extract.case_input import load_report
 from crashscene.extract.rules import extract_rules
 
 CIREN = Path(__file__).resolve().parents[2] / "examples" / "ciren"
@@ -42,7 +42,7 @@ def test_damaged_xml_is_a_report_error_and_does_not_stop_the_rules(tmp_path):
     case.mkdir()
     shutil.copy(CIREN / "100237" / "narrative.txt", case / "narrative.txt")
     (case / "nhtsa_case.xml").write_text("<Case><Light>Dark</Case>")
-    with pytest.raises(ReportError, match="not well-formed"):
+    with pytest.raises(CaseInputError, match="not well-formed"):
         nhtsa_facts(case / "nhtsa_case.xml")
     scenario = extract_rules(load_report(case), [])
     assert scenario.environment.time_of_day.value == "daytime"  # the narrative says daylight

@@ -6,7 +6,7 @@ from pathlib import Path
 import pytest
 
 from crashscene.dsl import dumps, validate, validate_text
-from crashscene.extract.report import Report, load_report
+from crashscene.extract.case_input import Report, load_report
 from crashscene.extract.rules import extract_rules
 from crashscene.extract.sketch import SketchFact
 

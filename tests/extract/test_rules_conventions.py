@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from crashscene.extract.report import Report
+from crashscene.extract.case_input import Report
 from crashscene.extract.rules import extract_rules
 from crashscene.extract.sketch import SketchFact
 

@@ -29,7 +29,7 @@ def cases():
 
 @pytest.mark.parametrize("path", list(cases()))
 def test_injected_violation_is_flagged_in_most_variations(path, tmp_path):
-    from crashscene.simulate.pipeline import simulate_scenario
+    from crashscene.pipeline.simulate import simulate_scenario
 
     scenario = load_file(path)
     with warnings.catch_warnings():

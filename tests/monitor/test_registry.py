@@ -67,7 +67,7 @@ def test_a_driver_charged_with_the_code_gets_the_declared_traits(cls):
 @pytest.fixture(scope="module")
 def simulated(tmp_path_factory):
     """Every end-to-end scenario (one per rule), simulated in reproduce mode: (scenario, tables) pairs."""
-    from crashscene.simulate.pipeline import simulate_scenario
+    from crashscene.pipeline.simulate import simulate_scenario
 
     runs = []
     for path in sorted(SCENARIOS.glob("*.yaml")):

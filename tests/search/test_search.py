@@ -116,7 +116,7 @@ def test_search_pins_parameters_and_repeats(tmp_path):
     names = [p["name"] for p in report["parameters"]]
     # the pinned values are what the simulator saw: compare with the scenes' sampled parameters
     from crashscene.dsl import load_file
-    from crashscene.sample import compile_program
+    from crashscene.render.sample import compile_program
     from crashscene.search.space import parameter_space, pinned_scenes
 
     compiled = compile_program(tmp_path / "run0" / "scenario.scenic")

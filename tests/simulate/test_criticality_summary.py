@@ -8,7 +8,7 @@ import pytest
 
 from crashscene.dsl import load_file
 from crashscene.monitor.criticality import CRITICALITY_SCHEMA, METRICS
-from crashscene.simulate.pipeline import simulate_scenario
+from crashscene.pipeline.simulate import simulate_scenario
 
 CASE = Path(__file__).resolve().parents[2] / "examples" / "ciren" / "100237" / "golden.yaml"
 

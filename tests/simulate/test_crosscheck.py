@@ -8,7 +8,7 @@ a larger gap means one side is wrong, not that the bound is tight.
 Found so far: the kinematics agree (0.00 m for every car whose sampled speed
 respects the posted limit); cars sampled above the limit differ because the
 embedded driver caps a law-abiding driver's speed at the limit while the Scenic
-program keeps the sampled speed. Fixed at the source: convert.speed_range no
+program keeps the sampled speed. Fixed at the source: render.plan.speed_range no
 longer gives law-abiding actors speeds above the limit.
 """
 from __future__ import annotations
@@ -61,7 +61,7 @@ oracle: []
 def runs(tmp_path_factory):
     """(scenes, embedded tables, newtonian tables, settings) for the same rendered scenario and scenes."""
     from crashscene import render
-    from crashscene import sample
+    from crashscene.render import sample
     scenario = loads(SCENARIO)
     out = tmp_path_factory.mktemp("crosscheck")
     rendered = render.render(scenario, out, cache_dir=out / "maps")

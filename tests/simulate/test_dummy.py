@@ -21,7 +21,7 @@ def test_dummy_is_a_registered_backend():
 
 @pytest.mark.parametrize("case", ["100237", "117021"])  # controlled junctions: no column is legitimately empty
 def test_every_trace_column_is_filled(case, tmp_path):
-    from crashscene.simulate.pipeline import simulate_scenario
+    from crashscene.pipeline.simulate import simulate_scenario
 
     scenario = load_file(EXAMPLES / case / "golden.yaml")
     with warnings.catch_warnings():

@@ -30,9 +30,9 @@ from crashscene.dsl.tokens import (
     TimeOfDay,
     Weather,
 )
+from crashscene.pipeline.simulate import simulate_scenario
 from crashscene.render import RenderError
 from crashscene.simulate.backend import SimulationError
-from crashscene.simulate.pipeline import simulate_scenario
 
 from .conftest import EXAMPLES
 

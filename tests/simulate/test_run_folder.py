@@ -10,8 +10,8 @@ from typer.testing import CliRunner
 from crashscene.cli import app
 from crashscene.dsl import dump_file, load_file
 from crashscene.monitor import MonitorError, monitor_run
+from crashscene.pipeline.simulate import simulate_scenario
 from crashscene.simulate.backend import AdsError, SimulationError
-from crashscene.simulate.pipeline import simulate_scenario
 from crashscene.traces import stored_digest
 
 from .conftest import EXAMPLES

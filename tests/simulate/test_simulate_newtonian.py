@@ -322,7 +322,7 @@ def case_runs(tmp_path_factory):
         """(scenario, scenes, result, rendered) of the case, simulated once."""
         if case not in cache:
             from crashscene import render
-            from crashscene import sample
+            from crashscene.render import sample
             scenario = load_file(EXAMPLES / case / "golden.yaml")
             rendered = render.render(scenario, tmp_path_factory.mktemp(case), cache_dir=map_cache)
             scenes = sample.sample_scenes(rendered.program, 2, seed=3, sampler="scenic")

@@ -46,7 +46,7 @@ def simulate_chunk(task: ChunkTask) -> ChunkResult:
 
 
 def _simulate_and_monitor(task: ChunkTask, run_dir: Path) -> ChunkResult:
-    from crashscene.simulate.pipeline import simulate_scenario
+    from crashscene.pipeline.simulate import simulate_scenario
     from crashscene.traces import TABLES, read_table
 
     scenario = loads(task.scenario_yaml, source=f"{task.case_id}/scenario.yaml")

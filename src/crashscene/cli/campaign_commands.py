@@ -66,7 +66,7 @@ def build_config(n: int, seed: int, mode: str, engine: str, workers: int | None,
             raise CampaignError(f"--rules: {exc}") from None
     if chunk_size <= 0:
         raise CampaignError(f"--chunk-size {chunk_size}: must be positive")
-    from crashscene.sample import SAMPLERS
+    from crashscene.render.sample import SAMPLERS
 
     if sampler is not None and sampler not in SAMPLERS:
         raise CampaignError(f"--sampler {sampler!r}: allowed: {', '.join(SAMPLERS)}")

@@ -34,8 +34,8 @@ def eval_command(
 ) -> None:
     """Score predictions against golden files (dsl.md section 4): per-component and overall accuracy, oracle
     precision, extensions, a per-field confusion table and per-case diffs. Exit 2 on unusable inputs."""
-    from crashscene.eval_folds import evaluate_folds, format_folds
-    from crashscene.evaluate import EvalError, evaluate, format_result, load_pairs
+    from crashscene.evaluation.folds import evaluate_folds, format_folds
+    from crashscene.evaluation.score import EvalError, evaluate, format_result, load_pairs
     from crashscene.extract.rule_sources import RULE_SOURCES
 
     if held_out or pred is None:
@@ -71,7 +71,7 @@ def _summary(result) -> dict:
 
 def _held_out(gold: Path, pred: Path | None, folds: int | None, held_out: bool, as_json: bool) -> None:
     """`eval --held-out`: the extraction is part of the measurement, so there is no --pred."""
-    from crashscene.evaluate import EvalError
+    from crashscene.evaluation.score import EvalError
     from crashscene.extract.held_out import evaluate_held_out, format_held_out
 
     if not held_out:

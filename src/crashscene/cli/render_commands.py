@@ -84,7 +84,7 @@ def sample(
     import warnings
 
     from crashscene.render import RenderError
-    from crashscene.sample import CARLA_MODEL, NEWTONIAN_MODEL, sample_scenes
+    from crashscene.render.sample import CARLA_MODEL, NEWTONIAN_MODEL, sample_scenes
 
     models = {"carla": CARLA_MODEL, "newtonian": NEWTONIAN_MODEL}
     if model not in models:

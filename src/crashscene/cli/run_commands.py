@@ -58,8 +58,8 @@ def run(
     """report -> extract -> validate -> render -> sample -> simulate -> monitor -> report, offline by default."""
     from crashscene.campaign import CampaignError
     from crashscene.cli.campaign_commands import build_config, print_summary
+    from crashscene.pipeline.run import run_case
     from crashscene.report import ReportError
-    from crashscene.run import run_case
 
     try:
         config = build_config(n, seed, mode, "local", workers, None, resume, chunk_size, extractor, dsl,

@@ -44,8 +44,8 @@ def simulate(
 ) -> None:
     """Render, sample and simulate FILE; write traces, the monitor's verdicts and summary.json into --out."""
     from crashscene.dsl import DslError, load_file
+    from crashscene.pipeline.simulate import simulate_scenario
     from crashscene.simulate.backend import AdsError, SimulationError
-    from crashscene.simulate.pipeline import simulate_scenario
 
     try:
         scenario = load_file(file)

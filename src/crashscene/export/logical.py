@@ -27,7 +27,6 @@ from pathlib import Path
 
 from scenariogeneration import xosc
 
-from crashscene.convert import Placement, RenderPlan
 from crashscene.export.errors import ExportError
 from crashscene.export.program import ProgramSampling
 from crashscene.export.roadframe import RoadFrame, RoadPoint
@@ -40,6 +39,7 @@ from crashscene.export.xosc_common import (
     vehicle,
 )
 from crashscene.geometry import LANE_WIDTH
+from crashscene.render.plan import Placement, RenderPlan
 from crashscene.scene import SampledActor, SampledScene
 
 LANE_CHANGE_TIME = 3.0  # [s] sinusoidal lane change

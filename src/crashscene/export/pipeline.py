@@ -71,7 +71,8 @@ def _load_scenario(path: Path):
 
 
 def _plan(scenario, path: Path):
-    from crashscene.convert import RenderError, convert
+    from crashscene.render.errors import RenderError
+    from crashscene.render.plan import convert
 
     try:
         return convert(scenario)
@@ -92,7 +93,7 @@ def _network(map_path: Path):
 
 def _read_run(run_dir: Path, scenario, scenario_path: Path):
     """Check a run directory against the scenario; return (variations table, scenes by index)."""
-    from crashscene.convert import scenario_hash
+    from crashscene.render.plan import scenario_hash
     from crashscene.scene import SampledScene
 
     if not run_dir.is_dir():
@@ -162,7 +163,7 @@ def export_scenario(scenario_path: Path, out_dir: Path, run_dir: Path | None = N
                     seed: int = 0) -> Exported:
     """Export `scenario_path` to `out_dir`; with `run_dir`, also its chosen (or failing, or all valid) variations."""
     from crashscene.render import RenderError, render
-    from crashscene.sample import sample_scenes
+    from crashscene.render.sample import sample_scenes
 
     scenario_path, out_dir = Path(scenario_path), Path(out_dir)
     if (variations is not None or failing) and run_dir is None:

@@ -17,7 +17,7 @@ class ExtractError(Exception):
         super().__init__(f"{self.path}: {message}" if self.path else message)
 
 
-class ReportError(ExtractError):
+class CaseInputError(ExtractError):
     """The report input (case folder, narrative, sketch path) is missing, unreadable or not text."""
 
 

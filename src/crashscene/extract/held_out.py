@@ -3,7 +3,7 @@
 `evaluate_held_out` extracts each case of a folder of case folders (report, sketch and `golden.yaml`) with
 the rules backend twice: with every rule on (the bundled figure), and with every recorded rule whose
 sources include the case switched off (`crashscene.extract.rule_sources`; with `folds`, every rule written
-from any case of the case's fold, `crashscene.eval_folds.assign_folds`). The second pass is the held-out
+from any case of the case's fold, `crashscene.evaluation.folds.assign_folds`). The second pass is the held-out
 figure, scored per field like `crashscene eval`. It also measures each recorded rule on its own (`RuleEffect`):
 the fields it wins or loses on its source cases and on the others. A rule that wins only on its sources fits
 them; one that wins elsewhere generalises to cases it was not written from.
@@ -20,10 +20,10 @@ from pathlib import Path
 from pydantic import BaseModel
 
 from crashscene.dsl import DslError, Scenario, dumps, load_file
-from crashscene.eval_folds import assign_folds
-from crashscene.evaluate import EvalError, EvalResult, _pct, evaluate, score_case
+from crashscene.evaluation.folds import assign_folds
+from crashscene.evaluation.score import EvalError, EvalResult, _pct, evaluate, score_case
+from crashscene.extract.case_input import Report, load_report
 from crashscene.extract.errors import ExtractError
-from crashscene.extract.report import Report, load_report
 from crashscene.extract.rule_sources import RULE_SOURCES, rules_written_from
 from crashscene.extract.rules import extract_rules
 from crashscene.extract.sketch import SketchFact

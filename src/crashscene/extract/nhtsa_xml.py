@@ -13,7 +13,7 @@ from __future__ import annotations
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
-from crashscene.extract.errors import ReportError
+from crashscene.extract.errors import CaseInputError
 from crashscene.extract.sketch import SketchFact
 from crashscene.units import KMH_PER_MPH
 
@@ -22,16 +22,16 @@ SOURCE = "nhtsa:xml"
 
 
 def nhtsa_facts(path: Path | str) -> list[SketchFact]:
-    """Speed limit and conditions coded in the case XML; raises `ReportError` on an unreadable file."""
+    """Speed limit and conditions coded in the case XML; raises `CaseInputError` on an unreadable file."""
     path = Path(path)
     try:
         if path.stat().st_size > MAX_XML_BYTES:
-            raise ReportError(f"case XML is larger than {MAX_XML_BYTES} bytes", path)
+            raise CaseInputError(f"case XML is larger than {MAX_XML_BYTES} bytes", path)
         root = ET.parse(path).getroot()
     except OSError as exc:
-        raise ReportError(f"cannot read case XML: {exc.strerror or exc}", path) from None
+        raise CaseInputError(f"cannot read case XML: {exc.strerror or exc}", path) from None
     except ET.ParseError as exc:
-        raise ReportError(f"not well-formed XML ({exc})", path) from None
+        raise CaseInputError(f"not well-formed XML ({exc})", path) from None
     facts: list[SketchFact] = []
     mph = _speed_limit_mph(root)
     if mph is not None:

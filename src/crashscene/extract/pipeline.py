@@ -100,7 +100,7 @@ def extract_case(path: Path | str, backend: BackendName = "auto", model: str = D
     if chat is None and name in ("openai", "local"):
         with open_chat(options) as opened:
             return extract_case(path, options=options, chat=opened)
-    from crashscene.extract.report import load_report
+    from crashscene.extract.case_input import load_report
 
     started = time.perf_counter()
     report = load_report(path)

@@ -330,7 +330,7 @@ def _heading(s: Scenario, name: str) -> Heading | None:
 
 def _collision_findings(s: Scenario, narrative: str) -> list[Finding]:
     """The draft's crash sequence against the report's impact sentences, as the rules backend reads them."""
-    from crashscene.extract.report import Report
+    from crashscene.extract.case_input import Report
     from crashscene.extract.rules import extract_rules
 
     try:

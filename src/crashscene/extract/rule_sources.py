@@ -1,15 +1,16 @@
 """The record of which bundled cases each extraction rule was written from, and the switches that turn
 those rules off (issue 11).
 
-An honest held-out figure needs to know which cases were looked at while a rule was written. Every rule
-named in `RULE_SOURCES` rests on at least two cases (`tests/test_eval_folds.py` checks that, and that every
-case named exists), or on none: written from dsl.md section 5 and synthetic narratives, such a rule changes no
-bundled case's extraction (`tests/extract/test_held_out.py` checks that). Each is a switch in the code: the rules extractor consults it with
-`RulesState.uses(name)` and, when it is switched off (`extract_rules(..., off=...)`), falls back to what the
-extractor did before the rule: the first round's reading where the rule replaced one (rear-end codes by
-phrase, cause statements by label window), else nothing (the convention default). `crashscene eval --held-out` extracts every bundled case
-with each rule whose sources include that case switched off (with `--folds K`: any case of its fold), so a
-case is scored only by rules written from other cases (`crashscene.extract.held_out`).
+An honest held-out figure needs to know which cases were looked at while a rule was written. Every rule named
+in `RULE_SOURCES` rests on at least two cases (`tests/evaluation/test_folds.py` checks that, and that every
+case named exists), or, written from dsl.md section 5 and synthetic narratives (`FROM_CONVENTIONS`), on none
+but the cases it was corrected on; such a rule changes no other bundled case's extraction
+(`tests/extract/test_held_out.py` checks that). Each is a switch in the code: the rules extractor consults it
+with `RulesState.uses(name)` and, when it is switched off (`extract_rules(..., off=...)`), falls back to what
+the extractor did before the rule: the first round's reading where the rule replaced one (rear-end codes by
+phrase, cause statements by label window), else nothing (the convention default). `crashscene eval --held-out`
+extracts every bundled case with each rule whose sources include that case switched off (with `--folds K`: any
+case of its fold), so a case is scored only by rules written from other cases (`crashscene.extract.held_out`).
 
 What that does not cover: the rules written in the first round (commits 45cdc70..c4787e2, before this
 record existed) were developed looking at all 37 bundled cases and are not switches (`ROUND_ONE`); they

@@ -30,10 +30,10 @@ from collections.abc import Iterable
 
 from crashscene.dsl import Scenario, from_raw, validate
 from crashscene.dsl.errors import DslError
-from crashscene.extract.errors import ReportError, RulesError
+from crashscene.extract.errors import CaseInputError, RulesError
 from crashscene.extract.narrative import Narrative, clip
 from crashscene.extract.nhtsa_xml import nhtsa_facts
-from crashscene.extract.report import Report
+from crashscene.extract.case_input import Report
 from crashscene.extract.rule_sources import known_rule
 from crashscene.extract.rules_behavior import decide_behaviors
 from crashscene.extract.rules_collisions import decide_collisions
@@ -58,7 +58,7 @@ def extract_rules(report: Report, facts: list[SketchFact] | None = None, off: It
     if report.nhtsa_xml is not None:
         try:
             facts += nhtsa_facts(report.nhtsa_xml)
-        except ReportError:
+        except CaseInputError:
             pass
     state = RulesState(report=report, facts=facts, t=Narrative(report.narrative), off=off)
     find_vehicles(state)

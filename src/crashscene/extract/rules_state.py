@@ -9,7 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from crashscene.extract.narrative import COMPASS, Narrative, clip
-from crashscene.extract.report import Report
+from crashscene.extract.case_input import Report
 from crashscene.extract.rule_sources import known_rule
 from crashscene.extract.sketch import SketchFact
 

@@ -6,6 +6,7 @@ stored run. Rules are small classes registered by code (`register_rule`);
 thresholds come from a `Rulebook` (defaults of rules.md, YAML overrides).
 """
 from crashscene.geometry import classify_contact as classify
+from crashscene.monitor.check_traces import evaluate
 from crashscene.monitor.collisions import COLLISION_CLASSES
 from crashscene.monitor.context import EvalContext
 from crashscene.monitor.errors import (
@@ -14,7 +15,6 @@ from crashscene.monitor.errors import (
            RulebookError,
            TraceError,
 )
-from crashscene.monitor.evaluate import evaluate
 from crashscene.monitor.result import MonitorResult
 from crashscene.monitor.rulebook import Rulebook, load_rulebook
 from crashscene.monitor.rules import (
@@ -25,7 +25,7 @@ from crashscene.monitor.rules import (
            registered_rules,
            unregister_rule,
 )
-from crashscene.monitor.run import monitor_run
+from crashscene.monitor.run_folder import monitor_run
 from crashscene.monitor.verdicts import VERDICTS, ExpectedCollision, expected_collision
 
 __all__ = ["COLLISION_CLASSES", "VERDICTS", "EvalContext", "ExpectedCollision", "MonitorError", "MonitorResult",

@@ -4,7 +4,7 @@
 the sampled global parameters (uniform ranges, in declaration order), the
 program's constant parameters, each actor's placement rule, blueprint pool and
 `cs_*` tokens, and the arguments the program hands to
-`scenic_support.candidates`. `crashscene.compiled_sampler` draws scenes from it
+`scenic_support.candidates`. `crashscene.render.compiled_sampler` draws scenes from it
 with numpy instead of Scenic's interpreter: same candidates, same placement
 arithmetic, same built-in requirements (every car inside road-or-shoulder, no
 two cars overlapping). The plan carries the sha256 of the program it was
@@ -17,7 +17,7 @@ import json
 from pathlib import Path
 from typing import Any
 
-from crashscene.convert import BLUEPRINT_DIMS
+from crashscene.render.plan import BLUEPRINT_DIMS
 
 SAMPLING_PLAN_NAME = "sampler.json"
 PLAN_FORMAT = 1
@@ -35,7 +35,7 @@ def _range(value: Any) -> tuple[float, float]:
 
 
 def sampling_plan(context: dict[str, Any], program_text: str) -> dict[str, Any]:
-    """The plan for a program rendered from `context` (see `crashscene.render.program_context`)."""
+    """The plan for a program rendered from `context` (see `crashscene.render.program.program_context`)."""
     plan = context["plan"]
     params = []
     actors = []

@@ -233,7 +233,7 @@ def _narrative(case_dir: Path) -> str | None:
         if path.is_file():
             if path.suffix == ".pdf":
                 try:
-                    from crashscene.extract.report import read_narrative
+                    from crashscene.extract.case_input import read_narrative
 
                     return read_narrative(path)
                 except Exception as exc:  # noqa: BLE001  (a report still renders without the narrative)

@@ -59,7 +59,7 @@ def search_scenario(scenario: Scenario, out_dir: Path, *, budget: int, sampler: 
     The returned dict has SUMMARY_KEYS plus `rounds` (convergence), `rules` (failure region), `parameters`.
     """
     from crashscene.render import RenderError, render
-    from crashscene.sample import compile_program
+    from crashscene.render.sample import compile_program
     from crashscene.simulate.backend import SimulationSettings, check_ego_role, create_simulator
 
     start = time.perf_counter()

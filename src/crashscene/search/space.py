@@ -5,7 +5,7 @@ search proposes points of the unit cube; `ParameterSpace.values` maps them to
 parameter values, and `pinned_scenes` draws the scenes with those values held
 fixed: Scenic's external sampler is replaced by `PinnedSampler`, so every
 other random choice (placement candidates, blueprints) is drawn as in
-`crashscene.sample`, index-deterministically from (seed, variation).
+`crashscene.render.sample`, index-deterministically from (seed, variation).
 """
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 from scenic.core.external_params import ExternalSampler
 
-from crashscene.sample import SampleError, sample_scenes
+from crashscene.render.sample import SampleError, sample_scenes
 from crashscene.scene import SampledScene
 from crashscene.search.errors import SearchError
 

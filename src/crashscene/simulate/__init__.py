@@ -1,7 +1,8 @@
 """Simulate stage: run sampled scenes on a backend (embedded batched numpy by default) and write traces.
 
-Public entry points: `simulate_scenario` (pipeline), the backend interface in
-`crashscene.simulate.backend`.
+Public entry point: the backend interface in `crashscene.simulate.backend`. The orchestrator that
+renders, samples, simulates and monitors one scenario, `simulate_scenario`, sits above the stages in
+`crashscene.pipeline.simulate`.
 """
 from crashscene.simulate.backend import (
     AdsError,

@@ -8,7 +8,7 @@ backend and the fallback for hand-written Scenic programs.
 
 What this backend adds around Scenic:
 - placement: each Scenic scene is the one Scenic samples for the variation
-  (reseeded from (seed, variation) as `crashscene.sample` does), and every
+  (reseeded from (seed, variation) as `crashscene.render.sample` does), and every
   object is then pinned to the sampled scene's position, yaw and speed, so the
   run starts exactly where the embedded backend's does;
 - contact: footprints (oriented rectangles) are checked every step; two
@@ -104,13 +104,13 @@ def compile_program(program: str, map_file: Path, model: str = NEWTONIAN_MODEL, 
 
 
 def generate_scenic_scene(scenario, seed: int, index: int, max_iterations: int = 2000):
-    """The Scenic scene of variation `index`, drawn exactly as `crashscene.sample` draws it.
+    """The Scenic scene of variation `index`, drawn exactly as `crashscene.render.sample` draws it.
 
     Python's `random` and numpy's global generator are seeded with the sample
     module's `scene_seed(seed, index)` and restored afterwards.
     """
     try:
-        from crashscene.sample import scene_seed
+        from crashscene.render.sample import scene_seed
     except ImportError:  # the render stage is absent: any fixed derivation keeps runs reproducible
         def scene_seed(seed: int, index: int) -> tuple[int, int]:
             words = np.random.SeedSequence([seed & 0xFFFFFFFFFFFFFFFF, index]).generate_state(2, dtype=np.uint32)
@@ -364,7 +364,7 @@ def scenes_from_program(program: str, map_file: Path, scenario, n: int, seed: in
                         scenario_hash: str | None = None) -> list[SampledScene]:
     """Sampled scenes of a Scenic program that `crashscene render` did not write (hand-written or edited).
 
-    Scene i is Scenic's scene for (seed, i), as `crashscene.sample` draws it.
+    Scene i is Scenic's scene for (seed, i), as `crashscene.render.sample` draws it.
     Objects tagged `cs_role` (or `role`) keep their role; untagged ones take the
     DSL scenario's roles in order, the ego object first. What the program does
     not say (type, behaviour, position relation, dispositions) comes from the
@@ -400,7 +400,7 @@ def scenes_from_program(program: str, map_file: Path, scenario, n: int, seed: in
 
 def _program_actor(obj, role: str, scenario, behavior_enum) -> SampledActor:
     """A SampledActor for a Scenic object, the DSL actor of its role filling what Scenic does not know."""
-    from crashscene.convert import ROUTE_INTENT
+    from crashscene.render.plan import ROUTE_INTENT
 
     dsl = scenario.actors[role]
     lane = getattr(obj, "_lane", None)

@@ -1,6 +1,8 @@
 """Timing plans of an embedded batch, per variation: when each actor starts, how fast it cruises and when its
 manoeuvre triggers, so that the paths conflict as the report says (see `timing` for the kinematics), and the
-signal phase that gives the anchor its green.
+signal phase that gives the anchor its green. In reproduce mode also the written crash sequence beyond its
+first contact: a wrong-way driver in its head-on partner's lane, and a cascade, where a third vehicle meets
+the car the first impact pushes (`cascade`).
 
 Every draw comes from the variation's own generator in a fixed order, so a plan depends only on
 (scenario, seed, variation index).
@@ -8,13 +10,15 @@ Every draw comes from the variation's own generator in a fixed order, so a plan 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
 
+from crashscene.monitor.rules import Disposition
 from crashscene.scene import SampledScene
 from crashscene.simulate.drivers.behaviors import OVER_LIMIT, SPEEDING_CODES, speed_factor
-from crashscene.simulate.embedded import signals, timing
+from crashscene.simulate.embedded import cascade, signals, timing
 from crashscene.simulate.embedded import skid as skid_plan
 from crashscene.simulate.embedded.control import entry_before
 from crashscene.simulate.embedded.world import RouteArrays
@@ -29,141 +33,333 @@ LATERAL_BEHAVIORS = ("change_lane_left", "change_lane_right", "cross_centerline"
                      "leave_road")
 SYNC_SLACK = 0.8  # [s] an actor moved back to meet later is placed this much early (sync.Meeting slows it)
 START_MARGIN = 5.0  # [m] an actor moved back along its route stays this far from the route's start
+SPEEDING_RUN = 2.0  # [s] a striker charged with speeding drives this long before its impact (rules: 1 s over)
+CASCADE_WINDOW = 0.8  # [s] a later contact's striker arrives up to this long after the pushed car is in its path
+STOP_DECEL = 4.0  # [m/s2] a stopping driver's braking (drivers.behaviors.DECELERATE_RATE)
+STOP_NEAR_JUNCTION = 40.0  # [m] a stopping driver this close to a junction stops at its line
+WRONG_WAY_LEFT = 0.4  # [lanes] a drift across several lanes starts this far short of the partner's lane
 ADVANCE_MARGIN = 3.0  # [m] an actor advanced by its timing plan stays this far before its junction entry
 
 
-def plan_variation(v: int, scene: SampledScene, rng: np.random.Generator, columns: list[ActorColumn], anchor: int,
-                    arrays: RouteArrays, route: np.ndarray, s0: np.ndarray, d0: np.ndarray, speed: np.ndarray,
-                    length: np.ndarray, entry_control: np.ndarray, lateral_target: np.ndarray, hold: np.ndarray,
-                    trigger: np.ndarray, scale: np.ndarray, phase: np.ndarray, conflict_time: np.ndarray,
-                    runs_red: bool, cond: float, default_limit: float, planned_out: np.ndarray,
-                    moved: np.ndarray, reproduce: bool, drifted: np.ndarray, skids: np.ndarray,
-                    classes: dict[frozenset[str], str], strikers: dict[frozenset[str], str],
-                    first_pair: frozenset[str] | None, friction: float,
-                    width: np.ndarray,
-                    lane_width: float) -> None:
-    """Fill row v of the timing arrays (draws from rng in a fixed order)."""
-    n_a = len(columns)
-    planned = [_planned_speed(arrays, route[v, a], s0[v, a], speed[v, a], columns[a], cond, default_limit)
-               for a in range(n_a)]
-    planned_out[v] = planned
-    draws = {"offset": rng.normal(timing.ARRIVAL_OFFSET_MEAN, timing.ARRIVAL_OFFSET_SD, n_a),
-             "lead": rng.uniform(0.8, 2.0, n_a), "trigger": rng.uniform(1.0, 4.0, n_a),
-             "green": rng.uniform(3.0, 15.0), "spin": rng.choice([-1.0, 1.0], n_a),
-             "rotation": rng.uniform(0.0, 1.0, n_a)}
-    ra = route[v, anchor]
-    va = planned[anchor]
-    anchor_col = columns[anchor]
-    anchor_stop = stop_dist(arrays, ra, s0[v, anchor], entry_control, anchor_col)
-    arrival_anchor = None
-    for a, col in enumerate(columns):
-        r = route[v, a]
-        params = scene.params
-        offset = float(np.clip(draws["offset"][a], -timing.ARRIVAL_OFFSET_MAX, timing.ARRIVAL_OFFSET_MAX))
-        offset = _param(params, col.role, ("ARRIVAL_OFFSET",), offset)
-        if reproduce:
+@dataclass(frozen=True)
+class PlanContext:
+    """What the plans of every variation of a batch share."""
+
+    columns: list[ActorColumn]
+    anchor: int  # actor column every junction conflict is timed against (the ADS, or the ego in reproduce mode)
+    arrays: RouteArrays
+    classes: dict[frozenset[str], str]  # written contact class per actor pair (DSL `collisions`)
+    strikers: dict[frozenset[str], str]  # striking role of the first written contact per pair
+    first_pair: frozenset[str] | None  # the two roles of the first written contact
+    reproduce: bool
+    runs_red: bool  # the anchor's driver runs red lights (its signal phase is planned red)
+    cond: float  # [-] condition factor on the posted limit
+    default_limit: float  # [m/s] the DSL's posted limit, NaN if none
+    friction: float  # [-] tyre-road friction coefficient
+    contacts: tuple[tuple[str, str, str, str, str], ...] = ()  # the written sequence, in order: (striking,
+    # struck, class, striking area, struck area)
+
+
+@dataclass
+class Draws:
+    """A variation's random draws, taken from its generator in one fixed order."""
+
+    offset: np.ndarray  # (A,) [s] arrival offset at the conflict point
+    lead: np.ndarray  # (A,) [s] lead time of a lateral manoeuvre
+    trigger: np.ndarray  # (A,) [s] trigger time of a manoeuvre with no partner
+    green: float  # [s] green remaining for the anchor's axis
+    spin: np.ndarray  # (A,) sign of an unplanned loss of control
+    rotation: np.ndarray  # (A,) [-] where in its range a planned skid's rotation falls
+    cascade: np.ndarray  # (A,) [-] how late in its window a later contact's striker arrives
+
+    @classmethod
+    def take(cls, rng: np.random.Generator, n_a: int) -> Draws:
+        return cls(offset=rng.normal(timing.ARRIVAL_OFFSET_MEAN, timing.ARRIVAL_OFFSET_SD, n_a),
+                   lead=rng.uniform(0.8, 2.0, n_a), trigger=rng.uniform(1.0, 4.0, n_a),
+                   green=rng.uniform(3.0, 15.0), spin=rng.choice([-1.0, 1.0], n_a),
+                   rotation=rng.uniform(0.0, 1.0, n_a), cascade=rng.uniform(0.0, 1.0, n_a))
+
+
+@dataclass
+class VariationPlan:
+    """One variation's timing plan, (A,) arrays over its actors: where each actor starts (`s0`, `d0`), the
+    cruise speed it plans (`planned`) and its timing scale on it (`scale`), how long it is held at its start
+    (`hold`), when its manoeuvre triggers (`trigger`) and where it steers to (`lateral_target`), a planned
+    skid (`skids`: spin rate [rad/s], drift [rad], hold [s]), which actors the plan moved along their route
+    (`moved`) or already started drifting across (`drifted` [m]); the signal `phase` [s] and the anchor's
+    nominal arrival at its first conflict (`conflict_time` [s]).
+
+    Built by `VariationPlan.build` in named steps; every draw comes from the variation's own generator in a
+    fixed order, so a plan depends only on (scenario, seed, variation index).
+    """
+
+    ctx: PlanContext
+    scene: SampledScene
+    draws: Draws
+    route: np.ndarray  # (A,) route index (read only)
+    speed: np.ndarray  # (A,) [m/s] sampled speed (read only)
+    length: np.ndarray  # (A,) [m] (read only)
+    width: np.ndarray  # (A,) [m] (read only)
+    entry_control: np.ndarray  # (R, J) control code of each junction entry of each route (read only)
+    lane_width: float  # [m] median start lane width
+    s0: np.ndarray
+    d0: np.ndarray
+    lateral_target: np.ndarray
+    planned: np.ndarray  # [m/s] the cruise speed each driver will hold, before its timing scale
+    speeds: np.ndarray  # [m/s] the speed the plan expects of each actor (planned, slowed where the plan slows it)
+    scale: np.ndarray
+    hold: np.ndarray
+    trigger: np.ndarray
+    skids: np.ndarray  # (A, 3)
+    moved: np.ndarray
+    drifted: np.ndarray
+    phase: float = 0.0
+    conflict_time: float = math.inf
+    arrival_anchor: float | None = None  # [s] the anchor's planned arrival at its conflict point (first asked)
+    anchor_speed: float = 0.0  # [m/s] the anchor's planned speed
+    anchor_stop: float | None = None  # [m] distance to the stop line the anchor stops at first, None if none
+
+    @classmethod
+    def build(cls, ctx: PlanContext, scene: SampledScene, rng: np.random.Generator, route: np.ndarray,
+              s0: np.ndarray, d0: np.ndarray, speed: np.ndarray, length: np.ndarray, width: np.ndarray,
+              entry_control: np.ndarray, lateral_target: np.ndarray, lane_width: float) -> VariationPlan:
+        """The plan of one variation from its scene's start rows (copied, never changed)."""
+        n_a = len(ctx.columns)
+        plan = cls(ctx=ctx, scene=scene, draws=Draws.take(rng, n_a), route=route, speed=speed, length=length,
+                   width=width, entry_control=entry_control, lane_width=lane_width, s0=s0.copy(), d0=d0.copy(),
+                   lateral_target=lateral_target.copy(), planned=np.zeros(n_a), speeds=np.zeros(n_a),
+                   scale=np.ones(n_a), hold=np.zeros(n_a), trigger=np.full(n_a, np.inf),
+                   skids=np.full((n_a, 3), np.nan), moved=np.zeros(n_a, dtype=bool), drifted=np.zeros(n_a))
+        plan.plan_speeds()  # draws nothing: the draws above are the variation's first, as always
+        plan.anchor_speed = float(plan.speeds[ctx.anchor])
+        plan.anchor_stop = plan.stop_dist(ctx.anchor)
+        for a, col in enumerate(ctx.columns):
+            offset = plan.arrival_offset(a)
+            if col.is_ads:
+                continue
+            if col.behavior in LATERAL_BEHAVIORS:
+                plan.plan_lateral(a)
+            elif col.behavior in ("decelerate", "stop"):
+                plan.trigger[a] = plan.param(a, ("TRIGGER_TIME", "MANEUVER_TIME"), plan.draws.trigger[a])
+            elif a != ctx.anchor and col.behavior != "static":
+                if ctx.reproduce and col.behavior == "go_forward":
+                    plan.enter_wrong_way(a)
+                plan.plan_junction(a, offset)
+        if ctx.reproduce:
+            plan.plan_cascade()
+        plan.plan_signal_phase()
+        return plan
+
+    # ---------------------------------------------------------------- shared steps
+    def param(self, a: int, names: tuple[str, ...], default: float) -> float:
+        """Actor a's sampled scene parameter (`_param`), else `default`."""
+        return _param(self.scene.params, self.ctx.columns[a].role, names, default)
+
+    def plan_speeds(self) -> None:
+        """The cruise speed each driver will hold (`_planned_speed`)."""
+        ctx = self.ctx
+        self.planned[:] = [_planned_speed(ctx.arrays, self.route[a], self.s0[a], self.speed[a], ctx.columns[a],
+                                          ctx.cond, ctx.default_limit) for a in range(len(ctx.columns))]
+        self.speeds[:] = self.planned
+
+    def arrival_offset(self, a: int) -> float:
+        """[s] actor a's arrival after the anchor at their conflict point: sampled, else drawn (narrowed in
+        reproduce mode)."""
+        offset = float(np.clip(self.draws.offset[a], -timing.ARRIVAL_OFFSET_MAX, timing.ARRIVAL_OFFSET_MAX))
+        offset = self.param(a, ("ARRIVAL_OFFSET",), offset)
+        if self.ctx.reproduce:
             offset *= timing.REPRODUCE_OFFSET_SCALE
-        if col.is_ads:
-            continue
-        if col.behavior in LATERAL_BEHAVIORS:
-            partner = _partner(v, a, anchor, columns, scene, route, s0)
-            if partner is None:
-                trigger[v, a] = _param(params, col.role, ("TRIGGER_TIME", "MANEUVER_TIME"), draws["trigger"][a])
-                if col.behavior == "lose_control":
-                    lateral_target[v, a] = draws["spin"][a]
-                continue
-            gap, lateral = _relative(arrays, r, s0[v, a], scene.actors[partner].x, scene.actors[partner].y)
-            opposite = math.cos(scene.actors[partner].yaw - scene.actors[a].yaw) < -0.3
+        return offset
+
+    def shift_start(self, a: int, shift: float) -> float | None:
+        """`_shift_start` on this variation's rows."""
+        return _shift_start(self.ctx.arrays, a, self.route, self.s0, shift, self.length, self.d0)
+
+    def start_back(self, a: int, dist: float) -> float | None:
+        """`_start_back` on this variation's rows."""
+        return _start_back(self.ctx.arrays, a, self.route, self.s0, dist, self.length, self.d0)
+
+    def stop_dist(self, a: int) -> float | None:
+        """`stop_dist` of actor a from its planned start."""
+        return stop_dist(self.ctx.arrays, self.route[a], self.s0[a], self.entry_control, self.ctx.columns[a])
+
+    # ---------------------------------------------------------------- lateral manoeuvres
+    def plan_lateral(self, a: int) -> None:
+        """A lane change, centre-line crossing, overtake, loss of control or leaving the road, aimed at the
+        partner's path: a sideswipe placed alongside, a sudden veer planned as a skid, else a trigger time."""
+        ctx, col = self.ctx, self.ctx.columns[a]
+        partner = _partner(a, ctx.anchor, ctx.columns, self.scene)
+        if partner is None:
+            self.trigger[a] = self.param(a, ("TRIGGER_TIME", "MANEUVER_TIME"), self.draws.trigger[a])
             if col.behavior == "lose_control":
-                lateral_target[v, a] = 1.0 if lateral >= 0 else -1.0
-                dist = 2.5
-            elif col.behavior == "cross_centerline" and opposite and lateral > lateral_target[v, a] > 0:
-                # several opposing lanes: drift as far as the oncoming partner's lane
-                lateral_target[v, a] = lateral
-                dist = lateral - d0[v, a]
+                self.lateral_target[a] = self.draws.spin[a]
+            return
+        other = self.scene.actors[partner]
+        gap, lateral = _relative(ctx.arrays, self.route[a], self.s0[a], other.x, other.y)
+        opposite = math.cos(other.yaw - self.scene.actors[a].yaw) < -0.3
+        dist = self._lateral_distance(a, lateral, opposite)
+        lead = self.param(a, ("LEAD_TIME",), self.draws.lead[a])
+        if col.behavior == "lose_control":
+            lead = (self.draws.lead[a] - 1.4) / 1.2 * 0.6  # [-0.3, 0.3] s around reaching the partner's lane
+        rate = timing.lateral_rate(col.behavior)
+        p_col = ctx.columns[partner]
+        if opposite and not p_col.is_ads and p_col.behavior not in LATERAL_BEHAVIORS and gap > 0:
+            self._slow_oncoming(a, partner, gap, abs(dist) / rate + lead)
+        contact = ctx.classes.get(frozenset((col.role, p_col.role)))
+        if contact == "sideswipe" and not opposite and col.behavior in ("change_lane_left", "change_lane_right") \
+                and self._place_alongside(a, partner, gap, dist):
+            return
+        if self._plan_skid(a, partner, contact, gap, lateral, opposite):
+            return
+        if col.behavior == "lose_control":
+            t_trig = timing.skid_trigger(gap, self.speeds[a], self.speeds[partner], lateral, timing.SPIN_RATE,
+                                         opposite=opposite) - lead
+        else:
+            t_trig = timing.lateral_trigger(gap, self.speeds[a], self.speeds[partner], opposite, dist, lead, rate)
+        if t_trig < 0 and col.behavior in ("cross_centerline", "overtake") and opposite:
+            # too close for the whole manoeuvre: the actor is already drifting across at t = 0; several
+            # lanes across (a wrong-way driver on a divided road), it has crossed all but the last part
+            reach = max(abs(dist) * 0.6, abs(dist) - WRONG_WAY_LEFT * self.lane_width)
+            shift = float(np.clip(-t_trig * rate, 0.0, reach)) * math.copysign(1.0, dist)
+            self.d0[a] += shift
+            self.drifted[a] = shift
+        self.trigger[a] = max(0.0, t_trig)
+
+    def _lateral_distance(self, a: int, lateral: float, opposite: bool) -> float:
+        """[m] how far actor a steers sideways to reach its partner's path (sets a skid's side)."""
+        behavior = self.ctx.columns[a].behavior
+        if behavior == "lose_control":
+            self.lateral_target[a] = 1.0 if lateral >= 0 else -1.0
+            return 2.5
+        if behavior == "cross_centerline" and opposite and lateral > self.lateral_target[a] > 0:
+            # several opposing lanes: drift as far as the oncoming partner's lane
+            self.lateral_target[a] = lateral
+            return lateral - self.d0[a]
+        return self.lateral_target[a] - self.d0[a]
+
+    def _slow_oncoming(self, a: int, partner: int, gap: float, needed: float) -> None:
+        """Too close to swerve in time (`needed` [s]): the oncoming partner comes a little slower (within its
+        range)."""
+        closing = gap / needed
+        if closing < self.speeds[a] + self.speeds[partner]:
+            self.scale[partner] = max(timing.SPEED_SCALE[0], (closing - self.speeds[a]) / self.speeds[partner])
+            self.speeds[partner] *= self.scale[partner]
+
+    def _place_alongside(self, a: int, partner: int, gap: float, dist: float) -> bool:
+        """A same-direction sideswipe: side by side when it reaches the partner's lane, so it starts where it
+        will be alongside then; False when its route has no room."""
+        rate = timing.lateral_rate(self.ctx.columns[a].behavior)
+        t_trig = float(self.draws.trigger[a])
+        touch = t_trig + max(abs(dist) - 0.5 * (self.width[a] + self.width[partner]), 0.0) / rate
+        want_gap = (self.speeds[a] - self.speeds[partner]) * touch + (self.draws.lead[a] - 1.4) * 1.5
+        placed = self.shift_start(a, gap - want_gap)
+        if placed is None:
+            return False
+        self.s0[a] = placed
+        self.moved[a] = True
+        self.trigger[a] = t_trig
+        return True
+
+    def _plan_skid(self, a: int, partner: int, contact: str | None, gap: float, lateral: float,
+                   opposite: bool) -> bool:
+        """A loss of control, or a lateral manoeuvre ending in an angle contact (a sudden veer), planned as a
+        skid (skid.plan) into the partner; False when none fits."""
+        col, p_col = self.ctx.columns[a], self.ctx.columns[partner]
+        if not (col.behavior == "lose_control" or (contact == "angle" and col.behavior in VEER_BEHAVIORS)):
+            return False
+        moves_in = p_col.behavior in ("change_lane_left", "change_lane_right") and not opposite
+        length, width = self.length, self.width
+        # the partner's front meets the skidding car's side (its front, end-on) before the centres align
+        reach = {"angle": length[partner] / 2 + width[a] / 2,
+                 "head_on": (length[partner] + length[a]) / 2,
+                 "rear_end": (length[partner] + length[a]) / 2}.get(contact or "", 0.0)
+        ahead = 1.0 if (opposite or gap > 0) else -1.0
+        skid = skid_plan.plan(self.speeds[a], gap - ahead * reach, self.speeds[partner], opposite,
+                              (0.0 if moves_in else lateral) - self.d0[a],
+                              self.lane_width, self.ctx.friction, float(length[a]), float(width[a]),
+                              skid_plan.rotation_for(contact, opposite, float(self.draws.rotation[a])),
+                              contact)
+        if skid is not None and skid.partner_shift:
+            placed = self.shift_start(partner, skid.partner_shift)
+            if placed is None:
+                skid = None
             else:
-                dist = lateral_target[v, a] - d0[v, a]
-            lead = _param(params, col.role, ("LEAD_TIME",), draws["lead"][a])
-            if col.behavior == "lose_control":
-                lead = (draws["lead"][a] - 1.4) / 1.2 * 0.6  # [-0.3, 0.3] s around reaching the partner's lane
-            rate = timing.lateral_rate(col.behavior)
-            p_col = columns[partner]
-            if opposite and not p_col.is_ads and p_col.behavior not in LATERAL_BEHAVIORS and gap > 0:
-                # too close to swerve in time: the oncoming partner comes a little slower (within its range)
-                needed = abs(dist) / rate + lead
-                closing = gap / needed
-                if closing < planned[a] + planned[partner]:
-                    scale[v, partner] = max(timing.SPEED_SCALE[0], (closing - planned[a]) / planned[partner])
-                    planned[partner] *= scale[v, partner]
-            contact = classes.get(frozenset((col.role, p_col.role)))
-            if contact == "sideswipe" and not opposite and col.behavior in ("change_lane_left", "change_lane_right"):
-                # side by side when it reaches the partner's lane: it starts where it will be alongside then
-                rate = timing.lateral_rate(col.behavior)
-                t_trig = float(draws["trigger"][a])
-                touch = t_trig + max(abs(dist) - 0.5 * (width[v, a] + width[v, partner]), 0.0) / rate
-                want_gap = (planned[a] - planned[partner]) * touch + (draws["lead"][a] - 1.4) * 1.5
-                placed = _shift_start(arrays, v, a, route, s0, gap - want_gap, length, d0)
-                if placed is not None:
-                    s0[v, a] = placed
-                    moved[v, a] = True
-                    trigger[v, a] = t_trig
-                    continue
-            skid = None
-            if col.behavior == "lose_control" or (contact == "angle" and col.behavior in VEER_BEHAVIORS):
-                # a lateral manoeuvre that ends in an angle contact is a sudden veer: planned as a skid
-                moves_in = p_col.behavior in ("change_lane_left", "change_lane_right") and not opposite
-                # the partner's front meets the skidding car's side (its front, end-on) before the centres align
-                reach = {"angle": length[v, partner] / 2 + width[v, a] / 2,
-                         "head_on": (length[v, partner] + length[v, a]) / 2,
-                         "rear_end": (length[v, partner] + length[v, a]) / 2}.get(contact or "", 0.0)
-                ahead = 1.0 if (opposite or gap > 0) else -1.0
-                skid = skid_plan.plan(planned[a], gap - ahead * reach, planned[partner], opposite,
-                                      (0.0 if moves_in else lateral) - d0[v, a],
-                                      lane_width, friction, float(length[v, a]), float(width[v, a]),
-                                      skid_plan.rotation_for(contact, opposite, float(draws["rotation"][a])),
-                                      contact)
-                if skid is not None and skid.partner_shift:
-                    placed = _shift_start(arrays, v, partner, route, s0, skid.partner_shift, length, d0)
-                    if placed is None:
-                        skid = None
-                    else:
-                        s0[v, partner] = placed
-                        moved[v, partner] = True
-            if skid is not None:
-                skids[v, a] = (skid.spin_rate, skid.drift, skid.hold)
-                trigger[v, a] = skid.trigger
+                self.s0[partner] = placed
+                self.moved[partner] = True
+        if skid is None:
+            return False
+        self.skids[a] = (skid.spin_rate, skid.drift, skid.hold)
+        self.trigger[a] = skid.trigger
+        return True
+
+    def enter_wrong_way(self, a: int) -> None:
+        """A vehicle going straight that meets its written head-on partner coming the other way in another
+        lane, a partner that keeps its lane, drives against traffic in that lane (a wrong-way entry, by a
+        ramp or a crossover before the scene): it starts at the partner's offset from its route and keeps it."""
+        ctx, col = self.ctx, self.ctx.columns[a]
+        for b, other in enumerate(ctx.columns):
+            if b == a or ctx.classes.get(frozenset((col.role, other.role))) != "head_on" \
+                    or other.behavior in LATERAL_BEHAVIORS:
                 continue
-            if col.behavior == "lose_control":
-                t_trig = timing.skid_trigger(gap, planned[a], planned[partner], lateral, timing.SPIN_RATE,
-                                             opposite=opposite) - lead
-            else:
-                t_trig = timing.lateral_trigger(gap, planned[a], planned[partner], opposite, dist, lead, rate)
-            if t_trig < 0 and col.behavior in ("cross_centerline", "overtake") and opposite:
-                # too close for the whole manoeuvre: the actor is already drifting across at t = 0
-                shift = float(np.clip(-t_trig * rate, 0.0, abs(dist) * 0.6)) * math.copysign(1.0, dist)
-                d0[v, a] += shift
-                drifted[v, a] = shift
-            trigger[v, a] = max(0.0, t_trig)
-            continue
-        if col.behavior in ("decelerate", "stop"):
-            trigger[v, a] = _param(params, col.role, ("TRIGGER_TIME", "MANEUVER_TIME"), draws["trigger"][a])
-            continue
-        if a == anchor or col.behavior == "static":
-            continue
+            partner = self.scene.actors[b]
+            if math.cos(partner.yaw - self.scene.actors[a].yaw) > -0.3:
+                continue
+            gap, lateral = _relative(ctx.arrays, self.route[a], self.s0[a], partner.x, partner.y)
+            if gap <= 0 or abs(lateral - self.d0[a]) < self.lane_width / 2:
+                continue
+            shift = lateral - self.d0[a]
+            self.d0[a] = lateral
+            self.drifted[a] = shift
+            self.lateral_target[a] = lateral
+            return
+
+    # ---------------------------------------------------------------- junction conflicts
+    def plan_junction(self, a: int, offset: float) -> None:
+        """Actor a's arrival at its conflict point with the anchor, at the anchor's arrival plus `offset` [s]
+        (a written contact: when the striker's front meets the struck one's side): its speed scale and hold,
+        a start further along or back on its approach, or else the anchor delayed."""
+        ctx, col = self.ctx, self.ctx.columns[a]
+        arrays, anchor = ctx.arrays, ctx.anchor
+        r, ra = self.route[a], self.route[anchor]
         cs_a = arrays.conflict_s[r, ra]
         cs_e = arrays.conflict_s[ra, r]
-        if np.isnan(cs_a) or cs_a <= s0[v, a] or cs_e <= s0[v, anchor]:
-            continue
-        lat_a = 2.0 if col.is_ads else 2.5
-        lat_e = 2.0 if anchor_col.is_ads else 2.5
-        if arrival_anchor is None:
+        if np.isnan(cs_a) or cs_a <= self.s0[a] or cs_e <= self.s0[anchor]:
+            return
+        anchor_arrival = self._anchor_arrival(cs_e)
+        target = anchor_arrival + self._meeting_offset(a, cs_a, cs_e, offset)
+        # the first written contact's pair meets closed loop (sync.Meeting): place the free one a little early
+        slack = SYNC_SLACK if ctx.reproduce and ctx.first_pair == frozenset((col.role,
+                                                                             ctx.columns[anchor].role)) else 0.0
+        sc, hd, late = self._fit_arrival(a, cs_a, target, slack)
+        if late > 0.1 and self.stop_dist(a) is None:
+            late = self._advance_start(a, cs_a, sc, target, late)
+        if late > 0.1:
+            self._delay_anchor(cs_e, late, slack)
+        self.scale[a], self.hold[a] = sc, hd
+        self.conflict_time = min(self.conflict_time, self.arrival_anchor)
+
+    def _anchor_arrival(self, cs_e: float) -> float:
+        """[s] the anchor's nominal arrival at its conflict point cs_e [m] (the first one asked stays)."""
+        if self.arrival_anchor is None:
+            ctx = self.ctx
+            anchor, anchor_col = ctx.anchor, ctx.columns[ctx.anchor]
+            ra, va, anchor_stop = self.route[anchor], self.anchor_speed, self.anchor_stop
             if anchor_stop is None:
-                arrival_anchor = arrays.travel_time(ra, s0[v, anchor], cs_e, va, lat_e, v0=va)
+                lat_e = 2.0 if anchor_col.is_ads else 2.5
+                self.arrival_anchor = ctx.arrays.travel_time(ra, self.s0[anchor], cs_e, va, lat_e, v0=va)
             else:
-                v_eff = _effective_speed(arrays, ra, s0[v, anchor], cs_e, va, anchor_col)
-                arrival_anchor = timing.arrival_time(cs_e - s0[v, anchor], v_eff, anchor_col.limits.accel_max,
-                                                     stop_dist=anchor_stop)
-        stop = stop_dist(arrays, r, s0[v, a], entry_control, col)
+                v_eff = _effective_speed(ctx.arrays, ra, self.s0[anchor], cs_e, va, anchor_col)
+                self.arrival_anchor = timing.arrival_time(cs_e - self.s0[anchor], v_eff, anchor_col.limits.accel_max,
+                                                          stop_dist=anchor_stop)
+        return self.arrival_anchor
+
+    def _meeting_offset(self, a: int, cs_a: float, cs_e: float, offset: float) -> float:
+        """[s] actor a's arrival after the anchor's: the turner first, and a written contact's striker's
+        front at the struck one's side."""
+        ctx, col = self.ctx, self.ctx.columns[a]
+        arrays, anchor = ctx.arrays, ctx.anchor
+        anchor_col = ctx.columns[anchor]
+        r, ra = self.route[a], self.route[anchor]
         # a turning vehicle is struck on its side in its turn: it reaches the conflict point first
         turn_a = _turns_at(arrays, r, cs_a)
         turn_e = _turns_at(arrays, ra, cs_e)
@@ -171,105 +367,290 @@ def plan_variation(v: int, scene: SampledScene, rng: np.random.Generator, column
             offset -= timing.TURNER_LEAD
         elif turn_e and not turn_a:
             offset += timing.TURNER_LEAD
-        striking = strikers.get(frozenset((col.role, anchor_col.role)))
-        if striking is not None:
-            # the written contact says who strikes: the striker's front meets the middle of the struck one's side
-            s_idx = a if striking == col.role else anchor
-            t_idx = anchor if s_idx == a else a
-            r_t, cs_t = (r, cs_a) if t_idx == a else (ra, cs_e)
-            s_t0 = s0[v, t_idx]
-            v_struck = _effective_speed(arrays, r_t, max(cs_t - 10.0, s_t0), cs_t, planned[t_idx], columns[t_idx])
-            r_s, cs_s = (ra, cs_e) if t_idx == a else (r, cs_a)
-            u = struck_offset(arrays, r_t, cs_t, r_s, cs_s, float(length[v, t_idx]),
-                              classes.get(frozenset((col.role, anchor_col.role))))
-            side_hit = (length[v, s_idx] / 2 + width[v, t_idx] / 2) / max(planned[s_idx], 1.0) \
-                + u / max(v_struck, 1.0)
-            jitter = offset - timing.ARRIVAL_OFFSET_MEAN * (timing.REPRODUCE_OFFSET_SCALE if reproduce else 1.0)
-            offset = (side_hit if s_idx == a else -side_hit) + jitter
-        target = arrival_anchor + offset
-        # the first written contact's pair meets closed loop (sync.Meeting): place the free one a little early
-        slack = SYNC_SLACK if reproduce and first_pair == frozenset((col.role, anchor_col.role)) else 0.0
-        va_ = planned[a]
-        if stop is not None:
-            v_eff = _effective_speed(arrays, r, s0[v, a], cs_a, va_, col)
-            sc, hd = timing.junction_plan(target, cs_a - s0[v, a], v_eff, col.limits.accel_max, stop_dist=stop)
-            # stopping at its line first, it can come late even when it does not wait at all (hd == 0)
-            t_stop_go = timing.arrival_time(cs_a - s0[v, a], v_eff, col.limits.accel_max, stop_dist=stop)
-            late = max(0.0, t_stop_go - target) if hd == 0.0 else 0.0
-        else:
-            def t_at(k: float, s_start: float = s0[v, a], v_start: float | None = None) -> float:
-                v_init = va_ * min(k, 1.0) if v_start is None else v_start
-                return arrays.travel_time(r, s_start, cs_a, va_ * k, lat_a, v0=v_init)
+        striking = ctx.strikers.get(frozenset((col.role, anchor_col.role)))
+        if striking is None:
+            return offset
+        # the written contact says who strikes: the striker's front meets the middle of the struck one's side
+        s_idx = a if striking == col.role else anchor
+        t_idx = anchor if s_idx == a else a
+        r_t, cs_t = (r, cs_a) if t_idx == a else (ra, cs_e)
+        s_t0 = self.s0[t_idx]
+        v_struck = _effective_speed(arrays, r_t, max(cs_t - 10.0, s_t0), cs_t, self.speeds[t_idx],
+                                    ctx.columns[t_idx])
+        r_s, cs_s = (ra, cs_e) if t_idx == a else (r, cs_a)
+        u = struck_offset(arrays, r_t, cs_t, r_s, cs_s, float(self.length[t_idx]),
+                          ctx.classes.get(frozenset((col.role, anchor_col.role))))
+        side_hit = (self.length[s_idx] / 2 + self.width[t_idx] / 2) / max(self.speeds[s_idx], 1.0) \
+            + u / max(v_struck, 1.0)
+        jitter = offset - timing.ARRIVAL_OFFSET_MEAN * (timing.REPRODUCE_OFFSET_SCALE if ctx.reproduce else 1.0)
+        return (side_hit if s_idx == a else -side_hit) + jitter
 
-            lo, hi = timing.SPEED_SCALE
-            hd = 0.0
-            if t_at(hi) > target:
-                sc = hi
-                late = t_at(hi) - target
-            elif t_at(lo) < target and (back := _start_back(
-                    arrays, v, a, route, s0, max(target - t_at(1.0) - slack, 0.0) * va_, length, d0)) is not None:
-                # far too early: it was further back along its approach, driving at its own speed
-                sc, late = 1.0, 0.0
-                s0[v, a] = back
-                moved[v, a] = True
-            elif t_at(lo) < target:
-                sc = lo
-                late = 0.0
-                hd = max(0.0, target - arrays.travel_time(r, s0[v, a], cs_a, va_ * lo, lat_a, v0=0.0))
-            else:
-                # travel time is nearly proportional to 1/speed: two secant corrections suffice
-                sc = float(np.clip(t_at(1.0) / target, lo, hi))
-                for _ in range(2):
-                    sc = float(np.clip(sc * t_at(sc) / target, lo, hi))
-                late = 0.0
-        if late > 0.1 and stop is None:
-            # even at its fastest the actor would come late: it has already been driving for a while,
-            # so it starts further along its own approach (never closer than ADVANCE_MARGIN to the junction)
-            entries = arrays.entry_s[r]
-            first_entry = entries[np.isfinite(entries) & (entries > s0[v, a])]
-            room = (first_entry[0] - s0[v, a] - ADVANCE_MARGIN) if len(first_entry) else 0.0
-            if room > 0:
-                best = s0[v, a]
-                for cand in np.linspace(s0[v, a], s0[v, a] + room, 12)[1:]:
-                    v_start = min(va_ * sc, max(float(arrays.curve_speed(np.array(r), np.array(cand),
-                                                                         np.array(60.0), 2.5, 2.0)), 3.0))
-                    best = cand
-                    late = t_at(sc, cand, v_start) - target
-                    if late <= 0.05:
-                        break
-                s0[v, a] = best
-                moved[v, a] = True
-        if late > 0.1 and not anchor_col.is_ads and anchor_col.behavior not in ("static", "stop") \
-                and anchor_stop is None and hold[v, anchor] == 0.0:
-            # reproduce mode: the scripted anchor comes that much later instead (slower, else it waits);
-            # also for an actor that must first stop at its line, which no advance along its approach fixes
-            t_new = arrival_anchor + late
-            lo, hi = timing.SPEED_SCALE[0], 1.0
-            # ...placed a little early rather than late: on the way it can slow down to meet (sync), rarely speed up
-            back = _start_back(arrays, v, anchor, route, s0, max(late - slack, 0.0) * va, length, d0)
+    def _fit_arrival(self, a: int, cs_a: float, target: float, slack: float) -> tuple[float, float, float]:
+        """(speed scale, hold [s], lateness [s]) that bring actor a to its conflict point cs_a [m] at `target`
+        [s]: stopping at its line first and waiting there; or a cruise scale, a start further back, the
+        slowest scale and a hold at its start."""
+        ctx, col = self.ctx, self.ctx.columns[a]
+        arrays, r = ctx.arrays, self.route[a]
+        s_a, va_ = self.s0[a], self.speeds[a]
+        stop = self.stop_dist(a)
+        if stop is not None:
+            v_eff = _effective_speed(arrays, r, s_a, cs_a, va_, col)
+            sc, hd = timing.junction_plan(target, cs_a - s_a, v_eff, col.limits.accel_max, stop_dist=stop)
+            # stopping at its line first, it can come late even when it does not wait at all (hd == 0)
+            t_stop_go = timing.arrival_time(cs_a - s_a, v_eff, col.limits.accel_max, stop_dist=stop)
+            return sc, hd, (max(0.0, t_stop_go - target) if hd == 0.0 else 0.0)
+        t_at = self._travel_time(a, cs_a)
+        lo, hi = timing.SPEED_SCALE
+        if t_at(hi) > target:
+            return hi, 0.0, t_at(hi) - target
+        if t_at(lo) < target and (back := self.start_back(a, max(target - t_at(1.0) - slack, 0.0) * va_)) is not None:
+            # far too early: it was further back along its approach, driving at its own speed
+            self.s0[a] = back
+            self.moved[a] = True
+            return 1.0, 0.0, 0.0
+        if t_at(lo) < target:
+            lat_a = 2.0 if col.is_ads else 2.5
+            return lo, max(0.0, target - arrays.travel_time(r, s_a, cs_a, va_ * lo, lat_a, v0=0.0)), 0.0
+        # travel time is nearly proportional to 1/speed: two secant corrections suffice
+        sc = float(np.clip(t_at(1.0) / target, lo, hi))
+        for _ in range(2):
+            sc = float(np.clip(sc * t_at(sc) / target, lo, hi))
+        return sc, 0.0, 0.0
+
+    def _travel_time(self, a: int, cs: float):
+        """t_at(k, s_start, v_start): actor a's travel time [s] to station cs [m] at k times its planned speed."""
+        arrays, r, va_ = self.ctx.arrays, self.route[a], self.speeds[a]
+        lat_a = 2.0 if self.ctx.columns[a].is_ads else 2.5
+        s_first = self.s0[a]
+
+        def t_at(k: float, s_start: float = s_first, v_start: float | None = None) -> float:
+            v_init = va_ * min(k, 1.0) if v_start is None else v_start
+            return arrays.travel_time(r, s_start, cs, va_ * k, lat_a, v0=v_init)
+
+        return t_at
+
+    def _advance_start(self, a: int, cs_a: float, sc: float, target: float, late: float) -> float:
+        """Even at its fastest actor a would come `late` [s]: it has already been driving for a while, so it
+        starts further along its own approach (never closer than ADVANCE_MARGIN to the junction); returns what
+        lateness is left."""
+        arrays, r = self.ctx.arrays, self.route[a]
+        t_at = self._travel_time(a, cs_a)
+        va_ = self.speeds[a]
+        entries = arrays.entry_s[r]
+        first_entry = entries[np.isfinite(entries) & (entries > self.s0[a])]
+        room = (first_entry[0] - self.s0[a] - ADVANCE_MARGIN) if len(first_entry) else 0.0
+        if room <= 0:
+            return late
+        best = self.s0[a]
+        for cand in np.linspace(self.s0[a], self.s0[a] + room, 12)[1:]:
+            v_start = min(va_ * sc, max(float(arrays.curve_speed(np.array(r), np.array(cand),
+                                                                 np.array(60.0), 2.5, 2.0)), 3.0))
+            best = cand
+            late = t_at(sc, cand, v_start) - target
+            if late <= 0.05:
+                break
+        self.s0[a] = best
+        self.moved[a] = True
+        return late
+
+    def _delay_anchor(self, cs_e: float, late: float, slack: float) -> None:
+        """Reproduce mode: the scripted anchor comes `late` [s] later instead (slower, else it waits); also for
+        an actor that must first stop at its line, which no advance along its approach fixes."""
+        ctx = self.ctx
+        anchor = ctx.anchor
+        anchor_col = ctx.columns[anchor]
+        if anchor_col.is_ads or anchor_col.behavior in ("static", "stop") or self.anchor_stop is not None \
+                or self.hold[anchor] != 0.0:
+            return
+        arrays, ra, va = ctx.arrays, self.route[anchor], self.anchor_speed
+        lat_e = 2.0 if anchor_col.is_ads else 2.5
+        t_new = self.arrival_anchor + late
+        lo, hi = timing.SPEED_SCALE[0], 1.0
+        # ...placed a little early rather than late: on the way it can slow down to meet (sync), rarely speed up
+        back = self.start_back(anchor, max(late - slack, 0.0) * va)
+        if back is not None:
+            # it started that much further back along its approach, at its own speed
+            self.s0[anchor] = back
+            self.moved[anchor] = True
+        elif arrays.travel_time(ra, self.s0[anchor], cs_e, va * lo, lat_e, v0=va * lo) < t_new:
+            self.scale[anchor] = lo
+            t_rest = arrays.travel_time(ra, self.s0[anchor], cs_e, va * lo, lat_e, v0=0.0)
+            self.hold[anchor] = max(0.0, t_new - t_rest)
+        else:
+            for _ in range(8):
+                mid = (lo + hi) / 2
+                t_mid = arrays.travel_time(ra, self.s0[anchor], cs_e, va * mid, lat_e, v0=va * mid)
+                lo, hi = (lo, mid) if t_mid < t_new else (mid, hi)
+            self.scale[anchor] = (lo + hi) / 2
+        self.arrival_anchor = t_new
+
+    # ---------------------------------------------------------------- later contacts
+    def plan_cascade(self) -> None:
+        """A written sequence that starts with an end-on contact (a rear-end into a stopped car, a head-on) and
+        goes on with a third vehicle meeting the struck one: the striker hits the struck car off its centre
+        line, on the side that turns it (the impulse of cascade.pushed_path, the simulator's impact model) so
+        that the third vehicle meets it as the later contact's class says, and the third vehicle is placed to
+        reach the pushed car just after it is in its path."""
+        found = self._cascade_actors()
+        if found is None:
+            return
+        si, ti, xi, first_class, later = found
+        head_on = first_class == "head_on"
+        arrays, cols = self.ctx.arrays, self.ctx.columns
+        impact = self._first_impact(si, ti, head_on)
+        if impact is None:
+            return
+        t1, impact_s, v_t = impact
+        px, py, pyaw = (float(q) for q in arrays.point(np.array(self.route[ti]), np.array(impact_s)))
+        x_actor = self.scene.actors[xi]
+        _, lat_x = _relative(arrays, self.route[ti], self.s0[ti], x_actor.x, x_actor.y)
+        preferred = -1.0 if lat_x - self.d0[ti] >= 0 else 1.0
+        best, best_score = None, -1
+        for side in (preferred, -preferred):
+            meeting = self._pushed_meeting(si, ti, xi, side, head_on, v_t, (px, py, pyaw), later)
+            if meeting is None:
+                continue
+            # the written class first, then the side of the struck car it names
+            score = 2 * (meeting[2] == later[0]) + (meeting[3] == later[1])
+            if score > best_score:
+                best, best_score = (side, *meeting), score
+        if best is None:
+            return
+        side, k, gap_k, _, _, extent = best
+        arrive = t1 + (k + 1) * cascade.DT
+        # a striker drifting out of the lane ahead of it is no obstacle to a start behind it
+        passing = (si,) if self.ctx.columns[si].behavior in LATERAL_BEHAVIORS else ()
+        placed = _shift_start(self.ctx.arrays, xi, self.route, self.s0,
+                              gap_k - self.length[xi] / 2 - extent - self.speeds[xi] * arrive, self.length, self.d0,
+                              passing=passing)
+        if placed is None:
+            return
+        self.s0[xi] = placed
+        self.moved[xi] = True
+        # the striker holds its centre off the struck car's centre line, toward the corner it hits (its own
+        # left is the struck car's right when it comes the other way)
+        offset = side * cascade.CORNER * self.width[ti] * (-1.0 if head_on else 1.0)
+        if cols[si].behavior in LATERAL_BEHAVIORS:
+            self.lateral_target[si] += offset
+            return
+        _, lat_s = _relative(arrays, self.route[si], self.s0[si], px, py)
+        target = (self.lateral_target[si] if head_on else lat_s) + offset
+        self.drifted[si] += target - self.d0[si]
+        self.d0[si] = target
+        self.lateral_target[si] = target
+
+    def _first_impact(self, si: int, ti: int, head_on: bool) -> tuple[float, float, float] | None:
+        """(time [s], the struck actor's station [m], its speed [m/s]) of the first written contact: a rear-end
+        into a stopped car (a striker charged with speeding starts far enough back to be seen speeding), or a
+        head-on between two actors closing in; None when it cannot be told."""
+        arrays = self.ctx.arrays
+        v_s = self.speeds[si]
+        l_sum = (self.length[si] + self.length[ti]) / 2
+        if head_on:
+            v_t = self.speeds[ti]
+            other = self.scene.actors[si]
+            gap, _ = _relative(arrays, self.route[ti], self.s0[ti], other.x, other.y)
+            t1 = (gap - l_sum) / max(v_s + v_t, 0.5)
+            return (t1, self.s0[ti] + v_t * t1, v_t) if t1 > 0 else None
+        impact_s = self._stop_station(ti)
+        if impact_s is None:
+            return None
+        px, py, _ = (float(q) for q in arrays.point(np.array(self.route[ti]), np.array(impact_s)))
+        gap_s, _ = _relative(arrays, self.route[si], self.s0[si], px, py)
+        t1 = (gap_s - l_sum) / max(v_s, 0.5)
+        if 0 < t1 < SPEEDING_RUN and Disposition.SPEEDING in self.ctx.columns[si].traits:
+            # a driver charged with speeding is seen speeding before it strikes: it started further back
+            back = self.start_back(si, (SPEEDING_RUN - t1) * v_s)
             if back is not None:
-                # it started that much further back along its approach, at its own speed
-                s0[v, anchor] = back
-                moved[v, anchor] = True
-            elif arrays.travel_time(ra, s0[v, anchor], cs_e, va * lo, lat_e, v0=va * lo) < t_new:
-                scale[v, anchor] = lo
-                t_rest = arrays.travel_time(ra, s0[v, anchor], cs_e, va * lo, lat_e, v0=0.0)
-                hold[v, anchor] = max(0.0, t_new - t_rest)
-            else:
-                for _ in range(8):
-                    mid = (lo + hi) / 2
-                    t_mid = arrays.travel_time(ra, s0[v, anchor], cs_e, va * mid, lat_e, v0=va * mid)
-                    lo, hi = (lo, mid) if t_mid < t_new else (mid, hi)
-                scale[v, anchor] = (lo + hi) / 2
-            arrival_anchor = t_new
-        scale[v, a], hold[v, a] = sc, hd
-        conflict_time[v] = min(conflict_time[v], arrival_anchor)
-    # signal phase: green for the anchor's axis at its nominal arrival at its first junction
-    entries = arrays.entry_s[ra]
-    ahead = entries[np.isfinite(entries) & (entries > s0[v, anchor])]
-    t_junction = (ahead[0] - s0[v, anchor]) / va if len(ahead) else 5.0
-    green = float(scene.params.get("SIGNAL_GREEN_REMAINING", draws["green"]))
-    phase[v] = float(signals.phase_for(np.array(t_junction), np.array(green), runs_red))
+                t1 = SPEEDING_RUN
+                self.s0[si] = back
+                self.moved[si] = True
+        return (t1, impact_s, 0.0) if t1 > 0 else None
+
+    def _pushed_meeting(self, si: int, ti: int, xi: int, side: float, head_on: bool, v_t: float,
+                        pose: tuple[float, float, float], later: tuple[str, str]
+                        ) -> tuple[int, float, str, str, float] | None:
+        """Where the third actor xi meets the pushed struck actor ti when the striker hits it on `side`: (step
+        of the pushed path, station ahead on xi's route [m], the class of that contact, the struck car's area
+        facing xi, its half extent across xi's path [m]): the step where that contact has the `later` (class,
+        area) written, else the one nearest a drawn moment in the window after the struck car enters xi's
+        path."""
+        arrays, cols = self.ctx.arrays, self.ctx.columns
+        px, py, pyaw = pose
+        fwd, left, yaw = cascade.pushed_path(self.speeds[si], v_t, side, cols[si].limits.mass,
+                                             cols[ti].limits.mass, float(self.length[si]), float(self.width[si]),
+                                             float(self.length[ti]), float(self.width[ti]), self.ctx.friction,
+                                             head_on=head_on)
+        wx, wy = cascade.to_world(px, py, pyaw, fwd, left)
+        hits = []
+        for k in range(len(wx)):
+            gap_k, lat_k = _relative(arrays, self.route[xi], self.s0[xi], float(wx[k]), float(wy[k]))
+            yaw_x = float(arrays.point(np.array(self.route[xi]), np.array(self.s0[xi] + gap_k))[2])
+            rel = pyaw + yaw[k] - yaw_x
+            extent = self.length[ti] / 2 * abs(math.sin(rel)) + self.width[ti] / 2 * abs(math.cos(rel))
+            if abs(lat_k - self.d0[xi]) < self.width[xi] / 2 + extent - 0.3 and gap_k > 0:
+                hits.append((k, gap_k, cascade.contact_class(rel), cascade.facing_area(pyaw + yaw[k], yaw_x),
+                             extent))
+        if not hits:
+            return None
+        want = hits[0][0] + self.draws.cascade[xi] * CASCADE_WINDOW / cascade.DT
+        return min(hits, key=lambda h: (h[2] != later[0], h[3] != later[1], abs(h[0] - want)))
+
+    def _cascade_actors(self) -> tuple[int, int, int, str, tuple[str, str]] | None:
+        """(striker, struck, third actor, first class, (later class, the struck actor's area in it)) of a
+        written end-on first contact (rear-end
+        into a stopped car, head-on) followed by a contact of the struck actor with a third one that drives
+        freely straight on; else None."""
+        seq = self.ctx.contacts
+        cols = self.ctx.columns
+        roles = [c.role for c in cols]
+        if len(seq) < 2 or seq[0][2] not in ("rear_end", "head_on") \
+                or not all(r in roles for c in seq for r in c[:2]):
+            return None
+        si, ti = roles.index(seq[0][0]), roles.index(seq[0][1])
+        for striking, struck, klass, striking_area, _ in seq[1:]:
+            pair = {striking, struck}
+            if roles[ti] in pair and roles[si] not in pair:
+                xi = roles.index((pair - {roles[ti]}).pop())
+                break
+        else:
+            return None
+        if cols[si].is_ads or cols[xi].is_ads or cols[xi].behavior != "go_forward":
+            return None
+        if seq[0][2] == "rear_end" and (cols[si].behavior != "go_forward"
+                                        or cols[ti].behavior not in ("stop", "static")):
+            return None
+        if seq[0][2] == "head_on" and (cols[ti].is_ads or cols[ti].behavior != "go_forward"
+                                       or cols[si].behavior not in ("go_forward", "overtake", "cross_centerline")):
+            return None
+        struck_area = next(c[4] for c in seq[1:] if {c[0], c[1]} == {roles[ti], roles[xi]})
+        return si, ti, xi, seq[0][2], (klass, struck_area if roles[ti] == struck else striking_area)
+
+    def _stop_station(self, a: int) -> float | None:
+        """[m] where a stopping (or static) actor stands still: after its trigger and braking, or at its line."""
+        v = self.speeds[a]
+        if self.ctx.columns[a].behavior == "static":
+            return float(self.s0[a])
+        trig = self.trigger[a]
+        if not np.isfinite(trig):
+            return None
+        s = self.s0[a] + v * trig + v * v / (2 * STOP_DECEL)
+        entries = self.ctx.arrays.entry_s[self.route[a]]
+        ahead = entries[np.isfinite(entries) & (entries > self.s0[a])]
+        if len(ahead) and ahead[0] - self.s0[a] < s - self.s0[a] + STOP_NEAR_JUNCTION:
+            s = min(s, ahead[0] - 1.0 - self.length[a] / 2)
+        return float(s)
+
+    # ---------------------------------------------------------------- signals
+    def plan_signal_phase(self) -> None:
+        """Green for the anchor's axis at its nominal arrival at its first junction (red when it runs it)."""
+        ctx = self.ctx
+        ra = self.route[ctx.anchor]
+        entries = ctx.arrays.entry_s[ra]
+        ahead = entries[np.isfinite(entries) & (entries > self.s0[ctx.anchor])]
+        t_junction = (ahead[0] - self.s0[ctx.anchor]) / self.anchor_speed if len(ahead) else 5.0
+        green = float(self.scene.params.get("SIGNAL_GREEN_REMAINING", self.draws.green))
+        self.phase = float(signals.phase_for(np.array(t_junction), np.array(green), ctx.runs_red))
 
 
 CLASS_RELATIVE = {"angle": math.pi / 2}  # [rad] relative heading at contact the class is judged by (rules.md)
@@ -294,36 +675,37 @@ def struck_offset(arrays: RouteArrays, r_t: int, cs_t: float, r_s: int, cs_s: fl
     return float(u[int(np.argmin(miss))])
 
 
-def _same_lane(route: np.ndarray, d0: np.ndarray | None, v: int, a: int, b: int) -> bool:
-    """Whether actors a and b start in the same lane (same route, lateral offsets within a lane)."""
-    return b != a and route[v, b] == route[v, a] and (d0 is None or abs(d0[v, b] - d0[v, a]) < 2.0)
+def _same_lane(route: np.ndarray, d0: np.ndarray | None, a: int, b: int) -> bool:
+    """Whether actors a and b start in the same lane (same route, lateral offsets within a lane); (A,) rows."""
+    return b != a and route[b] == route[a] and (d0 is None or abs(d0[b] - d0[a]) < 2.0)
 
 
-def _shift_start(arrays: RouteArrays, v: int, a: int, route: np.ndarray, s0: np.ndarray, shift: float,
-                 length: np.ndarray, d0: np.ndarray | None = None) -> float | None:
+def _shift_start(arrays: RouteArrays, a: int, route: np.ndarray, s0: np.ndarray, shift: float,
+                 length: np.ndarray, d0: np.ndarray | None = None, passing: tuple[int, ...] = ()) -> float | None:
     """Station `shift` [m] along actor a's route from its start (negative: back), if the route has room and
     no other actor on the same route is in the way; else None."""
     if shift < 0:
-        return _start_back(arrays, v, a, route, s0, -shift, length, d0)
-    new = s0[v, a] + shift
-    if new > arrays.length[route[v, a]] - 100.0:
+        return _start_back(arrays, a, route, s0, -shift, length, d0, passing)
+    new = s0[a] + shift
+    if new > arrays.length[route[a]] - 100.0:
         return None
-    for b in range(route.shape[1]):
-        if _same_lane(route, d0, v, a, b) and s0[v, a] < s0[v, b] < new + (length[v, a] + length[v, b]) / 2 + 4.0:
+    for b in range(len(route)):
+        if _same_lane(route, d0, a, b) and s0[a] < s0[b] < new + (length[a] + length[b]) / 2 + 4.0:
             return None
     return float(new)
 
 
-def _start_back(arrays: RouteArrays, v: int, a: int, route: np.ndarray, s0: np.ndarray, dist: float,
-                length: np.ndarray, d0: np.ndarray | None = None) -> float | None:
+def _start_back(arrays: RouteArrays, a: int, route: np.ndarray, s0: np.ndarray, dist: float,
+                length: np.ndarray, d0: np.ndarray | None = None, passing: tuple[int, ...] = ()) -> float | None:
     """Station `dist` [m] behind actor a's start on its route, if the route has room and no other actor on the
-    same route is within a car length and a margin of the new start; else None."""
-    new = s0[v, a] - dist
+    same route is within a car length and a margin of the new start, or between the two (unless it is
+    `passing`: leaving the lane); else None. (A,) rows of one variation."""
+    new = s0[a] - dist
     if new < START_MARGIN:
         return None
-    for b in range(route.shape[1]):
-        if _same_lane(route, d0, v, a, b) and (abs(s0[v, b] - new) < (length[v, a] + length[v, b]) / 2 + 4.0
-                                               or new < s0[v, b] < s0[v, a]):
+    for b in range(len(route)):
+        if _same_lane(route, d0, a, b) and (abs(s0[b] - new) < (length[a] + length[b]) / 2 + 4.0
+                                            or (new < s0[b] < s0[a] and b not in passing)):
             return None
     return float(new)
 
@@ -354,7 +736,7 @@ def _planned_speed(arrays: RouteArrays, r: int, s0: float, speed: float, col: Ac
         # already speeding at the start, as the driver means to (drivers.behaviors: limit + OVER_LIMIT)
         fast = speed * speed_factor(col.dispositions)
         if np.isfinite(limit) and speed > 0:
-            factor = cond if "CVC_22350" in col.dispositions else 1.0
+            factor = cond if Disposition.CARELESS in col.traits else 1.0
             fast = max(fast, limit * factor + OVER_LIMIT)
         return max(fast, 0.5)
     return max(min(speed, limit * cond) if np.isfinite(limit) else speed, 0.5)
@@ -362,7 +744,7 @@ def _planned_speed(arrays: RouteArrays, r: int, s0: float, speed: float, col: Ac
 
 def _effective_speed(arrays: RouteArrays, r: int, s0: float, s1: float, speed: float, col: ActorColumn) -> float:
     """Average speed [m/s] from s0 to s1, slowing in curves as the driver will (not when careless)."""
-    if s1 <= s0 or "CVC_22350" in col.dispositions:
+    if s1 <= s0 or Disposition.CARELESS in col.traits:
         return speed
     lat = 2.0 if col.is_ads else 2.5
     return (s1 - s0) / max(arrays.travel_time(r, s0, s1, speed, lat), 1e-3)
@@ -378,13 +760,12 @@ def stop_dist(arrays: RouteArrays, r: int, s0: float, entry_control: np.ndarray,
     """Distance [m] to the stop line of a stop-controlled first junction the actor will stop at, else None."""
     entries = arrays.entry_s[r]
     idx = np.nonzero(entries > s0)[0]
-    if len(idx) == 0 or entry_control[r, idx[0]] != 2 or "CVC_22450" in col.dispositions:
+    if len(idx) == 0 or entry_control[r, idx[0]] != 2 or Disposition.RUNS_STOP in col.traits:
         return None
     return float(entries[idx[0]] - s0 - 1.0)
 
 
-def _partner(v: int, a: int, anchor: int, columns: list[ActorColumn], scene: SampledScene, route: np.ndarray,
-             s0: np.ndarray) -> int | None:
+def _partner(a: int, anchor: int, columns: list[ActorColumn], scene: SampledScene) -> int | None:
     """The actor whose path a lateral manoeuvre of actor a is aimed at."""
     if a != anchor:
         return anchor

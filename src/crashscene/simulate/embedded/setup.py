@@ -9,22 +9,24 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
 from crashscene.dsl import Scenario
+from crashscene.monitor.rules import Disposition, dispositions_of
 from crashscene.geometry import LANE_WIDTH
 from crashscene.scene import SampledActor, SampledScene
 from crashscene.simulate.backend import SimulationError, SimulationSettings
 from crashscene.simulate.drivers.behaviors import NO_YIELD_CODES
 from crashscene.simulate.embedded import timing
 from crashscene.simulate.embedded.control import control_tables, entry_before, priorities
-from crashscene.simulate.embedded.plan import mph, plan_variation, stop_dist, struck_offset
+from crashscene.simulate.embedded.plan import PlanContext, VariationPlan, mph, stop_dist, struck_offset
 from crashscene.simulate.embedded.pullout import PullOut, line_station
 from crashscene.simulate.embedded.sync import Meeting
 from crashscene.simulate.embedded.vehicles import VehicleLimits, limits_for
 from crashscene.simulate.embedded.world import RouteArrays
-from crashscene.simulate.roads import ROUTE_DS, Lane, RoadMap, Route
+from crashscene.simulate.roads import MARKERS, ROUTE_DS, Lane, RoadMap, Route
 from crashscene.simulate.tables import driver_dispositions, is_ads
 from crashscene.units import MPH
 
@@ -51,6 +53,11 @@ class ActorColumn:
     is_ads: bool
     dispositions: frozenset[str]
     limits: VehicleLimits
+
+    @cached_property
+    def traits(self) -> frozenset[Disposition]:
+        """The driver traits its oracle codes inject (monitor.rules registry)."""
+        return dispositions_of(self.dispositions)
 
 
 @dataclass
@@ -116,7 +123,57 @@ class BatchSetup:
 
 def build(scenario: Scenario, scenes: list[SampledScene], roadmap: RoadMap,
           settings: SimulationSettings) -> BatchSetup:
-    """Everything the step loop needs, for these scenes."""
+    """Everything the step loop needs, for these scenes: actor columns, routes, start coordinates, lateral
+    targets, traffic control, timing plans (plan.VariationPlan), then the start poses and speeds they imply."""
+    columns, anchor = _columns(scenes, settings)
+    start = _StartGrid.of(scenes)
+    layout = _route_layout(scenario, scenes, columns, roadmap, start, settings)
+    arrays = layout.arrays
+    lane_width_table = np.array([lane.width for lane in roadmap.lanes])
+    lane_width = _start_coordinates(layout, start, lane_width_table)
+    _set_lateral_targets(columns, layout, start, lane_width)
+
+    # ---- traffic control per junction entry, from the DSL
+    # each variation's control tables come from its own layout (never from another scene of the chunk)
+    route, s0 = layout.route, start.s0
+    tables = control_tables(scenario, scenes, arrays, route, s0, anchor)
+    vidx = np.arange(len(scenes))[:, None]
+    entry_control = np.stack([t[0] for t in tables])[vidx, route]  # (V, A, J)
+    entry_group = np.stack([t[1] for t in tables])[vidx, route]
+    priority = priorities(arrays, route, tables)
+    if settings.mode == "reproduce":
+        _oracle_priority(scenario, columns, priority)
+
+    factor = condition_factor(scenario, settings.conditions)
+    plans = _timing_plans(scenario, scenes, columns, anchor, layout, start, tables, lane_width, factor, settings)
+    pullout = _pullout(columns, anchor, arrays, route, s0, tables, priority, plans.hold, settings)
+    start_cap = _apply_plan_moves(arrays, route, start, plans)
+    speed0 = _initial_speeds(columns, arrays, route, start, plans, tables, start_cap)
+    limit = scenario.road_network.speed_limit_mph
+    road_names = sorted({lane.road for lane in roadmap.lanes})
+    return BatchSetup(
+        scenario=scenario, settings=settings, roadmap=roadmap, scenes=scenes, columns=columns, anchor=anchor,
+        routes=arrays, route=route, x=start.x, y=start.y, yaw=start.yaw, speed=speed0,
+        cruise=plans.planned * plans.scale, length=start.length, width=start.width,
+        s0=s0, d0=start.d0, lane_width=lane_width, entry_control=entry_control, entry_group=entry_group,
+        priority=priority, phase=plans.phase, hold_until=plans.hold, trigger_time=plans.trigger,
+        lateral_target=layout.lateral_target,
+        spin_rate=plans.skids[..., 0], drift=plans.skids[..., 1], spin_hold=plans.skids[..., 2],
+        unseen=unseen_partners(scenario, columns, settings.mode == "reproduce"),
+        meeting=_meeting(scenario, columns, arrays, route, s0, start.length, plans.hold, tables, settings),
+        pullout=pullout,
+        condition_factor=factor, friction=friction(scenario, settings.conditions),
+        invalid=layout.invalid, conflict_time=plans.conflict_time,
+        default_speed_limit=limit * MPH if limit else math.nan,
+        lane_width_table=lane_width_table,
+        lane_road=np.array([road_names.index(lane.road) for lane in roadmap.lanes]),
+        lane_forward=np.array([lane.forward for lane in roadmap.lanes]),
+        lane_marker=np.array([MARKERS.index(lane.marker) for lane in roadmap.lanes]),
+    )
+
+
+def _columns(scenes: list[SampledScene], settings: SimulationSettings) -> tuple[list[ActorColumn], int]:
+    """The actor columns of the batch (every scene must have the same roles) and the anchor's column."""
     if not scenes:
         raise SimulationError("no scenes to simulate")
     roles = [a.role for a in scenes[0].actors]
@@ -125,29 +182,63 @@ def build(scenario: Scenario, scenes: list[SampledScene], roadmap: RoadMap,
             raise SimulationError(f"scene {scene.index}: actors {[a.role for a in scene.actors]} differ from "
                                   f"scene {scenes[0].index}'s {roles}; a batch needs the same actors in every scene")
     anchor_role = settings.ego_role if settings.ego_role in roles else roles[0]
-    anchor = roles.index(anchor_role)
-    first = scenes[0].actors
     columns = [ActorColumn(a.role, a.behavior, a.type, is_ads(a.role, settings),
-                           frozenset(driver_dispositions(a, settings)), limits_for(a.type)) for a in first]
-    n_v, n_a = len(scenes), len(roles)
+                           frozenset(driver_dispositions(a, settings)), limits_for(a.type)) for a in scenes[0].actors]
+    return columns, roles.index(anchor_role)
 
-    def grid(attr: str) -> np.ndarray:
-        return np.array([[getattr(a, attr) for a in scene.actors] for scene in scenes], dtype=float)
 
-    x, y, yaw, speed = grid("x"), grid("y"), grid("yaw"), grid("speed")
-    length, width = grid("length"), grid("width")
+@dataclass
+class _StartGrid:
+    """(V, A) start poses and sizes of the sampled actors, then their route coordinates (`s0`, `d0` [m])."""
+
+    x: np.ndarray
+    y: np.ndarray
+    yaw: np.ndarray
+    speed: np.ndarray  # [m/s] sampled
+    length: np.ndarray
+    width: np.ndarray
+    s0: np.ndarray
+    d0: np.ndarray
+
+    @classmethod
+    def of(cls, scenes: list[SampledScene]) -> _StartGrid:
+        def grid(attr: str) -> np.ndarray:
+            return np.array([[getattr(a, attr) for a in scene.actors] for scene in scenes], dtype=float)
+
+        shape = (len(scenes), len(scenes[0].actors))
+        return cls(grid("x"), grid("y"), grid("yaw"), grid("speed"), grid("length"), grid("width"),
+                   np.zeros(shape), np.zeros(shape))
+
+
+@dataclass
+class _RouteLayout:
+    """Each actor's route per variation and what its start lane says about its lateral target."""
+
+    routes: list[Route]
+    arrays: RouteArrays
+    route: np.ndarray  # (V, A) route index
+    lateral_target: np.ndarray  # (V, A) [m]
+    road_edge: np.ndarray  # (V, A) [m] signed offset of the road edge a leave_road actor drifts over, NaN if none
+    relocated: np.ndarray  # (V, A) bool: placed in another lane of its approach
+    invalid: list[str | None]  # per variation, the first reason found
+
+
+def _route_layout(scenario: Scenario, scenes: list[SampledScene], columns: list[ActorColumn], roadmap: RoadMap,
+                  start: _StartGrid, settings: SimulationSettings) -> _RouteLayout:
+    """Routes: one per distinct (start lane, junction intent), plus synthetic ones for off-road starts; an
+    actor whose written contact crosses a turner's path takes the lane of its approach that meets it as the
+    class says."""
+    n_v, n_a = start.x.shape
     invalid: list[str | None] = [None] * n_v
     # fixed by the settings, never by the batch, so that a variation's routes do not depend on its chunk
     min_length = 100.0 * math.ceil((ROUTE_SPEED * settings.horizon + 60.0) / 100.0)
-
-    # ---- routes: one per distinct (start lane, junction intent), plus synthetic ones for off-road starts
     route_index: dict[tuple, int] = {}
     routes: list[Route] = []
     route = np.zeros((n_v, n_a), dtype=np.int64)
     lateral_target = np.zeros((n_v, n_a))
     lane_cache: dict[tuple, Lane | None] = {}
     start_lanes: dict[tuple[int, int], Lane] = {}
-    road_edge = np.full((n_v, n_a), np.nan)  # [m] signed offset of the road edge a leave_road actor drifts over
+    road_edge = np.full((n_v, n_a), np.nan)
     for v, scene in enumerate(scenes):
         for a, actor in enumerate(scene.actors):
             lane = _start_lane(roadmap, actor, lane_cache)
@@ -164,123 +255,142 @@ def build(scenario: Scenario, scenes: list[SampledScene], roadmap: RoadMap,
             start_lanes[v, a] = route_lane
             if actor.behavior == "leave_road":
                 road_edge[v, a] = _road_edge_offset(roadmap, lane, scenario)
-            intent = _junction_intent(actor)
-            key = (route_lane.uid, intent, min_length)
+            key = (route_lane.uid, _junction_intent(actor), min_length)
             if key not in route_index:
                 route_index[key] = len(routes)
-                routes.append(roadmap.route(route_lane.uid, intent, min_length))
+                routes.append(roadmap.route(route_lane.uid, _junction_intent(actor), min_length))
             route[v, a] = route_index[key]
     classes = contact_classes(scenario)
     crossing = _crossing_candidates(scenes, columns, classes, roadmap, start_lanes, route, route_index, routes,
                                     min_length)
     arrays = RouteArrays.pack(routes)
-    relocated = _choose_crossing_lanes(crossing, arrays, route, x, y, classes, columns)
+    relocated = _choose_crossing_lanes(crossing, arrays, route, start.x, start.y, classes, columns)
+    return _RouteLayout(routes, arrays, route, lateral_target, road_edge, relocated, invalid)
 
-    s0 = np.zeros((n_v, n_a))
-    d0 = np.zeros((n_v, n_a))
-    for r, rt in enumerate(routes):
+
+def _start_coordinates(layout: _RouteLayout, start: _StartGrid, lane_width_table: np.ndarray) -> np.ndarray:
+    """Fill the start's route coordinates (s0, d0); an actor placed in another lane of its approach starts on
+    that lane's centre. Returns each actor's start lane width [m] (V, A)."""
+    arrays, route = layout.arrays, layout.route
+    for r, rt in enumerate(layout.routes):
         mask = route == r
         if mask.any():
-            s0[mask], d0[mask] = rt.local_coordinates(x[mask], y[mask], first_lane=True)
+            start.s0[mask], start.d0[mask] = rt.local_coordinates(start.x[mask], start.y[mask], first_lane=True)
+    if layout.relocated.any():
+        vv, aa = np.nonzero(layout.relocated)
+        start.x[vv, aa], start.y[vv, aa], start.yaw[vv, aa] = arrays.point(route[vv, aa], start.s0[vv, aa])
+        start.d0[vv, aa] = 0.0
+    start_lane_idx = arrays.lane[route, np.clip((start.s0 / ROUTE_DS).astype(int), 0, arrays.lane.shape[1] - 1)]
+    return np.where(start_lane_idx >= 0, lane_width_table[np.maximum(start_lane_idx, 0)], LANE_WIDTH)
 
-    if relocated.any():
-        # an actor placed in another lane of its approach starts on that lane's centre
-        vv, aa = np.nonzero(relocated)
-        x[vv, aa], y[vv, aa], yaw[vv, aa] = arrays.point(route[vv, aa], s0[vv, aa])
-        d0[vv, aa] = 0.0
-    lane_width_table = np.array([lane.width for lane in roadmap.lanes])
-    start_lane_idx = arrays.lane[route, np.clip((s0 / ROUTE_DS).astype(int), 0, arrays.lane.shape[1] - 1)]
-    lane_width = np.where(start_lane_idx >= 0, lane_width_table[np.maximum(start_lane_idx, 0)], LANE_WIDTH)
-    co = arrays.sample(arrays.centerline_offset, route, s0)
+
+def _set_lateral_targets(columns: list[ActorColumn], layout: _RouteLayout, start: _StartGrid,
+                         lane_width: np.ndarray) -> None:
+    """The lateral offset [m] each actor's behaviour steers to on its route (layout.lateral_target)."""
+    co = layout.arrays.sample(layout.arrays.centerline_offset, layout.route, start.s0)
+    target = layout.lateral_target
     for a, col in enumerate(columns):
         if col.behavior == "leave_road":
-            edge = np.where(np.isnan(road_edge[:, a]), -lane_width[:, a] / 2.0, road_edge[:, a])
-            lateral_target[:, a] = edge + np.sign(edge) * OFF_ROAD_MARGIN
+            edge = np.where(np.isnan(layout.road_edge[:, a]), -lane_width[:, a] / 2.0, layout.road_edge[:, a])
+            target[:, a] = edge + np.sign(edge) * OFF_ROAD_MARGIN
             continue
-        lateral_target[:, a] = _lateral_target(col.behavior, lateral_target[:, a], co[:, a], lane_width[:, a],
-                                               d0[:, a])
+        target[:, a] = _lateral_target(col.behavior, target[:, a], co[:, a], lane_width[:, a], start.d0[:, a])
 
-    # ---- traffic control per junction entry, from the DSL
-    # each variation's control tables come from its own layout (never from another scene of the chunk)
-    tables = control_tables(scenario, scenes, arrays, route, s0, anchor)
-    vidx = np.arange(n_v)[:, None]
-    entry_control = np.stack([t[0] for t in tables])[vidx, route]  # (V, A, J)
-    entry_group = np.stack([t[1] for t in tables])[vidx, route]
-    priority = priorities(arrays, route, tables)
-    if settings.mode == "reproduce":
-        _oracle_priority(scenario, columns, priority)
 
-    # ---- timing plans and signal phases, per variation from its own generator
-    hold = np.zeros((n_v, n_a))
-    trigger = np.full((n_v, n_a), np.inf)
-    scale = np.ones((n_v, n_a))
-    phase = np.zeros(n_v)
-    conflict_time = np.full(n_v, np.inf)
-    planned = np.zeros((n_v, n_a))
-    moved = np.zeros((n_v, n_a), dtype=bool)
-    start_cap = np.full((n_v, n_a), np.inf)  # [m/s] highest initial speed (curve right ahead)
-    drifted = np.zeros((n_v, n_a))  # [m] lateral head start of a swerve that began before t = 0
-    skids = np.full((n_v, n_a, 3), np.nan)  # planned (spin rate [rad/s], drift [rad], hold [s]) of a loss of control
-    runs_red = "CVC_21453" in columns[anchor].dispositions
-    factor = condition_factor(scenario, settings.conditions)
+@dataclass
+class _TimingPlans:
+    """The batch's timing plans, (V, A) rows of each variation's plan.VariationPlan."""
+
+    planned: np.ndarray  # [m/s] cruise speed before the timing scale
+    scale: np.ndarray
+    hold: np.ndarray
+    trigger: np.ndarray
+    moved: np.ndarray
+    drifted: np.ndarray
+    skids: np.ndarray  # (V, A, 3)
+    phase: np.ndarray  # (V,)
+    conflict_time: np.ndarray  # (V,)
+
+    @classmethod
+    def empty(cls, n_v: int, n_a: int) -> _TimingPlans:
+        return cls(planned=np.zeros((n_v, n_a)), scale=np.ones((n_v, n_a)), hold=np.zeros((n_v, n_a)),
+                   trigger=np.full((n_v, n_a), np.inf), moved=np.zeros((n_v, n_a), dtype=bool),
+                   drifted=np.zeros((n_v, n_a)), skids=np.full((n_v, n_a, 3), np.nan), phase=np.zeros(n_v),
+                   conflict_time=np.full(n_v, np.inf))
+
+    def put(self, v: int, plan: VariationPlan) -> None:
+        for name in ("planned", "scale", "hold", "trigger", "moved", "drifted", "skids", "phase", "conflict_time"):
+            getattr(self, name)[v] = getattr(plan, name)
+
+
+def _timing_plans(scenario: Scenario, scenes: list[SampledScene], columns: list[ActorColumn], anchor: int,
+                  layout: _RouteLayout, start: _StartGrid, tables: list, lane_width: np.ndarray, factor: float,
+                  settings: SimulationSettings) -> _TimingPlans:
+    """Timing plans and signal phases, per variation from its own generator; the plans' starts (s0, d0) and
+    lateral targets are written back into `start` and `layout`."""
+    ctx = PlanContext(columns=columns, anchor=anchor, arrays=layout.arrays, classes=contact_classes(scenario),
+                      strikers=contact_strikers(scenario), first_pair=first_contact_pair(scenario),
+                      reproduce=settings.mode == "reproduce",
+                      runs_red=Disposition.RUNS_RED in columns[anchor].traits, cond=factor,
+                      default_limit=mph(scenario.road_network.speed_limit_mph),
+                      friction=friction(scenario, settings.conditions), contacts=contact_sequence(scenario))
+    plans = _TimingPlans.empty(*start.x.shape)
     for v, scene in enumerate(scenes):
-        rng = variation_rng(scene.seed, scene.index)
-        plan_variation(v, scene, rng, columns, anchor, arrays, route, s0, d0, speed, length, tables[v][0],
-                        lateral_target, hold, trigger, scale, phase, conflict_time, runs_red,
-                        factor, mph(scenario.road_network.speed_limit_mph), planned, moved,
-                        settings.mode == "reproduce", drifted, skids, classes, contact_strikers(scenario),
-                        first_contact_pair(scenario),
-                        friction(scenario, settings.conditions), width,
-                        float(np.median(lane_width[v])))
-    pullout = _pullout(columns, anchor, arrays, route, s0, tables, priority, hold, settings)
-    if drifted.any():
-        vv, aa = np.nonzero(drifted)
+        plan = VariationPlan.build(ctx, scene, variation_rng(scene.seed, scene.index), layout.route[v], start.s0[v],
+                                   start.d0[v], start.speed[v], start.length[v], start.width[v], tables[v][0],
+                                   layout.lateral_target[v], float(np.median(lane_width[v])))
+        start.s0[v], start.d0[v], layout.lateral_target[v] = plan.s0, plan.d0, plan.lateral_target
+        plans.put(v, plan)
+    return plans
+
+
+def _apply_plan_moves(arrays: RouteArrays, route: np.ndarray, start: _StartGrid, plans: _TimingPlans) -> np.ndarray:
+    """Start poses of the actors the plans moved: drifting across already, or advanced or moved back along their
+    approach (on their lane centre there; a lane changer keeps its offset from the target lane's route).
+    Returns the highest initial speed [m/s] (V, A) from which a moved actor can still take the curve ahead."""
+    start_cap = np.full(route.shape, np.inf)
+    x, y, yaw, s0, d0 = start.x, start.y, start.yaw, start.s0, start.d0
+    if plans.drifted.any():
+        vv, aa = np.nonzero(plans.drifted)
         _, _, ryaw = arrays.point(route[vv, aa], s0[vv, aa])
-        x[vv, aa] -= np.sin(ryaw) * drifted[vv, aa]
-        y[vv, aa] += np.cos(ryaw) * drifted[vv, aa]
-    if moved.any():
-        # actors advanced along their approach by the timing plan start on their lane centre there
-        # (a lane changer keeps its offset from the target lane's route)
-        vv, aa = np.nonzero(moved)
-        keep = np.abs(d0[vv, aa]) > 1.0
+        x[vv, aa] -= np.sin(ryaw) * plans.drifted[vv, aa]
+        y[vv, aa] += np.cos(ryaw) * plans.drifted[vv, aa]
+    if plans.moved.any():
+        vv, aa = np.nonzero(plans.moved)
+        keep = (np.abs(d0[vv, aa]) > 1.0) | (plans.drifted[vv, aa] != 0.0)  # a planned offset stays
         d0[vv, aa] = np.where(keep, d0[vv, aa], 0.0)
         px, py, yaw[vv, aa] = arrays.point(route[vv, aa], s0[vv, aa])
         x[vv, aa] = px - np.sin(yaw[vv, aa]) * d0[vv, aa]
         y[vv, aa] = py + np.cos(yaw[vv, aa]) * d0[vv, aa]
-        # ...at a speed from which it can still take the curve ahead
         reach = np.full(len(vv), 60.0)
         entry_speed = arrays.curve_speed(route[vv, aa], s0[vv, aa], reach, 2.5, 2.0)
         start_cap[vv, aa] = np.maximum(entry_speed, 3.0)
-    # the cruise speed the driver holds is the planned one (capped at the limit unless speeding) times the
-    # timing scale; it starts at that speed (slower when the plan slows it) unless held at its start
-    cruise = planned * scale
-    speed0 = np.where((hold > 0) | (speed <= 0.0), 0.0, np.minimum(planned * np.minimum(scale, 1.0), start_cap))
-    # a driver who will stop at a stop sign close ahead is already slowing down for it
+    return start_cap
+
+
+def _initial_speeds(columns: list[ActorColumn], arrays: RouteArrays, route: np.ndarray, start: _StartGrid,
+                    plans: _TimingPlans, tables: list, start_cap: np.ndarray) -> np.ndarray:
+    """[m/s] (V, A): the planned speed (slower when the plan slows it), 0 when held at the start; a driver who
+    will stop at a stop sign close ahead is already slowing down for it."""
+    planned, scale = plans.planned, plans.scale
+    speed0 = np.where((plans.hold > 0) | (start.speed <= 0.0), 0.0,
+                      np.minimum(planned * np.minimum(scale, 1.0), start_cap))
     for a, col in enumerate(columns):
-        for v in range(n_v):
-            stop = stop_dist(arrays, route[v, a], s0[v, a], tables[v][0], col)
+        for v in range(route.shape[0]):
+            stop = stop_dist(arrays, route[v, a], start.s0[v, a], tables[v][0], col)
             if stop is not None:
                 speed0[v, a] = min(speed0[v, a], math.sqrt(2.0 * STOP_APPROACH_DECEL * max(stop - 1.0, 0.0)))
-    limit = scenario.road_network.speed_limit_mph
-    road_names = sorted({lane.road for lane in roadmap.lanes})
-    from crashscene.simulate.roads import MARKERS
+    return speed0
 
-    return BatchSetup(
-        scenario=scenario, settings=settings, roadmap=roadmap, scenes=scenes, columns=columns, anchor=anchor,
-        routes=arrays, route=route, x=x, y=y, yaw=yaw, speed=speed0, cruise=cruise, length=length, width=width,
-        s0=s0, d0=d0, lane_width=lane_width, entry_control=entry_control, entry_group=entry_group,
-        priority=priority, phase=phase, hold_until=hold, trigger_time=trigger, lateral_target=lateral_target,
-        spin_rate=skids[..., 0], drift=skids[..., 1], spin_hold=skids[..., 2],
-        unseen=unseen_partners(scenario, columns, settings.mode == "reproduce"),
-        meeting=_meeting(scenario, columns, arrays, route, s0, length, hold, tables, settings),
-        pullout=pullout,
-        condition_factor=factor, friction=friction(scenario, settings.conditions),
-        invalid=invalid, conflict_time=conflict_time, default_speed_limit=limit * MPH if limit else math.nan,
-        lane_width_table=lane_width_table,
-        lane_road=np.array([road_names.index(lane.road) for lane in roadmap.lanes]),
-        lane_forward=np.array([lane.forward for lane in roadmap.lanes]),
-        lane_marker=np.array([MARKERS.index(lane.marker) for lane in roadmap.lanes]),
-    )
+
+def contact_sequence(scenario: Scenario) -> tuple[tuple[str, str, str, str, str], ...]:
+    """The written crash sequence (DSL `collisions`) as (striking, struck, class, striking area, struck area),
+    in order."""
+    def token(value) -> str:
+        return str(getattr(value, "value", value))
+
+    return tuple((str(c.striking), str(c.struck), token(c.class_), token(c.striking_area), token(c.struck_area))
+                 for c in getattr(scenario, "collisions", None) or [])
 
 
 def contact_classes(scenario: Scenario) -> dict[frozenset[str], str]:

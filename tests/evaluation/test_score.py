@@ -10,9 +10,9 @@ from typer.testing import CliRunner
 
 from crashscene.cli import app
 from crashscene.dsl import dumps, load_file
-from crashscene.evaluate import EvalError, case_files, evaluate, evaluate_dirs, score_case
+from crashscene.evaluation.score import EvalError, case_files, evaluate, evaluate_dirs, score_case
 
-CIREN = Path(__file__).resolve().parent.parent / "examples" / "ciren"
+CIREN = Path(__file__).resolve().parents[2] / "examples" / "ciren"
 CASE = "100237"  # ego + npc1, one oracle entry: 2 + 6 + (1 + 2*5) + 1 = 20 scored fields
 
 

@@ -10,10 +10,11 @@ from typer.testing import CliRunner
 
 from crashscene.campaign import CampaignConfig, Store
 from crashscene.cli import app
-from crashscene.run import run_case
+from crashscene.pipeline.run import run_case
+
 from tests.campaign.rows import table_rows
 
-CASE = Path(__file__).resolve().parent.parent / "examples" / "ciren" / "120013"
+CASE = Path(__file__).resolve().parents[2] / "examples" / "ciren" / "120013"
 
 
 @pytest.fixture(scope="module")

@@ -1,4 +1,4 @@
-"""`evaluate`: the rulebook, collisions and verdicts for a batch of trace tables."""
+"""`evaluate`: the rulebook, collisions and verdicts for a batch of trace tables (any backend's)."""
 from __future__ import annotations
 
 from typing import Literal

@@ -1,4 +1,4 @@
-"""Maps for rendered scenarios: generated OpenDRIVE (default) or a CARLA town, cached by input hash.
+"""Render step 2, map: generated OpenDRIVE (default) or a CARLA town, cached by input hash.
 
 `prepare_map` returns a cached `.xodr` plus, once Scenic has parsed it, the
 matching `.snet` (Scenic's pickled network, keyed by the map's content hash),
@@ -11,7 +11,8 @@ import os
 import shutil
 from pathlib import Path
 
-from crashscene.convert import CARLA_TOWNS, RenderError, RenderPlan
+from crashscene.render.errors import RenderError
+from crashscene.render.plan import CARLA_TOWNS, RenderPlan
 
 MAP_FORMAT_VERSION = "3"  # bump when generated maps change, to invalidate caches
 MAP_MODES = ("generated", "carla")
@@ -47,7 +48,7 @@ def prepare_map(plan: RenderPlan, mode: str = "generated", carla_maps: Path | No
         key = hashlib.sha256((MAP_FORMAT_VERSION + plan.map.model_dump_json()).encode()).hexdigest()[:16]
         path = cache / f"generated_{plan.topology}_{key}.xodr"
         if not path.exists():
-            from crashscene.maps.generated import build_map  # scenariogeneration: ~1 s to import, only on a miss
+            from crashscene.render.opendrive import build_map  # scenariogeneration: ~1 s to import, only on a miss
 
             tmp = path.with_suffix(f".{os.getpid()}.tmp.xodr")
             try:

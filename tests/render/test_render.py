@@ -9,12 +9,15 @@ import pytest
 from typer.testing import CliRunner
 
 from crashscene.cli import app
-from crashscene.convert import RenderError, convert
 from crashscene.dsl import load_file, loads
-from crashscene.render import comment, py, render, render_program
+from crashscene.render import render, render_program
+from crashscene.render.errors import RenderError
+from crashscene.render.plan import convert
+from crashscene.render.program import comment, py
+
 from tests.conftest import CASES, EXAMPLES
 
-CACHE = Path(__file__).resolve().parent.parent / ".crashscene-cache" / "maps"  # git-ignored, shared across runs
+CACHE = Path(__file__).resolve().parents[2] / ".crashscene-cache" / "maps"  # git-ignored, shared across runs
 
 HOSTILE = '''
 scenario_id: "x\\"); import os; os.system('echo pwned') #"

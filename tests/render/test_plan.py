@@ -5,7 +5,9 @@ import math
 
 import pytest
 
-from crashscene.convert import (
+from crashscene.dsl import load_file, loads
+from crashscene.dsl.tokens import TimeOfDay, Weather
+from crashscene.render.plan import (
     DEFAULT_SPEED,
     EGO_BLUEPRINT,
     MPH,
@@ -15,8 +17,7 @@ from crashscene.convert import (
     convert,
     scenario_hash,
 )
-from crashscene.dsl import load_file, loads
-from crashscene.dsl.tokens import TimeOfDay, Weather
+
 from tests.conftest import CASES, EXAMPLES
 
 BASE = """

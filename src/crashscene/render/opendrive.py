@@ -1,4 +1,4 @@
-"""Generated OpenDRIVE maps (scenariogeneration) for the four DSL topologies.
+"""Render step 2, map (generated): OpenDRIVE maps built with scenariogeneration for the four DSL topologies.
 
 Frame: the ego approaches along +x. Straight and curve: one road from x = 0;
 the ego's direction is the road's right-hand lanes (OpenDRIVE ids -1, -2, ...),
@@ -18,7 +18,7 @@ on each controlled approach. Each road carries `<type><speed>` with the posted l
 Validity: the header declares OpenDRIVE 1.8 so that every checker of ASAM's bundle
 applies (13 of its 23 rules are defined from 1.7 on), and the content follows the 1.8
 schema (ISO 3166 alpha-2 country codes, an elevation record in every elevationProfile);
-`qc_opendrive` reports no error and skips nothing on any topology (tests/test_maps.py).
+`qc_opendrive` reports no error and skips nothing on any topology (tests/render/test_maps.py).
 """
 from __future__ import annotations
 
@@ -28,8 +28,8 @@ from pathlib import Path
 from scenariogeneration import xodr
 from scenariogeneration.helpers import printToFile
 
-from crashscene.convert import MapSpec
 from crashscene.geometry import LANE_WIDTH
+from crashscene.render.plan import MapSpec
 
 ARM_ANGLE = {"ego": math.pi, "left": math.pi / 2, "opposite": 0.0, "right": 3 * math.pi / 2}  # [rad] on the circle
 OPENDRIVE_REVISION = ("1", "8")  # (major, minor) written to the header

@@ -14,12 +14,13 @@ import numpy as np
 import pytest
 from scipy.stats import ks_2samp
 
-from crashscene.compiled_sampler import CompiledSampler
 from crashscene.dsl import load_file
 from crashscene.render import render
-from crashscene.sample import SampleError, compile_program, sample_scenes, scene_seed, to_sampled_scene
+from crashscene.render.compiled_sampler import CompiledSampler
+from crashscene.render.sample import SampleError, compile_program, sample_scenes, scene_seed, to_sampled_scene
+
 from tests.conftest import EXAMPLES
-from tests.test_render import CACHE
+from tests.render.test_render import CACHE
 
 pytestmark = [pytest.mark.filterwarnings("ignore::UserWarning")]
 

@@ -12,6 +12,7 @@ from typer.testing import CliRunner
 
 from crashscene.cli import app
 from crashscene.dsl import load_file
+from crashscene.pipeline.simulate import simulate_scenario
 from crashscene.scene import SampledScene
 from crashscene.simulate.backend import (
     SimulationError,
@@ -19,10 +20,9 @@ from crashscene.simulate.backend import (
     SimulationSettings,
     create_simulator,
 )
-from crashscene.simulate.pipeline import simulate_scenario
 from crashscene.traces import TABLES, read_table
 
-from .conftest import EXAMPLES
+from tests.conftest import EXAMPLES
 
 pytestmark = pytest.mark.slow
 

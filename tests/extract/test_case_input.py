@@ -5,8 +5,8 @@ from pathlib import Path
 
 import pytest
 
-from crashscene.extract.errors import ExtractError, ReportError
-from crashscene.extract.report import MAX_TEXT_BYTES, load_report
+from crashscene.extract.errors import CaseInputError, ExtractError
+from crashscene.extract.case_input import MAX_TEXT_BYTES, load_report
 
 CIREN = Path(__file__).resolve().parents[2] / "examples" / "ciren"
 CASES = sorted(p.name for p in CIREN.iterdir() if p.is_dir())
@@ -55,7 +55,7 @@ def test_markdown_and_windows_1252(tmp_path):
 def test_bad_text_is_a_clear_error(tmp_path, content, message):
     path = tmp_path / "narrative.txt"
     path.write_bytes(content)
-    with pytest.raises(ReportError, match=message) as info:
+    with pytest.raises(CaseInputError, match=message) as info:
         load_report(tmp_path)
     assert str(path) in str(info.value)
 
@@ -63,22 +63,22 @@ def test_bad_text_is_a_clear_error(tmp_path, content, message):
 def test_huge_file_is_refused(tmp_path):
     path = tmp_path / "big.txt"
     path.write_bytes(b"a" * (MAX_TEXT_BYTES + 1))
-    with pytest.raises(ReportError, match="at most"):
+    with pytest.raises(CaseInputError, match="at most"):
         load_report(path)
 
 
 def test_missing_inputs(tmp_path):
-    with pytest.raises(ReportError, match="no such file"):
+    with pytest.raises(CaseInputError, match="no such file"):
         load_report(tmp_path / "nope")
     (tmp_path / "sketch.jpg").write_bytes(b"\xff\xd8\xff\xe0")
-    with pytest.raises(ReportError, match="narrative.txt, narrative.md, narrative.pdf"):
+    with pytest.raises(CaseInputError, match="narrative.txt, narrative.md, narrative.pdf"):
         load_report(tmp_path)
 
 
 def test_sketch_that_is_not_an_image(tmp_path):
     (tmp_path / "narrative.txt").write_text(NARRATIVE, encoding="utf-8")
     (tmp_path / "sketch.png").write_text("not an image", encoding="utf-8")
-    with pytest.raises(ReportError, match="not a JPEG or PNG"):
+    with pytest.raises(CaseInputError, match="not a JPEG or PNG"):
         load_report(tmp_path)
 
 

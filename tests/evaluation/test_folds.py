@@ -9,11 +9,11 @@ from typer.testing import CliRunner
 
 from crashscene.cli import app
 from crashscene.dsl import load_file
-from crashscene.eval_folds import assign_folds, evaluate_folds
-from crashscene.evaluate import EvalError
+from crashscene.evaluation.folds import assign_folds, evaluate_folds
+from crashscene.evaluation.score import EvalError
 from crashscene.extract.rule_sources import FROM_CONVENTIONS, RULE_SOURCES
 
-CIREN = Path(__file__).resolve().parent / ".." / "examples" / "ciren"
+CIREN = Path(__file__).resolve().parents[2] / "examples" / "ciren"
 CASES = sorted(p.name for p in CIREN.resolve().iterdir() if p.is_dir())
 
 

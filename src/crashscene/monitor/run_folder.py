@@ -8,7 +8,7 @@ import pyarrow.parquet as pq
 
 from crashscene.dsl import DslError, load_file
 from crashscene.monitor.errors import MonitorError, TraceError
-from crashscene.monitor.evaluate import evaluate
+from crashscene.monitor.check_traces import evaluate
 from crashscene.monitor.result import MonitorResult
 from crashscene.monitor.rulebook import Rulebook, load_rulebook
 from crashscene.traces import read_table, scenario_digest, stored_digest

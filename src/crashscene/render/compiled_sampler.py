@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from crashscene.geometry import wrap_angle
+from crashscene.render.errors import SampleError
 from crashscene.render.sampling_plan import PLAN_FORMAT, SAMPLING_PLAN_NAME, program_digest
 from crashscene.scene import SampledActor, SampledScene
 
@@ -34,7 +35,7 @@ FIRST_ATTEMPTS = 2  # attempts per variation in the first round; later rounds qu
 
 
 class PlanError(ValueError):
-    """The sampling plan is missing, malformed or stale (raised as SampleError by `crashscene.sample`)."""
+    """The sampling plan is missing, malformed or stale (raised as SampleError by `crashscene.render.sample`)."""
 
 
 @dataclass
@@ -113,8 +114,6 @@ class CompiledSampler:
         block = FIRST_ATTEMPTS
         while pending:
             if used >= max_attempts:
-                from crashscene.sample import SampleError
-
                 raise SampleError(f"scene {int(indices[pending[0]])} (seed {seed}) could not be sampled: no "
                                   f"attempt out of {max_attempts} met the requirements (cars on the road, "
                                   "none overlapping)")

@@ -11,14 +11,15 @@ import pytest
 from typer.testing import CliRunner
 
 from crashscene.cli import app
-from crashscene.convert import HEADING_ANGLE
 from crashscene.dsl import load_file
 from crashscene.dsl.tokens import Heading
 from crashscene.render import render
-from crashscene.sample import NEWTONIAN_MODEL, compile_program, sample_scenes
+from crashscene.render.plan import HEADING_ANGLE
+from crashscene.render.sample import NEWTONIAN_MODEL, compile_program, sample_scenes
 from crashscene.scene import SampledScene
+
 from tests.conftest import CARLA_MAPS, CASES, EXAMPLES
-from tests.test_render import CACHE, hostile_scenario
+from tests.render.test_render import CACHE, hostile_scenario
 
 pytestmark = [pytest.mark.slow, pytest.mark.filterwarnings("ignore::UserWarning")]
 
@@ -207,7 +208,7 @@ def test_behaviours_run_in_the_newtonian_simulator(tmp_path):
 def test_sampling_in_two_processes_gives_the_same_scenes(tmp_path):
     """workers=2 forks after compiling and splits the index range; scenes are index-deterministic."""
     from crashscene.render import render
-    from crashscene.sample import MIN_BLOCK, compile_program, sample_scenes
+    from crashscene.render.sample import MIN_BLOCK, compile_program, sample_scenes
 
     rendered = render(load_file(EXAMPLES / "100237" / "golden.yaml"), tmp_path)
     compiled = compile_program(rendered.program)

@@ -1,4 +1,4 @@
-"""DSL -> render plan: the middleware between a validated scenario and the Scenic template.
+"""Render step 1, plan: DSL -> `RenderPlan`, the middleware between a validated scenario and the Scenic template.
 
 Everything the report leaves open is decided here, from the tables at the top of
 this module (the only place defaults live): speeds, vehicle models, time of day,
@@ -32,6 +32,7 @@ from crashscene.dsl.tokens import (
     Weather,
 )
 from crashscene.monitor.rules import Disposition, dispositions_of
+from crashscene.render.errors import RenderError
 from crashscene.units import MPH
 
 # ---------------------------------------------------------------- defaults (the one table)
@@ -115,10 +116,6 @@ JUNCTION_ELEMENTS = {RoadElement.INTERSECTION, RoadElement.STOP_SIGN, RoadElemen
                      RoadElement.TRAFFIC_LIGHT}
 
 TOKEN = re.compile(r"^[A-Za-z0-9_.\-]{1,64}$")
-
-
-class RenderError(Exception):
-    """A scenario cannot be rendered (or a rendered program cannot be sampled): what, where, what is allowed."""
 
 
 # ---------------------------------------------------------------- plan models

@@ -1,7 +1,7 @@
 """Sample scenes from a rendered program, index-deterministically: compiled (numpy) by default, or Scenic.
 
 The default sampler, "compiled", draws from the sampling plan `render` writes
-beside the program (`crashscene.compiled_sampler`): the same distribution and
+beside the program (`crashscene.render.compiled_sampler`): the same distribution and
 requirements without Scenic's interpreter. "scenic" compiles the program and
 runs Scenic's own sampler, the reference; it is described below.
 
@@ -30,8 +30,8 @@ from typing import Any
 
 import numpy as np
 
-from crashscene.convert import RenderError
 from crashscene.geometry import wrap_angle
+from crashscene.render.errors import SampleError
 from crashscene.scene import SampledActor, SampledScene
 
 CARLA_MODEL = "scenic.simulators.carla.model"
@@ -40,10 +40,6 @@ MAX_ITERATIONS = 2000  # rejection-sampling attempts per scene before giving up
 SAMPLERS = ("compiled", "scenic")
 _SKIP_PARAMS = {"map", "map_options", "render", "use2DMap", "verifaiSamplerType", "verifaiSamplerParams",
                 "snapToGroundDefault", "address", "port", "timeout", "timestep", "debugRender"}
-
-
-class SampleError(RenderError):
-    """A program cannot be compiled or sampled (part of the render stage's exception family)."""
 
 
 def _cache_model_parses() -> None:
@@ -118,7 +114,7 @@ def sample_scenes(program: Path, n: int, seed: int, first: int = 0, scenario: An
     """Scenes for variation indices first .. first+n-1.
 
     `sampler` "compiled" (default) draws them with numpy from the sampling plan `render` wrote beside the
-    program (`crashscene.compiled_sampler`); "scenic" runs Scenic's own sampler on the program (the reference:
+    program (`crashscene.render.compiled_sampler`); "scenic" runs Scenic's own sampler on the program (the reference:
     the same distribution, other draws). Pass a compiled Scenic `scenario` to skip compiling (implies "scenic").
     With Scenic, `workers` > 1 splits the index range into contiguous blocks sampled in forked processes that
     inherit the compiled program; scenes are index-deterministic, so the result is identical to workers=1.
@@ -134,7 +130,7 @@ def sample_scenes(program: Path, n: int, seed: int, first: int = 0, scenario: An
     digest = meta.get("scenario_hash") or _program_hash(program)
     map_file = str(map_path) if map_path is not None else str(program.parent / meta.get("map", "map.xodr"))
     if sampler == "compiled" and scenario is None:
-        from crashscene.compiled_sampler import CompiledSampler, PlanError
+        from crashscene.render.compiled_sampler import CompiledSampler, PlanError
 
         if model not in (None, CARLA_MODEL):
             raise SampleError(f"model {model!r}: the compiled sampler reproduces the program's own world model "

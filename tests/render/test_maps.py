@@ -6,13 +6,15 @@ from pathlib import Path
 
 import pytest
 
-from crashscene.convert import INIT_DIST, ONCOMING_DIST, MapSpec, RenderError, convert
 from crashscene.dsl import load_file
-from crashscene.maps import carla_town, install_map, prepare_map
-from crashscene.maps.generated import build_map
+from crashscene.render.errors import RenderError
+from crashscene.render.maps import carla_town, install_map, prepare_map
+from crashscene.render.opendrive import build_map
+from crashscene.render.plan import INIT_DIST, ONCOMING_DIST, MapSpec, convert
+
 from tests.conftest import CARLA_MAPS, EXAMPLES
 
-REPO_CACHE = Path(__file__).resolve().parent.parent / ".crashscene-cache" / "maps"
+REPO_CACHE = Path(__file__).resolve().parents[2] / ".crashscene-cache" / "maps"
 
 
 def spec(**kw) -> MapSpec:

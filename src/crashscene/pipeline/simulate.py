@@ -26,9 +26,9 @@ from crashscene.dsl import Scenario, dump_file
 from crashscene.geometry import classify_contact, heading_difference
 from crashscene.simulate.backend import (
     DEFAULT_DT,
-    BatchResult,
     DEFAULT_HORIZON,
     MODES,
+    BatchResult,
     SimulationError,
     SimulationRequest,
     SimulationSettings,
@@ -85,7 +85,7 @@ def _write_run(scenario: Scenario, out_dir: Path, n: int, seed: int, first: int 
     `workers` > 1 simulates contiguous blocks of variations in that many forked processes (embedded backend;
     with `sampler="scenic"` it also samples in them); the tables are the blocks' tables in index order, the
     same bytes as one process. Keep 1 when the caller already runs in a process pool (a campaign worker).
-    `sampler`: "compiled" (numpy) or "scenic" (the reference), see `crashscene.sample.sample_scenes`; None: the
+    `sampler`: "compiled" (numpy) or "scenic" (the reference), see `crashscene.render.sample.sample_scenes`; None: the
     backend's (`Simulator.scene_sampler`: compiled for embedded, scenic for backends that replay Scenic scenes).
 
     Returns the JSON summary (also written to summary.json): variations, valid,
@@ -110,7 +110,7 @@ def _write_run(scenario: Scenario, out_dir: Path, n: int, seed: int, first: int 
     check_ego_role(scenario, settings)
     sampler = _sampler_for(backend, sampler)
     from crashscene.render import RenderError, render
-    from crashscene.sample import sample_scenes
+    from crashscene.render.sample import sample_scenes
 
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -275,7 +275,7 @@ def _monitor(tables: dict[str, pa.Table], scenario: Scenario, out_dir: Path,
     """Run `crashscene.monitor` when installed; write its outputs; the summary keys it contributes."""
     try:
         from crashscene.monitor import evaluate
-        from crashscene.monitor.run import write_results
+        from crashscene.monitor.run_folder import write_results
     except ImportError:
         return None
     from crashscene.monitor.criticality import write_criticality

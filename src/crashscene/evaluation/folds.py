@@ -3,7 +3,7 @@
 Rules written while looking at some cases must be judged on the others. `assign_folds` orders the case ids
 by their SHA-256 and deals them round-robin into K folds, so a case's fold depends only on the set of ids
 and K (never on file order or a random seed). `evaluate_folds` scores every fold apart with
-`crashscene.evaluate.evaluate` and marks a fold *held out* when the record of rule sources
+`crashscene.evaluation.score.evaluate` and marks a fold *held out* when the record of rule sources
 (`crashscene.extract.rule_sources.RULE_SOURCES`) names none of its cases; the held-out figure pools the
 held-out folds.
 """
@@ -15,8 +15,8 @@ from collections.abc import Iterable, Mapping
 from pydantic import BaseModel
 
 from crashscene.dsl import Scenario
-from crashscene.evaluate import EvalError, EvalResult, evaluate
-from crashscene.evaluate import _pct  # one percentage format for both reports
+from crashscene.evaluation.score import EvalError, EvalResult, evaluate
+from crashscene.evaluation.score import _pct  # one percentage format for both reports
 
 
 class FoldResult(BaseModel):

@@ -5,7 +5,7 @@ a PDF text library is installed), an optional `sketch.jpg|jpeg|png` and an
 optional `nhtsa_case.xml`. A single text file is a narrative on its own; when
 it is named `narrative.*`, its folder is read as the case folder.
 
-Bad input fails early with a `ReportError` naming the file and the problem:
+Bad input fails early with a `CaseInputError` naming the file and the problem:
 missing, unreadable, empty, binary data posing as text, or too large to be a
 crash narrative.
 """
@@ -16,7 +16,7 @@ from pathlib import Path
 
 from pydantic import BaseModel, ConfigDict
 
-from crashscene.extract.errors import ReportError
+from crashscene.extract.errors import CaseInputError
 
 NARRATIVE_NAMES = ("narrative.txt", "narrative.md", "narrative.pdf")
 SKETCH_NAMES = ("sketch.jpg", "sketch.jpeg", "sketch.png")
@@ -48,7 +48,7 @@ def load_report(path: Path | str) -> Report:
     """Read a case folder or a narrative text file into a `Report`."""
     path = Path(path)
     if not path.exists():
-        raise ReportError("no such file or folder; give a case folder (narrative.txt, optional sketch.jpg|png) "
+        raise CaseInputError("no such file or folder; give a case folder (narrative.txt, optional sketch.jpg|png) "
                           "or a narrative text file", path)
     if path.is_dir():
         return _load_folder(path)
@@ -63,7 +63,7 @@ def _load_folder(folder: Path, narrative: Path | None = None) -> Report:
         narrative = next((folder / name for name in NARRATIVE_NAMES if (folder / name).is_file()), None)
     if narrative is None:
         present = sorted(p.name for p in folder.iterdir())[:10]
-        raise ReportError(f"case folder has no narrative; expected one of {', '.join(NARRATIVE_NAMES)} "
+        raise CaseInputError(f"case folder has no narrative; expected one of {', '.join(NARRATIVE_NAMES)} "
                           f"(found: {', '.join(present) or 'nothing'})", folder)
     sketch = next((folder / name for name in SKETCH_NAMES if (folder / name).is_file()), None)
     if sketch is not None:
@@ -82,10 +82,10 @@ def read_narrative(path: Path) -> str:
         text = _decode(data, path)
     text = _tidy(text)
     if len(text) < MIN_NARRATIVE_CHARS:
-        raise ReportError(f"narrative is empty or too short ({len(text)} characters); a crash narrative "
+        raise CaseInputError(f"narrative is empty or too short ({len(text)} characters); a crash narrative "
                           f"describes the vehicles and the crash in sentences", path)
     if len(text) > MAX_NARRATIVE_CHARS:
-        raise ReportError(f"narrative has {len(text)} characters; at most {MAX_NARRATIVE_CHARS} are accepted "
+        raise CaseInputError(f"narrative has {len(text)} characters; at most {MAX_NARRATIVE_CHARS} are accepted "
                           f"(is this a whole case file rather than its narrative?)", path)
     return text
 
@@ -94,7 +94,7 @@ def check_sketch(path: Path) -> None:
     """Refuse a sketch that is unreadable, too large, or not a JPEG/PNG image."""
     head = _read_bytes(path, MAX_SKETCH_BYTES)[:8]
     if not any(head.startswith(magic) for magic in _IMAGE_MAGIC):
-        raise ReportError(f"sketch is not a JPEG or PNG image (starts with {head[:4]!r}); allowed: "
+        raise CaseInputError(f"sketch is not a JPEG or PNG image (starts with {head[:4]!r}); allowed: "
                           f"{', '.join(SKETCH_NAMES)}", path)
 
 
@@ -102,15 +102,15 @@ def _read_bytes(path: Path, limit: int) -> bytes:
     try:
         size = path.stat().st_size
         if size > limit:
-            raise ReportError(f"file is {size} bytes; at most {limit} bytes are accepted", path)
+            raise CaseInputError(f"file is {size} bytes; at most {limit} bytes are accepted", path)
         return path.read_bytes()
     except OSError as exc:
-        raise ReportError(f"cannot read file: {exc.strerror or exc}", path) from None
+        raise CaseInputError(f"cannot read file: {exc.strerror or exc}", path) from None
 
 
 def _decode(data: bytes, path: Path) -> str:
     if b"\x00" in data[:65536]:
-        raise ReportError("contains NUL bytes: binary data, not a text narrative", path)
+        raise CaseInputError("contains NUL bytes: binary data, not a text narrative", path)
     try:
         text = data.decode("utf-8-sig")
     except UnicodeDecodeError:
@@ -118,10 +118,10 @@ def _decode(data: bytes, path: Path) -> str:
         try:
             text = data.decode("cp1252")
         except UnicodeDecodeError as exc:
-            raise ReportError(f"not UTF-8 or Windows-1252 text (byte {exc.start}); binary data?", path) from None
+            raise CaseInputError(f"not UTF-8 or Windows-1252 text (byte {exc.start}); binary data?", path) from None
     controls = sum(1 for ch in text if ord(ch) < 32 and ch not in "\t\n\r\f")
     if text and controls / len(text) > 0.01:
-        raise ReportError(f"{controls} control characters in {len(text)}: binary data, not a text narrative",
+        raise CaseInputError(f"{controls} control characters in {len(text)}: binary data, not a text narrative",
                           path)
     return text
 
@@ -131,13 +131,13 @@ def _pdf_text(path: Path) -> str:
     try:
         from pypdf import PdfReader  # optional: pip install pypdf
     except ImportError:
-        raise ReportError("reading a PDF narrative needs the 'pypdf' package (pip install pypdf); "
+        raise CaseInputError("reading a PDF narrative needs the 'pypdf' package (pip install pypdf); "
                           "or save the narrative as narrative.txt", path) from None
     try:
         reader = PdfReader(str(path))
         return "\n".join(page.extract_text() or "" for page in reader.pages)
     except Exception as exc:  # pypdf raises many unrelated types on damaged files
-        raise ReportError(f"cannot read PDF text: {exc}", path) from None
+        raise CaseInputError(f"cannot read PDF text: {exc}", path) from None
 
 
 def _tidy(text: str) -> str:
