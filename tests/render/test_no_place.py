@@ -64,3 +64,28 @@ def test_simulate_refuses_before_sampling_naming_the_file_and_fields(tmp_path):
     assert str(path) in result.output and "actors.ego.behavior (turn_left)" in result.output
     assert "actors.npc1.position" in result.output
     assert not (tmp_path / "run").exists()
+
+
+BESIDE_NPC = """
+dsl_version: 1
+scenario_id: beside-npc
+environment: {weather: clear, time_of_day: daytime, road_surface: dry}
+road_network: {road_type: straight, number_of_ways: 2, number_of_lanes: 2, road_marker: double_solid_line,
+               traffic_signs: [speed_limit_sign], speed_limit_mph: 45}
+actors:
+  ego: {label: V1, type: car, behavior: go_forward, position: {reference: road, relation: behind}}
+  npc1: {label: V2, type: car, behavior: go_forward, position: {reference: ego, relation: front, heading: same_direction}}
+  npc2: {label: V3, type: car, behavior: go_forward, position: {reference: npc1, relation: right, heading: same_direction}}
+oracle: []
+"""
+
+
+def test_an_npc_beside_another_npc_with_no_lane_there_is_named(tmp_path):
+    """The map is widened for actors beside the ego, not beside an NPC: npc2 on npc1's right has no lane."""
+    scenario = loads(BESIDE_NPC)
+    validate(scenario)
+    rendered = render(scenario, tmp_path, cache_dir=CACHE)
+    with pytest.raises(SampleError) as info:
+        sample_scenes(rendered.program, 2, seed=1)
+    assert "actors.npc2.position (beside npc1 on its right)" in str(info.value)
+    assert "no place for npc2 once ego, npc1 are placed" in str(info.value)
