@@ -74,8 +74,10 @@ road_network: {road_type: straight, number_of_ways: 2, number_of_lanes: 2, road_
                traffic_signs: [speed_limit_sign], speed_limit_mph: 45}
 actors:
   ego: {label: V1, type: car, behavior: go_forward, position: {reference: road, relation: behind}}
-  npc1: {label: V2, type: car, behavior: go_forward, position: {reference: ego, relation: front, heading: same_direction}}
-  npc2: {label: V3, type: car, behavior: go_forward, position: {reference: npc1, relation: right, heading: same_direction}}
+  npc1: {label: V2, type: car, behavior: go_forward,
+         position: {reference: ego, relation: front, heading: same_direction}}
+  npc2: {label: V3, type: car, behavior: go_forward,
+         position: {reference: npc1, relation: right, heading: same_direction}}
 oracle: []
 """
 
