@@ -99,3 +99,15 @@ def test_files_without_a_sequence_fall_back_or_expect_no_contact(collisions):
     [verdict] = evaluate(tables(crossing), scenario).verdicts.to_pylist()
     assert verdict["area_match"] is None  # no reported areas to compare
     assert verdict["first_contact"] is (collisions is None)  # fallback: the expected angle crash ego-npc1
+
+
+def test_one_vehicle_with_a_written_empty_sequence_and_no_oracle_reproduces():
+    # rules.md: every monitored oracle entry observed (none written) and the written sequence ([]) happened;
+    # e.g. a lone car that struck an animal (animals are never actors)
+    scenario = loads((EXAMPLES / "3-C5-2017-002" / "golden.yaml").read_text(encoding="utf-8"))
+    assert scenario.oracle == [] and scenario.collisions == [] and not scenario.npcs
+    [verdict] = evaluate(tables({"ego": track(STEPS, x0=0.0, speed=10.0)}), scenario).verdicts.to_pylist()
+    assert verdict["reproduced"] and verdict["reason"] == "reproduced: one vehicle, no contact between actors"
+    unwritten = scenario.model_copy(update={"collisions": None})
+    [verdict] = evaluate(tables({"ego": track(STEPS, x0=0.0, speed=10.0)}), unwritten).verdicts.to_pylist()
+    assert not verdict["reproduced"] and verdict["reason"].startswith("nothing observable")

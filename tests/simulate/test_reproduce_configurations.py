@@ -111,7 +111,6 @@ def run(text: str, tmp_path, n: int = N, seed: int = 7) -> dict:
 
 
 KNOWN_GAPS = {  # configurations the planner does not reproduce yet (issue 10): kept as strict expected failures
-    "head_on_wrong_way_divided": "the wrong-way vehicle is placed in the other carriageway of a divided road",
     "turning_into_the_lane": "a right turn into the through lane is met in about half the variations (the "
                              "striker cannot slow enough once the turner pulls away from its stop line)",
 }
@@ -136,7 +135,6 @@ CASCADE = scenario(
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason="a square rear-end pushes the struck car along its lane: no lateral push yet")
 def test_cascade_a_rear_end_pushes_the_struck_car_into_the_next_lane(tmp_path):
     summary = run(CASCADE, tmp_path)
     rows = pq.read_table(tmp_path / "collisions_classified.parquet").to_pylist()

@@ -231,8 +231,9 @@ def verdict_table(arrays: TraceArrays, outcomes: dict[str, RuleOutcome], collisi
             area_match.append(match.area_match)
             label = ("no contact between actors" if not reported else
                      "crash sequence " + ", ".join(f"{c.striking}-{c.struck} {c.class_.value}" for c in reported))
-            if scenario.npcs:  # with one vehicle, "no contact between actors" is no observation
-                (seen if match.sequence else missing).append(label)
+            # a written sequence is an observation with one vehicle too (rules.md: each monitored oracle entry,
+            # none may be written, and the sequence, [] here, happened): a lone vehicle touched no other actor
+            (seen if match.sequence else missing).append(label if scenario.npcs else "one vehicle, " + label)
         elif expected is not None:
             label = f"{expected.label()} collision {expected.actor_a}-{expected.actor_b}"
 

@@ -184,5 +184,6 @@ class BehaviorDriver(Driver):
             spin = np.where(ctx.lateral_target >= 0, SPIN_RATE, -SPIN_RATE)
             accel = np.where(triggered, -3.0, accel)
         else:
-            offset = ctx.initial_offset * np.where(obs.t < 2.0, 1.0, 0.0)
+            # settles onto its lane's centre after its start, or holds the offset its plan gives it
+            offset = np.where(obs.t < 2.0, ctx.initial_offset, ctx.lateral_target)
         return Action(accel=accel, lateral_offset=offset, lose_control=lose, spin_rate=spin)

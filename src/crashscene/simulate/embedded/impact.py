@@ -22,6 +22,7 @@ MU_CONTACT = 0.4  # [-] friction between the two bodies along the contact face
 ROLL_FRACTION = 0.35  # [-] rolling deceleration after an impact, as a fraction of mu*g
 REST_SPEED = 0.15  # [m/s] below this (and REST_YAW_RATE) a sliding vehicle is at rest
 REST_YAW_RATE = 0.05  # [rad/s]
+INSIDE_TOLERANCE = 0.02  # [m] a corner this close to the other body counts as inside it
 FACE_TOLERANCE = 0.15  # [m] corners this close to the deepest one form a face lying against the other
 
 
@@ -53,9 +54,16 @@ def contact_frame(xa, ya, yawa, la, wa, xb, yb, yawb, lb, wb) -> tuple[np.ndarra
     uy = np.choose(k, [ax[1] for ax in axes])
     sign = np.where(dx * ux + dy * uy >= 0, 1.0, -1.0)
     nx, ny = ux * sign, uy * sign
-    # a's face: b's corners reach into a (smallest projection on n); b's face: a's corners (largest)
+    # the contact point: the corners of either body that lie inside the other (an offset rear-end touches
+    # where the two faces overlap, not at the middle of either face); when none does, the deepest corners
+    # of the body reaching into the other's face
     bx, by = _corners(xb, yb, yawb, lb, wb)
     ax_, ay_ = _corners(xa, ya, yawa, la, wa)
+    in_a = _inside(bx, by, xa, ya, ca, sa, la, wa)
+    in_b = _inside(ax_, ay_, xb, yb, cb, sb, lb, wb)
+    n_in = in_a.sum(axis=0) + in_b.sum(axis=0)
+    qx = ((bx * in_a).sum(axis=0) + (ax_ * in_b).sum(axis=0)) / np.maximum(n_in, 1)
+    qy = ((by * in_a).sum(axis=0) + (ay_ * in_b).sum(axis=0)) / np.maximum(n_in, 1)
     on_a = k < 2
     proj_b = bx * nx + by * ny
     proj_a = -(ax_ * nx + ay_ * ny)
@@ -63,9 +71,16 @@ def contact_frame(xa, ya, yawa, la, wa, xb, yb, yawb, lb, wb) -> tuple[np.ndarra
     proj = np.where(on_a, proj_b, proj_a)
     near = proj <= proj.min(axis=0) + FACE_TOLERANCE
     count = near.sum(axis=0)
-    px = (cx * near).sum(axis=0) / count
-    py = (cy * near).sum(axis=0) / count
+    px = np.where(n_in > 0, qx, (cx * near).sum(axis=0) / count)
+    py = np.where(n_in > 0, qy, (cy * near).sum(axis=0) / count)
     return nx, ny, px, py
+
+
+def _inside(px, py, x, y, c, s, length, width) -> np.ndarray:
+    """(4, N) bool: which of the points (4, N) lie within the footprint at (x, y), heading (c, s) [m]."""
+    dx, dy = px - x, py - y
+    return (np.abs(dx * c + dy * s) <= length / 2 + INSIDE_TOLERANCE) \
+        & (np.abs(-dx * s + dy * c) <= width / 2 + INSIDE_TOLERANCE)
 
 
 def exchange(nx, ny, px, py, xa, ya, va, wa, ma, ia, xb, yb, vb, wb, mb, ib):

@@ -1,6 +1,8 @@
 """Timing plans of an embedded batch, per variation: when each actor starts, how fast it cruises and when its
 manoeuvre triggers, so that the paths conflict as the report says (see `timing` for the kinematics), and the
-signal phase that gives the anchor its green.
+signal phase that gives the anchor its green. In reproduce mode also the written crash sequence beyond its
+first contact: a wrong-way driver in its head-on partner's lane, and a cascade, where a third vehicle meets
+the car the first impact pushes (`cascade`).
 
 Every draw comes from the variation's own generator in a fixed order, so a plan depends only on
 (scenario, seed, variation index).
@@ -16,7 +18,7 @@ import numpy as np
 from crashscene.monitor.rules import Disposition
 from crashscene.scene import SampledScene
 from crashscene.simulate.drivers.behaviors import OVER_LIMIT, SPEEDING_CODES, speed_factor
-from crashscene.simulate.embedded import signals, timing
+from crashscene.simulate.embedded import cascade, signals, timing
 from crashscene.simulate.embedded import skid as skid_plan
 from crashscene.simulate.embedded.control import entry_before
 from crashscene.simulate.embedded.world import RouteArrays
@@ -31,6 +33,11 @@ LATERAL_BEHAVIORS = ("change_lane_left", "change_lane_right", "cross_centerline"
                      "leave_road")
 SYNC_SLACK = 0.8  # [s] an actor moved back to meet later is placed this much early (sync.Meeting slows it)
 START_MARGIN = 5.0  # [m] an actor moved back along its route stays this far from the route's start
+SPEEDING_RUN = 2.0  # [s] a striker charged with speeding drives this long before its impact (rules: 1 s over)
+CASCADE_WINDOW = 0.8  # [s] a later contact's striker arrives up to this long after the pushed car is in its path
+STOP_DECEL = 4.0  # [m/s2] a stopping driver's braking (drivers.behaviors.DECELERATE_RATE)
+STOP_NEAR_JUNCTION = 40.0  # [m] a stopping driver this close to a junction stops at its line
+WRONG_WAY_LEFT = 0.4  # [lanes] a drift across several lanes starts this far short of the partner's lane
 ADVANCE_MARGIN = 3.0  # [m] an actor advanced by its timing plan stays this far before its junction entry
 
 
@@ -49,6 +56,8 @@ class PlanContext:
     cond: float  # [-] condition factor on the posted limit
     default_limit: float  # [m/s] the DSL's posted limit, NaN if none
     friction: float  # [-] tyre-road friction coefficient
+    contacts: tuple[tuple[str, str, str, str, str], ...] = ()  # the written sequence, in order: (striking,
+    # struck, class, striking area, struck area)
 
 
 @dataclass
@@ -61,13 +70,14 @@ class Draws:
     green: float  # [s] green remaining for the anchor's axis
     spin: np.ndarray  # (A,) sign of an unplanned loss of control
     rotation: np.ndarray  # (A,) [-] where in its range a planned skid's rotation falls
+    cascade: np.ndarray  # (A,) [-] how late in its window a later contact's striker arrives
 
     @classmethod
     def take(cls, rng: np.random.Generator, n_a: int) -> Draws:
         return cls(offset=rng.normal(timing.ARRIVAL_OFFSET_MEAN, timing.ARRIVAL_OFFSET_SD, n_a),
                    lead=rng.uniform(0.8, 2.0, n_a), trigger=rng.uniform(1.0, 4.0, n_a),
                    green=rng.uniform(3.0, 15.0), spin=rng.choice([-1.0, 1.0], n_a),
-                   rotation=rng.uniform(0.0, 1.0, n_a))
+                   rotation=rng.uniform(0.0, 1.0, n_a), cascade=rng.uniform(0.0, 1.0, n_a))
 
 
 @dataclass
@@ -115,14 +125,12 @@ class VariationPlan:
               entry_control: np.ndarray, lateral_target: np.ndarray, lane_width: float) -> VariationPlan:
         """The plan of one variation from its scene's start rows (copied, never changed)."""
         n_a = len(ctx.columns)
-        plan = cls(ctx=ctx, scene=scene, draws=Draws(np.zeros(0), np.zeros(0), np.zeros(0), 0.0, np.zeros(0),
-                                                     np.zeros(0)),
-                   route=route, speed=speed, length=length, width=width, entry_control=entry_control,
-                   lane_width=lane_width, s0=s0.copy(), d0=d0.copy(), lateral_target=lateral_target.copy(),
-                   planned=np.zeros(n_a), speeds=np.zeros(n_a), scale=np.ones(n_a), hold=np.zeros(n_a), trigger=np.full(n_a, np.inf),
+        plan = cls(ctx=ctx, scene=scene, draws=Draws.take(rng, n_a), route=route, speed=speed, length=length,
+                   width=width, entry_control=entry_control, lane_width=lane_width, s0=s0.copy(), d0=d0.copy(),
+                   lateral_target=lateral_target.copy(), planned=np.zeros(n_a), speeds=np.zeros(n_a),
+                   scale=np.ones(n_a), hold=np.zeros(n_a), trigger=np.full(n_a, np.inf),
                    skids=np.full((n_a, 3), np.nan), moved=np.zeros(n_a, dtype=bool), drifted=np.zeros(n_a))
-        plan.plan_speeds()
-        plan.draws = Draws.take(rng, n_a)
+        plan.plan_speeds()  # draws nothing: the draws above are the variation's first, as always
         plan.anchor_speed = float(plan.speeds[ctx.anchor])
         plan.anchor_stop = plan.stop_dist(ctx.anchor)
         for a, col in enumerate(ctx.columns):
@@ -134,7 +142,11 @@ class VariationPlan:
             elif col.behavior in ("decelerate", "stop"):
                 plan.trigger[a] = plan.param(a, ("TRIGGER_TIME", "MANEUVER_TIME"), plan.draws.trigger[a])
             elif a != ctx.anchor and col.behavior != "static":
+                if ctx.reproduce and col.behavior == "go_forward":
+                    plan.enter_wrong_way(a)
                 plan.plan_junction(a, offset)
+        if ctx.reproduce:
+            plan.plan_cascade()
         plan.plan_signal_phase()
         return plan
 
@@ -205,8 +217,10 @@ class VariationPlan:
         else:
             t_trig = timing.lateral_trigger(gap, self.speeds[a], self.speeds[partner], opposite, dist, lead, rate)
         if t_trig < 0 and col.behavior in ("cross_centerline", "overtake") and opposite:
-            # too close for the whole manoeuvre: the actor is already drifting across at t = 0
-            shift = float(np.clip(-t_trig * rate, 0.0, abs(dist) * 0.6)) * math.copysign(1.0, dist)
+            # too close for the whole manoeuvre: the actor is already drifting across at t = 0; several
+            # lanes across (a wrong-way driver on a divided road), it has crossed all but the last part
+            reach = max(abs(dist) * 0.6, abs(dist) - WRONG_WAY_LEFT * self.lane_width)
+            shift = float(np.clip(-t_trig * rate, 0.0, reach)) * math.copysign(1.0, dist)
             self.d0[a] += shift
             self.drifted[a] = shift
         self.trigger[a] = max(0.0, t_trig)
@@ -277,6 +291,27 @@ class VariationPlan:
         self.skids[a] = (skid.spin_rate, skid.drift, skid.hold)
         self.trigger[a] = skid.trigger
         return True
+
+    def enter_wrong_way(self, a: int) -> None:
+        """A vehicle going straight that meets its written head-on partner coming the other way in another
+        lane, a partner that keeps its lane, drives against traffic in that lane (a wrong-way entry, by a
+        ramp or a crossover before the scene): it starts at the partner's offset from its route and keeps it."""
+        ctx, col = self.ctx, self.ctx.columns[a]
+        for b, other in enumerate(ctx.columns):
+            if b == a or ctx.classes.get(frozenset((col.role, other.role))) != "head_on" \
+                    or other.behavior in LATERAL_BEHAVIORS:
+                continue
+            partner = self.scene.actors[b]
+            if math.cos(partner.yaw - self.scene.actors[a].yaw) > -0.3:
+                continue
+            gap, lateral = _relative(ctx.arrays, self.route[a], self.s0[a], partner.x, partner.y)
+            if gap <= 0 or abs(lateral - self.d0[a]) < self.lane_width / 2:
+                continue
+            shift = lateral - self.d0[a]
+            self.d0[a] = lateral
+            self.drifted[a] = shift
+            self.lateral_target[a] = lateral
+            return
 
     # ---------------------------------------------------------------- junction conflicts
     def plan_junction(self, a: int, offset: float) -> None:
@@ -449,6 +484,163 @@ class VariationPlan:
             self.scale[anchor] = (lo + hi) / 2
         self.arrival_anchor = t_new
 
+    # ---------------------------------------------------------------- later contacts
+    def plan_cascade(self) -> None:
+        """A written sequence that starts with an end-on contact (a rear-end into a stopped car, a head-on) and
+        goes on with a third vehicle meeting the struck one: the striker hits the struck car off its centre
+        line, on the side that turns it (the impulse of cascade.pushed_path, the simulator's impact model) so
+        that the third vehicle meets it as the later contact's class says, and the third vehicle is placed to
+        reach the pushed car just after it is in its path."""
+        found = self._cascade_actors()
+        if found is None:
+            return
+        si, ti, xi, first_class, later = found
+        head_on = first_class == "head_on"
+        arrays, cols = self.ctx.arrays, self.ctx.columns
+        impact = self._first_impact(si, ti, head_on)
+        if impact is None:
+            return
+        t1, impact_s, v_t = impact
+        px, py, pyaw = (float(q) for q in arrays.point(np.array(self.route[ti]), np.array(impact_s)))
+        x_actor = self.scene.actors[xi]
+        _, lat_x = _relative(arrays, self.route[ti], self.s0[ti], x_actor.x, x_actor.y)
+        preferred = -1.0 if lat_x - self.d0[ti] >= 0 else 1.0
+        best, best_score = None, -1
+        for side in (preferred, -preferred):
+            meeting = self._pushed_meeting(si, ti, xi, side, head_on, v_t, (px, py, pyaw), later)
+            if meeting is None:
+                continue
+            # the written class first, then the side of the struck car it names
+            score = 2 * (meeting[2] == later[0]) + (meeting[3] == later[1])
+            if score > best_score:
+                best, best_score = (side, *meeting), score
+        if best is None:
+            return
+        side, k, gap_k, _, _, extent = best
+        arrive = t1 + (k + 1) * cascade.DT
+        # a striker drifting out of the lane ahead of it is no obstacle to a start behind it
+        passing = (si,) if self.ctx.columns[si].behavior in LATERAL_BEHAVIORS else ()
+        placed = _shift_start(self.ctx.arrays, xi, self.route, self.s0,
+                              gap_k - self.length[xi] / 2 - extent - self.speeds[xi] * arrive, self.length, self.d0,
+                              passing=passing)
+        if placed is None:
+            return
+        self.s0[xi] = placed
+        self.moved[xi] = True
+        # the striker holds its centre off the struck car's centre line, toward the corner it hits (its own
+        # left is the struck car's right when it comes the other way)
+        offset = side * cascade.CORNER * self.width[ti] * (-1.0 if head_on else 1.0)
+        if cols[si].behavior in LATERAL_BEHAVIORS:
+            self.lateral_target[si] += offset
+            return
+        _, lat_s = _relative(arrays, self.route[si], self.s0[si], px, py)
+        target = (self.lateral_target[si] if head_on else lat_s) + offset
+        self.drifted[si] += target - self.d0[si]
+        self.d0[si] = target
+        self.lateral_target[si] = target
+
+    def _first_impact(self, si: int, ti: int, head_on: bool) -> tuple[float, float, float] | None:
+        """(time [s], the struck actor's station [m], its speed [m/s]) of the first written contact: a rear-end
+        into a stopped car (a striker charged with speeding starts far enough back to be seen speeding), or a
+        head-on between two actors closing in; None when it cannot be told."""
+        arrays = self.ctx.arrays
+        v_s = self.speeds[si]
+        l_sum = (self.length[si] + self.length[ti]) / 2
+        if head_on:
+            v_t = self.speeds[ti]
+            other = self.scene.actors[si]
+            gap, _ = _relative(arrays, self.route[ti], self.s0[ti], other.x, other.y)
+            t1 = (gap - l_sum) / max(v_s + v_t, 0.5)
+            return (t1, self.s0[ti] + v_t * t1, v_t) if t1 > 0 else None
+        impact_s = self._stop_station(ti)
+        if impact_s is None:
+            return None
+        px, py, _ = (float(q) for q in arrays.point(np.array(self.route[ti]), np.array(impact_s)))
+        gap_s, _ = _relative(arrays, self.route[si], self.s0[si], px, py)
+        t1 = (gap_s - l_sum) / max(v_s, 0.5)
+        if 0 < t1 < SPEEDING_RUN and Disposition.SPEEDING in self.ctx.columns[si].traits:
+            # a driver charged with speeding is seen speeding before it strikes: it started further back
+            back = self.start_back(si, (SPEEDING_RUN - t1) * v_s)
+            if back is not None:
+                t1 = SPEEDING_RUN
+                self.s0[si] = back
+                self.moved[si] = True
+        return (t1, impact_s, 0.0) if t1 > 0 else None
+
+    def _pushed_meeting(self, si: int, ti: int, xi: int, side: float, head_on: bool, v_t: float,
+                        pose: tuple[float, float, float], later: tuple[str, str]
+                        ) -> tuple[int, float, str, str, float] | None:
+        """Where the third actor xi meets the pushed struck actor ti when the striker hits it on `side`: (step
+        of the pushed path, station ahead on xi's route [m], the class of that contact, the struck car's area
+        facing xi, its half extent across xi's path [m]): the step where that contact has the `later` (class,
+        area) written, else the one nearest a drawn moment in the window after the struck car enters xi's
+        path."""
+        arrays, cols = self.ctx.arrays, self.ctx.columns
+        px, py, pyaw = pose
+        fwd, left, yaw = cascade.pushed_path(self.speeds[si], v_t, side, cols[si].limits.mass,
+                                             cols[ti].limits.mass, float(self.length[si]), float(self.width[si]),
+                                             float(self.length[ti]), float(self.width[ti]), self.ctx.friction,
+                                             head_on=head_on)
+        wx, wy = cascade.to_world(px, py, pyaw, fwd, left)
+        hits = []
+        for k in range(len(wx)):
+            gap_k, lat_k = _relative(arrays, self.route[xi], self.s0[xi], float(wx[k]), float(wy[k]))
+            yaw_x = float(arrays.point(np.array(self.route[xi]), np.array(self.s0[xi] + gap_k))[2])
+            rel = pyaw + yaw[k] - yaw_x
+            extent = self.length[ti] / 2 * abs(math.sin(rel)) + self.width[ti] / 2 * abs(math.cos(rel))
+            if abs(lat_k - self.d0[xi]) < self.width[xi] / 2 + extent - 0.3 and gap_k > 0:
+                hits.append((k, gap_k, cascade.contact_class(rel), cascade.facing_area(pyaw + yaw[k], yaw_x),
+                             extent))
+        if not hits:
+            return None
+        want = hits[0][0] + self.draws.cascade[xi] * CASCADE_WINDOW / cascade.DT
+        return min(hits, key=lambda h: (h[2] != later[0], h[3] != later[1], abs(h[0] - want)))
+
+    def _cascade_actors(self) -> tuple[int, int, int, str, tuple[str, str]] | None:
+        """(striker, struck, third actor, first class, (later class, the struck actor's area in it)) of a
+        written end-on first contact (rear-end
+        into a stopped car, head-on) followed by a contact of the struck actor with a third one that drives
+        freely straight on; else None."""
+        seq = self.ctx.contacts
+        cols = self.ctx.columns
+        roles = [c.role for c in cols]
+        if len(seq) < 2 or seq[0][2] not in ("rear_end", "head_on") \
+                or not all(r in roles for c in seq for r in c[:2]):
+            return None
+        si, ti = roles.index(seq[0][0]), roles.index(seq[0][1])
+        for striking, struck, klass, striking_area, _ in seq[1:]:
+            pair = {striking, struck}
+            if roles[ti] in pair and roles[si] not in pair:
+                xi = roles.index((pair - {roles[ti]}).pop())
+                break
+        else:
+            return None
+        if cols[si].is_ads or cols[xi].is_ads or cols[xi].behavior != "go_forward":
+            return None
+        if seq[0][2] == "rear_end" and (cols[si].behavior != "go_forward"
+                                        or cols[ti].behavior not in ("stop", "static")):
+            return None
+        if seq[0][2] == "head_on" and (cols[ti].is_ads or cols[ti].behavior != "go_forward"
+                                       or cols[si].behavior not in ("go_forward", "overtake", "cross_centerline")):
+            return None
+        struck_area = next(c[4] for c in seq[1:] if {c[0], c[1]} == {roles[ti], roles[xi]})
+        return si, ti, xi, seq[0][2], (klass, struck_area if roles[ti] == struck else striking_area)
+
+    def _stop_station(self, a: int) -> float | None:
+        """[m] where a stopping (or static) actor stands still: after its trigger and braking, or at its line."""
+        v = self.speeds[a]
+        if self.ctx.columns[a].behavior == "static":
+            return float(self.s0[a])
+        trig = self.trigger[a]
+        if not np.isfinite(trig):
+            return None
+        s = self.s0[a] + v * trig + v * v / (2 * STOP_DECEL)
+        entries = self.ctx.arrays.entry_s[self.route[a]]
+        ahead = entries[np.isfinite(entries) & (entries > self.s0[a])]
+        if len(ahead) and ahead[0] - self.s0[a] < s - self.s0[a] + STOP_NEAR_JUNCTION:
+            s = min(s, ahead[0] - 1.0 - self.length[a] / 2)
+        return float(s)
+
     # ---------------------------------------------------------------- signals
     def plan_signal_phase(self) -> None:
         """Green for the anchor's axis at its nominal arrival at its first junction (red when it runs it)."""
@@ -489,11 +681,11 @@ def _same_lane(route: np.ndarray, d0: np.ndarray | None, a: int, b: int) -> bool
 
 
 def _shift_start(arrays: RouteArrays, a: int, route: np.ndarray, s0: np.ndarray, shift: float,
-                 length: np.ndarray, d0: np.ndarray | None = None) -> float | None:
+                 length: np.ndarray, d0: np.ndarray | None = None, passing: tuple[int, ...] = ()) -> float | None:
     """Station `shift` [m] along actor a's route from its start (negative: back), if the route has room and
     no other actor on the same route is in the way; else None."""
     if shift < 0:
-        return _start_back(arrays, a, route, s0, -shift, length, d0)
+        return _start_back(arrays, a, route, s0, -shift, length, d0, passing)
     new = s0[a] + shift
     if new > arrays.length[route[a]] - 100.0:
         return None
@@ -504,15 +696,16 @@ def _shift_start(arrays: RouteArrays, a: int, route: np.ndarray, s0: np.ndarray,
 
 
 def _start_back(arrays: RouteArrays, a: int, route: np.ndarray, s0: np.ndarray, dist: float,
-                length: np.ndarray, d0: np.ndarray | None = None) -> float | None:
+                length: np.ndarray, d0: np.ndarray | None = None, passing: tuple[int, ...] = ()) -> float | None:
     """Station `dist` [m] behind actor a's start on its route, if the route has room and no other actor on the
-    same route is within a car length and a margin of the new start; else None. (A,) rows of one variation."""
+    same route is within a car length and a margin of the new start, or between the two (unless it is
+    `passing`: leaving the lane); else None. (A,) rows of one variation."""
     new = s0[a] - dist
     if new < START_MARGIN:
         return None
     for b in range(len(route)):
         if _same_lane(route, d0, a, b) and (abs(s0[b] - new) < (length[a] + length[b]) / 2 + 4.0
-                                            or new < s0[b] < s0[a]):
+                                            or (new < s0[b] < s0[a] and b not in passing)):
             return None
     return float(new)
 

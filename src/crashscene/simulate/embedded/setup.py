@@ -333,7 +333,7 @@ def _timing_plans(scenario: Scenario, scenes: list[SampledScene], columns: list[
                       reproduce=settings.mode == "reproduce",
                       runs_red=Disposition.RUNS_RED in columns[anchor].traits, cond=factor,
                       default_limit=mph(scenario.road_network.speed_limit_mph),
-                      friction=friction(scenario, settings.conditions))
+                      friction=friction(scenario, settings.conditions), contacts=contact_sequence(scenario))
     plans = _TimingPlans.empty(*start.x.shape)
     for v, scene in enumerate(scenes):
         plan = VariationPlan.build(ctx, scene, variation_rng(scene.seed, scene.index), layout.route[v], start.s0[v],
@@ -357,7 +357,7 @@ def _apply_plan_moves(arrays: RouteArrays, route: np.ndarray, start: _StartGrid,
         y[vv, aa] += np.cos(ryaw) * plans.drifted[vv, aa]
     if plans.moved.any():
         vv, aa = np.nonzero(plans.moved)
-        keep = np.abs(d0[vv, aa]) > 1.0
+        keep = (np.abs(d0[vv, aa]) > 1.0) | (plans.drifted[vv, aa] != 0.0)  # a planned offset stays
         d0[vv, aa] = np.where(keep, d0[vv, aa], 0.0)
         px, py, yaw[vv, aa] = arrays.point(route[vv, aa], s0[vv, aa])
         x[vv, aa] = px - np.sin(yaw[vv, aa]) * d0[vv, aa]
@@ -381,6 +381,16 @@ def _initial_speeds(columns: list[ActorColumn], arrays: RouteArrays, route: np.n
             if stop is not None:
                 speed0[v, a] = min(speed0[v, a], math.sqrt(2.0 * STOP_APPROACH_DECEL * max(stop - 1.0, 0.0)))
     return speed0
+
+
+def contact_sequence(scenario: Scenario) -> tuple[tuple[str, str, str, str, str], ...]:
+    """The written crash sequence (DSL `collisions`) as (striking, struck, class, striking area, struck area),
+    in order."""
+    def token(value) -> str:
+        return str(getattr(value, "value", value))
+
+    return tuple((str(c.striking), str(c.struck), token(c.class_), token(c.striking_area), token(c.struck_area))
+                 for c in getattr(scenario, "collisions", None) or [])
 
 
 def contact_classes(scenario: Scenario) -> dict[frozenset[str], str]:

@@ -1,0 +1,83 @@
+"""The motion a first impact gives the struck vehicle, predicted for planning a later contact (a cascade).
+
+A rear-end can push the struck car out of its lane when it strikes one rear corner: the impulse
+(`impact.exchange`, the simulator's own model) turns the struck car and it slides (`impact.slide`) the
+way its nose points. `pushed_path` integrates that motion from the moment of contact, so that the plan
+can place the third vehicle of the written sequence where the pushed car will be, when it is there.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from crashscene.simulate.embedded import impact
+
+DT = 0.05  # [s] integration step of the prediction
+HORIZON = 4.0  # [s] how long after the impact the pushed car is followed
+SAME_BAND = math.radians(30.0)  # [rad] relative heading under which an end-on contact is rear-end (rules.md)
+RIGHT_ANGLE_BAND = (math.radians(60.0), math.radians(120.0))  # [rad] the angle class (rules.md)
+CORNER = 0.4  # [-] the striker's centre is this fraction of the struck car's width off its centre line
+
+
+def pushed_path(v_striker: float, v_struck: float, side: float, m_striker: float, m_struck: float,
+                l_striker: float, w_striker: float, l_struck: float, w_struck: float, friction: float,
+                head_on: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(forward, left, yaw) of the struck car every DT after a rear-end (or a head-on), in its own frame at
+    the impact ([m], [m], [rad]); the striker comes from behind (from ahead, the other way) at `v_striker`
+    [m/s], its centre `side` * CORNER * width to the struck car's left (side = +1) or right (-1); the struck
+    car moves at `v_struck` [m/s]."""
+    reach = (l_striker + l_struck) / 2 - 0.05
+    xa = np.array([reach if head_on else -reach])
+    ya = np.array([side * CORNER * w_struck])
+    one = np.ones(1)
+    yaw_a = (math.pi if head_on else 0.0) * one
+    nx, ny, px, py = impact.contact_frame(xa, ya, yaw_a, l_striker * one, w_striker * one,
+                                          0 * one, 0 * one, 0 * one, l_struck * one, w_struck * one)
+    ma, mb = m_striker * one, m_struck * one
+    ia = impact.yaw_inertia(ma, l_striker * one, w_striker * one)
+    ib = impact.yaw_inertia(mb, l_struck * one, w_struck * one)
+    va = np.array([[-v_striker if head_on else v_striker], [0.0]])
+    vb = np.array([[v_struck], [0.0]])
+    _, _, vb, wb, _ = impact.exchange(nx, ny, px, py, xa, ya, va, 0 * one, ma, ia, 0 * one, 0 * one, vb,
+                                      0 * one, mb, ib)
+    vx, vy, w = vb[0], vb[1], wb
+    x, y, yaw = np.zeros(1), np.zeros(1), np.zeros(1)
+    steps = int(HORIZON / DT)
+    out = np.zeros((3, steps))
+    for k in range(steps):
+        vx1, vy1, w1 = impact.slide(vx, vy, yaw, w, friction, l_struck * one, w_struck * one, DT)
+        x = x + 0.5 * (vx + vx1) * DT
+        y = y + 0.5 * (vy + vy1) * DT
+        yaw = yaw + 0.5 * (w + w1) * DT
+        vx, vy, w = vx1, vy1, w1
+        out[:, k] = x[0], y[0], yaw[0]
+    return out[0], out[1], out[2]
+
+
+def contact_class(relative_yaw: float) -> str:
+    """The class (rules.md) of a front-first contact at this relative heading [rad] of the two bodies."""
+    rel = abs(math.remainder(relative_yaw, 2 * math.pi))  # [0, pi]
+    if rel < SAME_BAND:
+        return "rear_end"
+    if rel > math.pi - SAME_BAND:
+        return "head_on"
+    if RIGHT_ANGLE_BAND[0] <= rel <= RIGHT_ANGLE_BAND[1]:
+        return "angle"
+    return "sideswipe"
+
+
+AREAS = ("front", "left", "rear", "right")  # a body's faces, counter-clockwise from its heading
+
+
+def facing_area(yaw_struck: float, yaw_striker: float) -> str:
+    """The face of the struck body [rad heading] that a striker coming at heading `yaw_striker` [rad] meets:
+    the one whose outward normal points most nearly back at it."""
+    toward = yaw_striker + math.pi
+    return max(zip(AREAS, range(4)), key=lambda f: math.cos(yaw_struck + f[1] * math.pi / 2 - toward))[0]
+
+
+def to_world(x0: float, y0: float, yaw0: float, fwd: np.ndarray, left: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """World coordinates [m] of points given in the frame of a pose (x0, y0, yaw0)."""
+    c, s = math.cos(yaw0), math.sin(yaw0)
+    return x0 + fwd * c - left * s, y0 + fwd * s + left * c
