@@ -18,6 +18,12 @@ import re
 from crashscene.extract.narrative import around, clip, label_at, last_label_before
 from crashscene.extract.rules_road import driveway_vehicle
 from crashscene.extract.rules_state import RulesState, relative_heading
+from crashscene.monitor.rules import rule_class
+
+
+def violation_of(code: str) -> str:
+    """The violation token the rule registered for `code` declares (a RegistryError for an unknown code)."""
+    return rule_class(code).violation
 
 
 class _Oracle:
@@ -27,10 +33,11 @@ class _Oracle:
         self.state = state
         self.entries: list[dict] = []
 
-    def add(self, code: str, violation: str, role: str, description: str, quote: str | None = None) -> None:
+    def add(self, code: str, role: str, description: str, quote: str | None = None) -> None:
+        """One entry; its violation token is the one the rule registered for `code` declares."""
         if any(e["code"] == code and e["actor"] == role for e in self.entries):
             return
-        self.entries.append({"code": code, "violation": violation, "actor": role,
+        self.entries.append({"code": code, "violation": violation_of(code), "actor": role,
                              "description": clip(description, 300)})
         if quote:
             self.state.note(f"oracle[{len(self.entries) - 1}]", quote)
@@ -93,23 +100,23 @@ def _manoeuvre_oracle(state: RulesState, road: dict, oracle: _Oracle) -> None:
         if label in too_fast and behavior != "lose_control":
             quote = around(text, too_fast[label])
         if behavior == "lose_control" or label in too_fast:
-            oracle.add("CVC_22350", "unsafe_speed", role,
+            oracle.add("CVC_22350", role,
                        f"{label} lost control or was driven too fast for the conditions.", quote)
         crossed = behavior in ("cross_centerline", "overtake") or (
             behavior == "lose_control" and "cross_centerline" in vehicle.flags)
         if crossed:
-            oracle.add("CVC_21650", "wrong_side", role, f"{label} entered the opposing lanes of the roadway.", quote)
+            oracle.add("CVC_21650", role, f"{label} entered the opposing lanes of the roadway.", quote)
             if road["road_marker"] == "double_solid_line":
-                oracle.add("CVC_21460", "double_line_crossing", role, f"{label} crossed the double solid centre line.",
+                oracle.add("CVC_21460", role, f"{label} crossed the double solid centre line.",
                            quote)
         # a vehicle that lost control or crossed into the lane changer's path is the one at fault
         other_at_fault = any(v.behavior in ("lose_control", "cross_centerline", "leave_road")
                              for v in state.vehicles.values() if v is not vehicle)
         if behavior.startswith("change_lane") and not other_at_fault:
-            oracle.add("CVC_22107", "unsafe_lane_change", role,
+            oracle.add("CVC_22107", role,
                        f"{label} changed lanes into the path of another vehicle.", quote)
         if label in speeding:
-            oracle.add("CVC_22349", "speed_limit", role, f"{label} exceeded the posted speed limit.",
+            oracle.add("CVC_22349", role, f"{label} exceeded the posted speed limit.",
                        around(text, speeding[label]))
         limit, speed = road.get("speed_limit_mph"), state.speeds.get(label)
         if limit and speed and speed > limit and state.uses("rules_oracle.stated_speed_above_the_limit"):
@@ -117,7 +124,7 @@ def _manoeuvre_oracle(state: RulesState, road: dict, oracle: _Oracle) -> None:
                        f"{label} was traveling at {speed:g} mph where {limit} mph is posted.",
                        state.evidence.get(f"actors.{role}.speed_mph"))
         if label in red and "traffic_light" in road["traffic_signs"]:
-            oracle.add("CVC_21453", "red_light", role, f"{label} entered the intersection against a red signal.",
+            oracle.add("CVC_21453", role, f"{label} entered the intersection against a red signal.",
                        around(text, red[label]))
 
 
@@ -151,29 +158,29 @@ def _junction_oracle(state: RulesState, road: dict, oracle: _Oracle) -> None:
         oncoming = "opposite_direction" in headings or (headings <= {None} and stated_oncoming and re.search(
             r"\boncoming\b|\bopposite direction\b", state.pre_crash + " " + state.crash_sentence, re.I))
         if vehicle.behavior == "turn_left" and oncoming and not (arrow or ran_red):
-            oracle.add("CVC_21801", "left_turn_yield", role,
+            oracle.add("CVC_21801", role,
                        f"{label} turned left across the path of oncoming traffic.", quote)
         if from_driveway == label:
-            oracle.add("CVC_21804", "driveway_yield", role, f"{label} left a driveway into the path of traffic.", quote)
+            oracle.add("CVC_21804", role, f"{label} left a driveway into the path of traffic.", quote)
             continue
         if not (headings & {"from_left", "from_right"} or _crossing_contact(state, label)):
             continue
         all_way = state.stop_controlled >= set(state.vehicles) and len(state.vehicles) > 1
         if "stop_sign" in devices and label in state.stop_controlled and not all_way:
             if label in ran_stop:
-                oracle.add("CVC_22450", "stop_sign", role, f"{label} did not stop at its stop sign.",
+                oracle.add("CVC_22450", role, f"{label} did not stop at its stop sign.",
                            around(text, ran_stop[label]))
             elif vehicle.behavior not in ("stop", "static"):  # stopped, or the stop is not stated, then entered
-                oracle.add("CVC_21802", "stop_sign_yield", role,
+                oracle.add("CVC_21802", role,
                            f"{label} left its stop-controlled approach into the path of cross traffic.", quote)
         elif "yield_sign" in devices and label in state.yield_controlled:
-            oracle.add("CVC_21803", "yield_sign", role, f"{label} did not yield at its yield sign to cross traffic.",
+            oracle.add("CVC_21803", role, f"{label} did not yield at its yield sign to cross traffic.",
                        quote)
         elif (not devices or all_way) and from_driveway is None and (
                 failed_to_yield == label if failed_to_yield else "from_right" in headings):
             # uncontrolled (or all-way stop) junction: the one the report says failed to yield, else the one
             # with the other on its right
-            oracle.add("CVC_21800", "intersection_right_of_way", role,
+            oracle.add("CVC_21800", role,
                        f"{label} entered the junction without yielding to the vehicle with priority.", quote)
 
 
@@ -207,11 +214,11 @@ def _sequence_oracle(state: RulesState, oracle: _Oracle) -> None:
         free = not contact.pushed and striker.label not in struck_before
         if (rear_end or in_path) and free and striker.behavior not in ("leave_road", "lose_control", "static"):
             if stopped:
-                oracle.add("CVC_22350", "unsafe_speed", striker.role,
+                oracle.add("CVC_22350", striker.role,
                            f"{striker.label} struck the stopped {struck.label} ahead: too fast for the traffic "
                            f"ahead.", contact.quote)
             else:
-                oracle.add("CVC_21703", "following_too_closely", striker.role,
+                oracle.add("CVC_21703", striker.role,
                            f"{striker.label} struck the moving {struck.label} from behind.", contact.quote)
         struck_before.add(struck.label)
 
