@@ -120,7 +120,7 @@ def _manoeuvre_oracle(state: RulesState, road: dict, oracle: _Oracle) -> None:
                        around(text, speeding[label]))
         limit, speed = road.get("speed_limit_mph"), state.speeds.get(label)
         if limit and speed and speed > limit and state.uses("rules_oracle.stated_speed_above_the_limit"):
-            oracle.add("CVC_22349", "speed_limit", role,
+            oracle.add("CVC_22349", role,
                        f"{label} was traveling at {speed:g} mph where {limit} mph is posted.",
                        state.evidence.get(f"actors.{role}.speed_mph"))
         if label in red and "traffic_light" in road["traffic_signs"]:
@@ -247,10 +247,10 @@ def _rear_end_by_phrase(state: RulesState, oracle: _Oracle) -> None:
                 continue
             if struck.behavior in ("stop", "static") or re.search(
                     rf"{struck.label}\b[^.]{{0,60}}\bstopped|stopped {struck.label}", text, re.I):
-                oracle.add("CVC_22350", "unsafe_speed", vehicle.role,
+                oracle.add("CVC_22350", vehicle.role,
                            f"{label} struck the stopped {struck.label} from behind: too fast for the traffic ahead.",
                            around(text, match))
             else:
-                oracle.add("CVC_21703", "following_too_closely", vehicle.role,
+                oracle.add("CVC_21703", vehicle.role,
                            f"{label} struck the moving {struck.label} from behind.", around(text, match))
             break
