@@ -470,3 +470,24 @@ def test_a_device_on_a_side_road_away_from_the_crash_is_left_out():
     s = _text("V1 was traveling north approaching an intersection controlled by traffic signals. V2 was stopped for "
               "the red signal ahead of V1. The front of V1 struck the rear of V2.")
     assert [t.value for t in s.road_network.traffic_signs] == ["traffic_light"]  # the queue of its signal
+
+
+STOP_NORTH = ("V1 was traveling east approaching a four-leg intersection. V2 was traveling north on the intersecting "
+              "road, which was controlled by a stop sign. ")
+
+
+def test_driving_through_or_not_obeying_a_device_is_running_it():
+    for told in ("V2 drove through the stop sign and the front of V2 struck the right side of V1.",
+                 "The driver of V2 failed to obey the stop sign. The front of V2 struck the right side of V1."):
+        assert _oracle(_text(STOP_NORTH + told)) == {("CVC_22450", "npc1")}, told
+    s = _text("V1 was traveling east approaching a four-leg intersection controlled by traffic signals. V2 was "
+              "traveling north. The driver of V2 failed to obey the traffic signal and the front of V2 struck the "
+              "right side of V1.")
+    assert _oracle(s) == {("CVC_21453", "npc1")}
+
+
+def test_stopped_then_failed_to_yield_went_on_into_cross_traffic():
+    s = _text(STOP_NORTH + "V2 stopped, then failed to yield the right-of-way to V1. The front of V1 struck the left "
+              "side of V2.")
+    assert s.actors["npc1"].behavior.value == "go_forward"
+    assert _oracle(s) == {("CVC_21802", "npc1")}

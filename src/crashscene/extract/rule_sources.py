@@ -83,6 +83,8 @@ RULE_SOURCES: dict[str, tuple[str, ...]] = {
     "rules_behavior.parked_in_apposition": (),
     "rules_oracle.failed_to_stop_at_an_uncontrolled_junction": (),
     "rules_road.junction_devices_only_at_a_junction": (),
+    "rules_oracle.disobeyed_device_phrasings": (),
+    "rules_behavior.failing_to_yield_after_a_stop_is_proceeding": (),
 }
 
 

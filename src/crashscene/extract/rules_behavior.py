@@ -218,9 +218,13 @@ def _resolve(state: RulesState, vehicle: Vehicle, found: list[Phrase]) -> tuple[
     for token in ("u_turn", "turn_left", "turn_right"):
         match = next((m for _, t, m in found if t == token), None)
         if match:
-            return ("stop", quote(stop)) if _waiting_to_turn(pre, vehicle, stop, match, state.uses("rules_behavior.stopped_to_turn_is_a_stop")) else (token, quote(match))
+            waiting = _waiting_to_turn(pre, vehicle, stop, match, state.uses("rules_behavior.stopped_to_turn_is_a_stop"))
+            return ("stop", quote(stop)) if waiting else (token, quote(match))
     if stop:
-        for proceed in re.finditer(_PROCEED, pre[stop.end():], re.I):
+        went_on = _PROCEED
+        if state.uses("rules_behavior.failing_to_yield_after_a_stop_is_proceeding"):
+            went_on += r"|\bfail(?:ed|ing|s)? to yield|\bpulled into"  # "stopped, then failed to yield the right-of-way"
+        for proceed in re.finditer(went_on, pre[stop.end():], re.I):
             if label_at(pre, stop.end() + proceed.start()) in (vehicle.label, None):
                 return "go_forward", quote(stop)  # stopped at the sign, then went on (convention 8)
         return "stop", quote(stop)

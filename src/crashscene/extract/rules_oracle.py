@@ -88,12 +88,19 @@ _RAN_STOP = (r"fail(?:ed|ing|s)? to stop (?:at|for) the stop|did not stop at the
              r"(?:complete |full )?stop\b(?! for (?:the )?(?:traffic|vehicles?|V[1-9]))")
 
 
+# "failed to obey the traffic signal", "drove through the stop sign"
+_MORE_RED = r"|fail(?:ed|ing|s)? to (?:obey|observe|comply with) the (?:traffic )?(?:control )?(?:signal|light)"
+_MORE_RAN_STOP = (r"|(?:drove|traveled|travelled|went|proceeded|continued|ran|rolled) (?:straight )?(?:past|through) "
+                  r"(?:the|a) stop sign|fail(?:ed|ing|s)? to (?:obey|observe|comply with) (?:the|a) stop sign")
+
+
 def _manoeuvre_oracle(state: RulesState, road: dict, oracle: _Oracle) -> None:
     """Codes that follow from a vehicle's own manoeuvre or stated speed, wherever it happens."""
     text = state.t.text
     too_fast = {label: match for label, match in reversed(stated(state, _TOO_FAST))}
     speeding = {label: match for label, match in reversed(stated(state, _SPEEDING))}
-    red = {label: match for label, match in reversed(stated(state, _RED)) if not (
+    more = state.uses("rules_oracle.disobeyed_device_phrasings")
+    red = {label: match for label, match in reversed(stated(state, _RED + (_MORE_RED if more else ""))) if not (
         state.uses("rules_oracle.red_light_only_when_disobeyed") and _obeyed(text, match))}
     for label, vehicle in state.vehicles.items():
         role, behavior, quote = vehicle.role, vehicle.behavior, vehicle.behavior_quote
@@ -145,7 +152,8 @@ def _junction_oracle(state: RulesState, road: dict, oracle: _Oracle) -> None:
     devices = set(road["traffic_signs"]) - {"speed_limit_sign"}
     from_driveway = driveway_vehicle(state)
     failed_to_yield = next((label for label, _ in stated(state, r"fail(?:ed|ing|s)? to yield|did not yield")), None)
-    ran_stop = {label: match for label, match in reversed(stated(state, _RAN_STOP))}
+    more = state.uses("rules_oracle.disobeyed_device_phrasings")
+    ran_stop = {label: match for label, match in reversed(stated(state, _RAN_STOP + (_MORE_RAN_STOP if more else "")))}
     if not failed_to_yield and not devices and ran_stop and \
             state.uses("rules_oracle.failed_to_stop_at_an_uncontrolled_junction"):
         failed_to_yield = next(iter(ran_stop))  # no device: the one stated as not stopping lacks priority
