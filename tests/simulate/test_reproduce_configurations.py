@@ -81,6 +81,11 @@ CONFIGURATIONS = {
         actor("ego", "go_forward", "reference: road, relation: behind")
         + actor("npc1", "decelerate", "reference: ego, relation: front, heading: same_direction"),
         oracle("CVC_21703", "following_too_closely", "ego"), contact("ego", "npc1", "front", "rear", "rear_end")),
+    "rear_end_pulling_out": scenario(
+        "one_way", "speed_limit_sign", 55,
+        actor("ego", "change_lane_left", "reference: road, relation: behind")
+        + actor("npc1", "go_forward", "reference: ego, relation: front, heading: same_direction"),
+        oracle("CVC_21703", "following_too_closely", "ego"), contact("ego", "npc1", "front", "rear", "rear_end")),
     "head_on_drift": scenario(
         "two_way", "speed_limit_sign", 45,
         actor("ego", "go_forward", "reference: road, relation: behind")
