@@ -95,6 +95,11 @@ MORE_PHRASES = (
         r"\bentered an? (?:\w+ )?(?:yaw|skid|spin|rotation)\b", r"\blost (?:traction|its traction|grip)",
         r"\bover-?correct(?:ed|ing|ion)\b"), "lose_control"),
     ("rules_behavior.sitting_in_traffic_is_a_stop", r"\bsitting (?:stopped |still )?(?:in|at)\b", "stop"),
+    # "made an unsafe lane change into the right lane": groups = side, target lane, its direction (as _LANE_CHANGE)
+    ("rules_behavior.made_a_lane_change",
+     r"(?:made|making|initiat\w+|attempt\w+|perform\w+)\s+an?\s+(?:[\w-]+\s+){0,2}lane change\s+(?:to\s+the\s+"
+     r"(left|right)|[^.]{0,30}?into the (left|right|adjacent|middle|center|inside|outside|(?:north|south|east|west)bound)"
+     r"\s*((?:north|south|east|west)bound)?)", "lane_change"),
 )
 # manoeuvres where the first one stated is the primary one (convention 8: crossed first -> cross_centerline)
 _EVENTS = ("lose_control", "cross_centerline", "leave_road", "overtake", "lane_change", "lane_change_side",
