@@ -102,12 +102,14 @@ def main() -> int:
     parser.add_argument("--json", type=Path, help="also write the rows as JSON here")
     args = parser.parse_args()
     root = REPO / "examples" / "ciren"
-    cases = [p for p in sorted(root.iterdir()) if (p / "golden.yaml").is_file() and load_file(p / "golden.yaml").collisions]
+    cases = [p for p in sorted(root.iterdir())
+             if (p / "golden.yaml").is_file() and load_file(p / "golden.yaml").collisions]
     if args.cases:
         wanted = set(args.cases.split(","))
         cases = [p for p in cases if p.name in wanted]
     rows = []
-    print(f"{'case':<16} {'e2e':>5} {'self':>5} {'golden':>6} {'s':>5}  extracted != golden (fields the simulation sees)")
+    print(f"{'case':<16} {'e2e':>5} {'self':>5} {'golden':>6} {'s':>5}  "
+          "extracted != golden (fields the simulation sees)")
     with tempfile.TemporaryDirectory(prefix="bench-e2e-") as tmp:
         for case in cases:
             try:

@@ -491,3 +491,20 @@ def test_stopped_then_failed_to_yield_went_on_into_cross_traffic():
               "side of V2.")
     assert s.actors["npc1"].behavior.value == "go_forward"
     assert _oracle(s) == {("CVC_21802", "npc1")}
+
+
+def test_a_bend_is_a_curve_and_a_side_stated_for_oncoming_traffic_is_turned_round():
+    crash = " V1 crossed the center line and the front of V1 struck the front of V2, which was traveling south."
+    s = _text("V1 was traveling north on a two-lane road that bends to the right." + crash)
+    assert (s.road_network.road_type.value, s.road_network.curve_direction.value) == ("curve", "right")
+    s = _text("V1 was traveling north on a two-lane road. For southbound traffic the road curved to the left." + crash)
+    assert (s.road_network.road_type.value, s.road_network.curve_direction.value) == ("curve", "right")
+
+
+def test_made_a_lane_change_into_a_lane_is_a_lane_change_to_that_side():
+    s = _text("V1 was traveling north in the right lane of a four-lane divided highway. V2 was traveling north in the "
+              "left lane and made an unsafe lane change into the right lane. The right side of V2 struck the left "
+              "side of V1.")
+    npc = s.actors["npc1"]
+    assert (npc.behavior.value, npc.position.relation.value) == ("change_lane_right", "left")
+    assert _oracle(s) == {("CVC_22107", "npc1")}

@@ -9,8 +9,10 @@ the fields it wins or loses on its source cases and on the others. A rule that w
 them; one that wins elsewhere generalises to cases it was not written from.
 
 What it proves, and what not: the rules written before the record existed (`rule_sources.ROUND_ONE`) stay on
-in both passes, so the figure is a held-out measure of the recorded rules on top of that base, and an upper
-bound for new reports.
+in both passes, and a switched-off rule falls back to the first-round reading it replaced, so the figure is a
+held-out measure of the recorded rules on top of that base, and an upper bound for new reports. A field no
+recorded rule changes scores the same in both passes; rules written from the conventions on synthetic
+narratives (`FROM_CONVENTIONS`) change no bundled case, so only reports outside the repository measure them.
 """
 from __future__ import annotations
 

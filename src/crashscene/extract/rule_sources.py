@@ -85,6 +85,9 @@ RULE_SOURCES: dict[str, tuple[str, ...]] = {
     "rules_road.junction_devices_only_at_a_junction": (),
     "rules_oracle.disobeyed_device_phrasings": (),
     "rules_behavior.failing_to_yield_after_a_stop_is_proceeding": (),
+    "rules_road.a_bend_is_a_curve": (),
+    "rules_road.curve_side_for_a_stated_direction": (),
+    "rules_behavior.made_a_lane_change": (),
 }
 
 

@@ -90,10 +90,16 @@ PHRASES = (
 # general phrasings of the same manoeuvres (dsl.md convention 8), each a recorded switch (rule_sources)
 MORE_PHRASES = (
     ("rules_behavior.skids_slides_and_traction", _any(
-        r"\bskid(?:ded|ding) (?:sideways|out of control|across|into the (?:opposing|oncoming|other))", r"\bbegan (?:to )?slid(?:e|ing)", r"\bslid (?:sideways|out of control)",
+        r"\bskid(?:ded|ding) (?:sideways|out of control|across|into the (?:opposing|oncoming|other))",
+        r"\bbegan (?:to )?slid(?:e|ing)", r"\bslid (?:sideways|out of control)",
         r"\bentered an? (?:\w+ )?(?:yaw|skid|spin|rotation)\b", r"\blost (?:traction|its traction|grip)",
         r"\bover-?correct(?:ed|ing|ion)\b"), "lose_control"),
     ("rules_behavior.sitting_in_traffic_is_a_stop", r"\bsitting (?:stopped |still )?(?:in|at)\b", "stop"),
+    # "made an unsafe lane change into the right lane": groups = side, target lane, its direction (as _LANE_CHANGE)
+    ("rules_behavior.made_a_lane_change",
+     r"(?:made|making|initiat\w+|attempt\w+|perform\w+)\s+an?\s+(?:[\w-]+\s+){0,2}lane change\s+(?:to\s+the\s+"
+     r"(left|right)|[^.]{0,30}?into the (left|right|adjacent|middle|center|inside|outside|(?:north|south|east|west)bound)"
+     r"\s*((?:north|south|east|west)bound)?)", "lane_change"),
 )
 # manoeuvres where the first one stated is the primary one (convention 8: crossed first -> cross_centerline)
 _EVENTS = ("lose_control", "cross_centerline", "leave_road", "overtake", "lane_change", "lane_change_side",
@@ -218,12 +224,13 @@ def _resolve(state: RulesState, vehicle: Vehicle, found: list[Phrase]) -> tuple[
     for token in ("u_turn", "turn_left", "turn_right"):
         match = next((m for _, t, m in found if t == token), None)
         if match:
-            waiting = _waiting_to_turn(pre, vehicle, stop, match, state.uses("rules_behavior.stopped_to_turn_is_a_stop"))
+            stop_to = state.uses("rules_behavior.stopped_to_turn_is_a_stop")
+            waiting = _waiting_to_turn(pre, vehicle, stop, match, stop_to)
             return ("stop", quote(stop)) if waiting else (token, quote(match))
     if stop:
         went_on = _PROCEED
         if state.uses("rules_behavior.failing_to_yield_after_a_stop_is_proceeding"):
-            went_on += r"|\bfail(?:ed|ing|s)? to yield|\bpulled into"  # "stopped, then failed to yield the right-of-way"
+            went_on += r"|\bfail(?:ed|ing|s)? to yield|\bpulled into"  # "stopped, then failed to yield"
         for proceed in re.finditer(went_on, pre[stop.end():], re.I):
             if label_at(pre, stop.end() + proceed.start()) in (vehicle.label, None):
                 return "go_forward", quote(stop)  # stopped at the sign, then went on (convention 8)

@@ -126,7 +126,8 @@ def _contacts(state: RulesState) -> list[Contact]:
     two = len(state.vehicles) == 2 and state.uses("rules_collisions.the_two_vehicles_collided")
     pair = r"(?:the\s+two|both)\s+vehicles" if two else r"(?!)"
     collided = state.uses("rules_collisions.collided_head_on_at_fault")
-    for match in () if not collided else re.finditer(rf"\b(?:(V[1-9])\s+and\s+(V[1-9])|{pair})\s+(?:then\s+|subsequently\s+)?"
+    for match in () if not collided else re.finditer(rf"\b(?:(V[1-9])\s+and\s+(V[1-9])|{pair})\s+"
+                                                     r"(?:then\s+|subsequently\s+)?"
                              r"(?:collided|crashed)\b(?!\s+with)", text, re.I):
         first, second = (match.group(1), match.group(2)) if match.group(1) else ("V1", _second(state))
         striker, struck = _at_fault_first(state, first, second)
@@ -145,7 +146,8 @@ def _contacts(state: RulesState) -> list[Contact]:
             contact.guessed = True
             found.append(contact)
     which = r",\s*(?:which|that)" if state.uses("rules_collisions.which_was_pushed_into") else r"(?!)"
-    for match in re.finditer(rf"\b(V[1-9])(?:{which})?\s+(?:was|were)\s+(?:then\s+)?(?:pushed|propelled|redirected|forced)\s+"
+    for match in re.finditer(rf"\b(V[1-9])(?:{which})?\s+(?:was|were)\s+(?:then\s+)?"
+                             r"(?:pushed|propelled|redirected|forced)\s+"
                              r"(?:\w+\s+){0,4}?into\s+(?:the\s+(?:rear|back|side|front)\s+of\s+)?(V[1-9])\b",
                              text, re.I):
         contact = _finish(text, match, Side(match.group(1)), Side(match.group(2)), match.end())

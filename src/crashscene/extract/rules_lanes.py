@@ -70,7 +70,8 @@ def count_lanes(state: RulesState, road_text: str, ways: int) -> int:
         quote = around(road_text, each)
     elif state.uses("rules_lanes.lanes_in_each_direction"):
         # "three lanes in each direction", "two travel lanes per direction"
-        each = re.search(rf"\b{NUM}\s+(?:through\s+|travel\s+)?lanes?\s+(?:in\s+each|per|for\s+each|each)\s+(?:direction|way)\b",
+        each = re.search(rf"\b{NUM}\s+(?:through\s+|travel\s+)?lanes?\s+(?:in\s+each|per|for\s+each|each)\s+"
+                         r"(?:direction|way)\b",
                          road_text, re.I)
         if each and count_word(each.group(1)) and not per_direction:
             number = count_word(each.group(1))

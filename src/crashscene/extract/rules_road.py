@@ -194,7 +194,8 @@ def _road_type(state: RulesState) -> tuple[str, str | None]:
     junction = re.search(r"\bintersection\b|\bjunction\b|\bintersecting\b", pre, re.I)
     turns_in = re.search(rf"\b(?:into|onto|to enter)\s+(?:a |the |an )?{_DRIVEWAY}", pre, re.I)
     from_access = bool(three and _ACCESS.search(three.group(0)) and (driveway_vehicle(state) is not None or turns_in))
-    if not from_access and driveway_vehicle(state) is not None and state.uses("rules_road.leaving_an_access_is_a_junction"):
+    if not from_access and driveway_vehicle(state) is not None and \
+            state.uses("rules_road.leaving_an_access_is_a_junction"):
         # "exiting a parking lot", "pulled out of a private drive": the access is the third leg (convention 2)
         three, from_access = re.search(_DRIVEWAY, text, re.I), True
     legs = None
@@ -205,12 +206,15 @@ def _road_type(state: RulesState) -> tuple[str, str | None]:
         legs = 4
         state.note("road_network.road_type", around(text, four) if four else around(pre, junction))
     curve = None
-    curve_match = re.search(r"\bcurv(?:e|es|ed|ing)\b", pre, re.I)
+    bends = state.uses("rules_road.a_bend_is_a_curve")  # "a road that bends to the right"
+    curve_match = re.search(r"\bcurv(?:e|es|ed|ing)\b" + (r"|\bbend(?:s|ing)?\b" if bends else ""), pre, re.I)
     direction = None
     if curve_match:
         window = pre[max(0, curve_match.start() - 60):curve_match.end() + 40]
         side = re.search(r"\b(left|right)(?:-hand)?\s+curve|curve[sd]?\s+(?:to\s+the\s+)?(left|right)|"
-                         r"curved\s+(?:to\s+the\s+)?(left|right)", pre, re.I)
+                         r"curved\s+(?:to\s+the\s+)?(left|right)"
+                         + (r"|\b(left|right)(?:-hand)?\s+bend|bend(?:s|ing)?\s+(?:to\s+the\s+)?(left|right)"
+                            if bends else ""), pre, re.I)
         if side:
             direction = _as_ego_sees_it(state, pre, side, next(g for g in side.groups() if g).lower())
         if not re.search(r"\bstraight\b[^.]{0,40}\bcurv|no curve", window, re.I):
@@ -237,7 +241,11 @@ def _as_ego_sees_it(state: RulesState, text: str, match: re.Match, side: str) ->
     other = None
     if owner:
         other = state.vehicles.get(owner.group(1) or owner.group(2))
-    heading = re.search(rf"heading (?:{DIR} )?to(?:wards?)? (?:the )?{DIR}|in the {DIR}bound direction", sentence, re.I)
+    stated = ""
+    if state.uses("rules_road.curve_side_for_a_stated_direction"):  # "for southbound traffic the road curved left"
+        stated = rf"|for {DIR}bound (?:traffic|vehicles|travel)"
+    heading = re.search(rf"heading (?:{DIR} )?to(?:wards?)? (?:the )?{DIR}|in the {DIR}bound direction{stated}",
+                        sentence, re.I)
     their_direction = other.direction if other and other.label != "V1" else None
     if heading:
         their_direction = next(g for g in heading.groups()[::-1] if g).lower()
@@ -339,7 +347,8 @@ MARKERS = (
 # more centre-line phrasings (convention 5): a yellow line is a centre line in the US, white ones separate lanes
 MORE_MARKERS = (
     # a "middle left-turn lane" at a junction is a turn bay, not a two-way left-turn lane
-    (r"continuous (?:cent(?:er|re) )?(?:two-way )?left[- ]turn(?:ing)? lane|two-way (?:cent(?:er|re) )?turn(?:ing)? lane",
+    (r"continuous (?:cent(?:er|re) )?(?:two-way )?left[- ]turn(?:ing)? lane|"
+     r"two-way (?:cent(?:er|re) )?turn(?:ing)? lane",
      "solid_and_broken_line"),
     (r"(?:no|without (?:a|any)) (?:painted |marked )?(?:cent(?:er|re)[- ]?line|(?:lane |road |pavement )?markings?)\b|"
      r"(?:was|were) not (?:painted|marked|striped)", "none"),

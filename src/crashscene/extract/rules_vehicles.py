@@ -51,7 +51,8 @@ def _direction_of(state: RulesState, label: str) -> tuple[str | None, str | None
     if state.uses("rules_vehicles.direction_in_any_clause"):
         # "struck the front of V2, which was traveling south", "V1 was traveling north and V2 was traveling east"
         match = re.search(rf"\b{label}\b\s*(?:\([^)]*\))?,?\s*(?:(?:which|that|who)\s+)?(?:was|had been)\s+"
-                          rf"(?:travel+ing|driving|heading|proceeding|going)\s+{DIR}(?:bound|ward)?\b", state.t.text, re.I)
+                          rf"(?:travel+ing|driving|heading|proceeding|going)\s+{DIR}(?:bound|ward)?\b",
+                          state.t.text, re.I)
         if match:
             clause_direction, clause = match.group(1).lower(), match.group(0)
     for sentence in subject_sentences(state, label):
