@@ -81,6 +81,11 @@ CONFIGURATIONS = {
         actor("ego", "go_forward", "reference: road, relation: behind")
         + actor("npc1", "decelerate", "reference: ego, relation: front, heading: same_direction"),
         oracle("CVC_21703", "following_too_closely", "ego"), contact("ego", "npc1", "front", "rear", "rear_end")),
+    "rear_end_pulling_out": scenario(
+        "one_way", "speed_limit_sign", 55,
+        actor("ego", "change_lane_left", "reference: road, relation: behind")
+        + actor("npc1", "go_forward", "reference: ego, relation: front, heading: same_direction"),
+        oracle("CVC_21703", "following_too_closely", "ego"), contact("ego", "npc1", "front", "rear", "rear_end")),
     "head_on_drift": scenario(
         "two_way", "speed_limit_sign", 45,
         actor("ego", "go_forward", "reference: road, relation: behind")
@@ -96,6 +101,13 @@ CONFIGURATIONS = {
         actor("ego", "go_forward", "reference: road, relation: behind")
         + actor("npc1", "go_forward", "reference: ego, relation: front, heading: opposite_direction"),
         oracle("CVC_21650", "wrong_side", "npc1"), contact("npc1", "ego", "front", "front", "head_on")),
+    "rear_end_chain": scenario(
+        "divided", "speed_limit_sign", 55,
+        actor("ego", "decelerate", "reference: road, relation: behind")
+        + actor("npc1", "go_forward", "reference: ego, relation: behind, heading: same_direction", "truck")
+        + actor("npc2", "decelerate", "reference: ego, relation: behind, heading: same_direction"),
+        oracle("CVC_21703", "following_too_closely", "npc1"),
+        contact("npc1", "npc2", "front", "rear", "rear_end") + contact("npc1", "ego", "front", "rear", "rear_end")),
     "loss_of_control": scenario(
         "two_way", "speed_limit_sign", 45,
         actor("ego", "lose_control", "reference: road, relation: behind")

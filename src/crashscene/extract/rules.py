@@ -26,12 +26,15 @@ facts fill what the text leaves out (posted limit, signs, drawn centre lines).
 """
 from __future__ import annotations
 
+from collections.abc import Iterable
+
 from crashscene.dsl import Scenario, from_raw, validate
 from crashscene.dsl.errors import DslError
 from crashscene.extract.errors import CaseInputError, RulesError
 from crashscene.extract.narrative import Narrative, clip
 from crashscene.extract.nhtsa_xml import nhtsa_facts
 from crashscene.extract.case_input import Report
+from crashscene.extract.rule_sources import known_rule
 from crashscene.extract.rules_behavior import decide_behaviors
 from crashscene.extract.rules_collisions import decide_collisions
 from crashscene.extract.rules_environment import decide_environment
@@ -43,18 +46,21 @@ from crashscene.extract.rules_vehicles import find_vehicles, split_pre_crash
 from crashscene.extract.sketch import SketchFact
 
 
-def extract_rules(report: Report, facts: list[SketchFact] | None = None) -> Scenario:
+def extract_rules(report: Report, facts: list[SketchFact] | None = None, off: Iterable[str] = ()) -> Scenario:
     """Deterministic extraction of one report (and its sketch facts) into a validated `Scenario`.
 
     The report's case XML, when there is one, adds its coded speed limit and conditions after the sketch
-    facts (a damaged XML is skipped: it is a supplement, the narrative is the report)."""
+    facts (a damaged XML is skipped: it is a supplement, the narrative is the report). `off` names recorded
+    rules (crashscene.extract.rule_sources) to switch off: the held-out evaluation of a case switches off
+    the rules written from it."""
+    off = frozenset(known_rule(name) for name in off)
     facts = list(facts or [])
     if report.nhtsa_xml is not None:
         try:
             facts += nhtsa_facts(report.nhtsa_xml)
         except CaseInputError:
             pass
-    state = RulesState(report=report, facts=facts, t=Narrative(report.narrative))
+    state = RulesState(report=report, facts=facts, t=Narrative(report.narrative), off=off)
     find_vehicles(state)
     split_pre_crash(state)
     environment = decide_environment(state)

@@ -79,12 +79,27 @@ _RAMP = r"\b(?:entrance|on)[- ]ramp\b|\bacceleration lane\b"
 _PARKED_NAMED = (r"\b(?:parked|unoccupied|non-occupied|abandoned)\b[^.()]{{0,60}}\(\s*{label}\s*\)|"
                  r"\(\s*{label}\s*\)\s*(?:that|which)\s+was\s+(?:legally\s+)?(?:parked|unoccupied)|"
                  r"\b{label}\b[^.]{{0,80}}\bwas\s+(?:legally\s+)?parked\b")
+_PARKED_APPOSITION = r"|\b{label},\s+an?\s+(?:[\w-]+\s+){{0,3}}?(?:parked|unoccupied|disabled)\b"  # "V2, a parked car"
 # phrase table: (pattern, token); a token names a behaviour or a clue the resolution reads
 PHRASES = (
     (_LOSE, "lose_control"), (_CROSS, "cross_centerline"), (_LEAVE, "leave_road"), (_OVERTAKE, "overtake"),
     (_LANE_CHANGE, "lane_change"), (_LANE_CHANGE_SIDE, "lane_change_side"), (_RAMP_MERGE, "ramp_merge"),
     (_TURN_LEFT, "turn_left"), (_TURN_RIGHT, "turn_right"), (_U_TURN, "u_turn"), (_STOPPED, "stop"),
     (_PARKED, "static"), (_DECEL, "decelerate"), (_INTO_LANE, "into_lane"), (_INTO_PATH, "into_path"),
+)
+# general phrasings of the same manoeuvres (dsl.md convention 8), each a recorded switch (rule_sources)
+MORE_PHRASES = (
+    ("rules_behavior.skids_slides_and_traction", _any(
+        r"\bskid(?:ded|ding) (?:sideways|out of control|across|into the (?:opposing|oncoming|other))",
+        r"\bbegan (?:to )?slid(?:e|ing)", r"\bslid (?:sideways|out of control)",
+        r"\bentered an? (?:\w+ )?(?:yaw|skid|spin|rotation)\b", r"\blost (?:traction|its traction|grip)",
+        r"\bover-?correct(?:ed|ing|ion)\b"), "lose_control"),
+    ("rules_behavior.sitting_in_traffic_is_a_stop", r"\bsitting (?:stopped |still )?(?:in|at)\b", "stop"),
+    # "made an unsafe lane change into the right lane": groups = side, target lane, its direction (as _LANE_CHANGE)
+    ("rules_behavior.made_a_lane_change",
+     r"(?:made|making|initiat\w+|attempt\w+|perform\w+)\s+an?\s+(?:[\w-]+\s+){0,2}lane change\s+(?:to\s+the\s+"
+     r"(left|right)|[^.]{0,30}?into the (left|right|adjacent|middle|center|inside|outside|(?:north|south|east|west)bound)"
+     r"\s*((?:north|south|east|west)bound)?)", "lane_change"),
 )
 # manoeuvres where the first one stated is the primary one (convention 8: crossed first -> cross_centerline)
 _EVENTS = ("lose_control", "cross_centerline", "leave_road", "overtake", "lane_change", "lane_change_side",
@@ -118,7 +133,8 @@ def _phrases(state: RulesState) -> dict[str, list[Phrase]]:
     phrases: dict[str, list[Phrase]] = {label: [] for label in state.vehicles}
     leaders = [v.label for v in state.vehicles.values() if v.role != "ego" and re.search(
         rf"\b{v.label}\b[^.]{{0,200}}\b(?:ahead of|in front of) (?:V1|him|her)\b", state.t.text, re.I)]
-    for pattern, token in PHRASES:
+    more = [(pattern, token) for name, pattern, token in MORE_PHRASES if state.uses(name)]
+    for pattern, token in (*PHRASES, *more):
         if token == "ramp_merge" and not re.search(_RAMP, pre, re.I):
             continue
         for match in re.finditer(pattern, pre, re.I):
@@ -184,20 +200,38 @@ def _resolve(state: RulesState, vehicle: Vehicle, found: list[Phrase]) -> tuple[
     static = next((m for _, token, m in found if token == "static"), None)
     if static:
         return "static", quote(static)
-    parked = re.search(_PARKED_NAMED.format(label=vehicle.label), state.t.text, re.I)
+    named = _PARKED_NAMED + (_PARKED_APPOSITION if state.uses("rules_behavior.parked_in_apposition") else "")
+    parked = re.search(named.format(label=vehicle.label), state.t.text, re.I)
     if parked:
         return "static", around(state.t.text, parked, 80)
-    for _, token, match in found:
-        event = _event(vehicle, token, match, state) if token in _EVENTS else None
-        if event:
-            return event, quote(match)
+    events = [(m, e) for _, token, m in found if token in _EVENTS for e in [_event(vehicle, token, m, state)] if e]
+    if events and state.uses("rules_behavior.leaving_the_road_is_primary_only_without_control_loss"):
+        event = events[0][1]
+        later = [e for _, e in events[1:]]
+        if event == "leave_road" and "lose_control" in later:  # convention 8: ran off WITHOUT losing control
+            events = [next(item for item in events if item[1] == "lose_control")]
+        elif event == "leave_road" and "cross_centerline" in later and _strikes_a_vehicle(state, vehicle):
+            # onto the shoulder, then back across the centre line into another vehicle: the crossing leads to it
+            events = [next(item for item in events if item[1] == "cross_centerline")]
+    if events and state.uses("rules_behavior.crossing_to_pass_is_overtaking") and events[0][1] == "cross_centerline":
+        first = events[0][0]
+        overtake = next((m for _, t, m in found if t == "overtake" and 0 <= m.start() - first.end() < 60), None)
+        if overtake and "." not in pre[first.end():overtake.start()]:  # "pulled into the westbound lane to pass V1"
+            events = [(first, "overtake")]
+    for match, event in events[:1]:
+        return event, quote(match)
     stop = next((m for _, t, m in found if t == "stop"), None)
     for token in ("u_turn", "turn_left", "turn_right"):
         match = next((m for _, t, m in found if t == token), None)
         if match:
-            return ("stop", quote(stop)) if _waiting_to_turn(pre, vehicle, stop, match) else (token, quote(match))
+            stop_to = state.uses("rules_behavior.stopped_to_turn_is_a_stop")
+            waiting = _waiting_to_turn(pre, vehicle, stop, match, stop_to)
+            return ("stop", quote(stop)) if waiting else (token, quote(match))
     if stop:
-        for proceed in re.finditer(_PROCEED, pre[stop.end():], re.I):
+        went_on = _PROCEED
+        if state.uses("rules_behavior.failing_to_yield_after_a_stop_is_proceeding"):
+            went_on += r"|\bfail(?:ed|ing|s)? to yield|\bpulled into"  # "stopped, then failed to yield"
+        for proceed in re.finditer(went_on, pre[stop.end():], re.I):
             if label_at(pre, stop.end() + proceed.start()) in (vehicle.label, None):
                 return "go_forward", quote(stop)  # stopped at the sign, then went on (convention 8)
         return "stop", quote(stop)
@@ -210,6 +244,8 @@ def _resolve(state: RulesState, vehicle: Vehicle, found: list[Phrase]) -> tuple[
 def _event(vehicle: Vehicle, token: str, match: re.Match, state: RulesState) -> str | None:
     """The behaviour a lane-leaving phrase means for this vehicle, or None when it does not apply."""
     if token == "into_path":
+        if not state.uses("rules_behavior.into_oncoming_path"):
+            return None
         other = state.vehicles.get(match.group(1))
         oncoming = other is not None and other.direction is not None and _opposite(vehicle, other.direction)
         return "cross_centerline" if oncoming else None
@@ -221,6 +257,10 @@ def _event(vehicle: Vehicle, token: str, match: re.Match, state: RulesState) -> 
         if bound.endswith("bound") and _opposite(vehicle, bound[:-5]):
             return "cross_centerline"  # "veered left into the southbound lane" while northbound
         side = (match.group(1) or (target if target in ("left", "right") else "") or "").lower()
+        from_ramp = re.search(rf"\b{vehicle.label}\b[^.]{{0,80}}(?:{_RAMP})", state.pre_crash, re.I)
+        if (match.group(0).lower().startswith("merg") and re.search(_RAMP, state.pre_crash, re.I) or from_ramp) and \
+                state.uses("rules_behavior.merging_from_a_ramp_is_to_the_left"):
+            side = "left"  # "merged into the right lane" from an on-ramp: ramps join from the right
         return f"change_lane_{side}" if side in ("left", "right") else None
     if token == "ramp_merge":
         return "change_lane_left"
@@ -231,12 +271,23 @@ def _event(vehicle: Vehicle, token: str, match: re.Match, state: RulesState) -> 
     return None
 
 
-def _waiting_to_turn(pre: str, vehicle: Vehicle, stop: re.Match | None, turn: re.Match) -> bool:
+def _strikes_a_vehicle(state: RulesState, vehicle: Vehicle) -> bool:
+    """Whether an impact sentence names this vehicle and another one (the contacts are read after behaviours)."""
+    return bool(re.search(rf"\b{vehicle.label}\b[^.]*\b(?:struck|strikes?|impacted|hit|collided)\b[^.]*\bV[1-9]\b|"
+                          rf"\bV[1-9]\b[^.]*\b(?:struck|strikes?|impacted|hit|collided)\b[^.]*\b{vehicle.label}\b",
+                          state.t.text))
+
+
+def _waiting_to_turn(pre: str, vehicle: Vehicle, stop: re.Match | None, turn: re.Match, stop_to: bool = False
+                     ) -> bool:
     """'was stopped ... waiting to turn left' with no later 'began to enter': the manoeuvre is the stop."""
     if stop is None or stop.start() >= turn.start():
         return False
     intention = re.search(r"(?:waiting|preparing|intending|planning|about|signal(?:ing|led)?|so as)\b[^.;]{0,40}$",
                           pre[max(0, turn.start() - 50):turn.start()], re.I)
+    if stop_to and not intention:  # "came to a stop in the lane to make a left turn"
+        intention = re.search(r"\b(?:stop|stopped|halt)(?: in (?:the|its) (?:\w+ )?lane)?\s+(?:in order\s+)?to\s*$",
+                              pre[max(0, turn.start() - 50):turn.start()], re.I)
     proceeded = re.search(_PROCEED + r"|began to enter|with the intention of turning", pre[turn.end():], re.I)
     went_on = proceeded and label_at(pre, turn.end() + proceeded.start()) == vehicle.label
     return bool(intention) and not went_on

@@ -33,6 +33,7 @@ _POSSESSIVE = rf"(?P<label>V[1-9])'s?\s+(?P<area>{AREA})"
 _BARE = r"(?P<label>V[1-9])\b"
 _VERB = (r"\b(?:struck|strikes?|striking|impacted|impacting|contacted|contacting|hit|hitting|rear-ended|"
          r"sideswiped|collided\s+with|crashed\s+into|ran\s+into)\b")
+_VERB_OR_NOUN = _VERB[:-3] + r"|impacts?)\b"  # the noun too: the switched-off form of one rule
 _CLASS_WORDS = (
     ("head_on", r"head[- ]on|offset[- ]frontal|frontal[- ](?:to[- ]frontal|offset)|front[- ]to[- ]front"),
     ("rear_end", r"rear[- ]end(?:ed)?|front[- ]to[- ](?:rear|back)"),
@@ -82,16 +83,19 @@ def decide_collisions(state: RulesState, actors: dict) -> list[dict]:
     """The `collisions` list: every contact between two actors, first harmful event first; `[]` when the
     narrative states no contact between two vehicles."""
     roles = {vehicle.label: vehicle.role for vehicle in state.vehicles.values()}
-    contacts = _merge([c for c in _contacts(state) if c.striking.label in roles and c.struck.label in roles
-                       and c.striking.label != c.struck.label])
-    if contacts and all(c.event is not None for c in contacts):
-        contacts.sort(key=lambda c: (c.event, c.position))
+    contacts = [c for c in _contacts(state) if c.striking.label in roles and c.struck.label in roles
+                and c.striking.label != c.struck.label]
+    if state.uses("rules_collisions.event_numbers_and_merge"):
+        contacts = _merge(contacts)
+        if contacts and all(c.event is not None for c in contacts):
+            contacts.sort(key=lambda c: (c.event, c.position))
     out = []
     for index, contact in enumerate(contacts):
         rotated = index > 0 and _rotating(state.t.text, contacts[0].position, contact.position)
         config = _configuration(state, actors, contact.striking.label, contact.struck.label, rotated)
-        striking_area = _area(contact.striking, "striking", config)
-        struck_area = _area(contact.struck, "struck", config)
+        corners = state.uses("rules_collisions.corner_by_configuration")
+        striking_area = _area(contact.striking, "striking", config, corners)
+        struck_area = _area(contact.struck, "struck", config, corners)
         if contact.class_word == "head_on":
             striking_area, struck_area = "front", "front"
         elif contact.class_word == "rear_end" and not contact.struck.words:
@@ -111,30 +115,39 @@ def decide_collisions(state: RulesState, actors: dict) -> list[dict]:
 def _contacts(state: RulesState) -> list[Contact]:
     text = state.t.text
     found: list[Contact] = []
-    for match in re.finditer(_VERB, text, re.I):
-        contact = _active_or_passive(text, match)
+    formulas = state.uses("rules_collisions.impact_formula")
+    possessive = state.uses("rules_collisions.possessive_and_with_its")
+    # "The impact pushed V1 forward": the noun names the first contact again, not a new one
+    verb = _VERB if state.uses("rules_collisions.noun_impact_is_not_a_contact") else _VERB_OR_NOUN
+    for match in re.finditer(verb, text, re.I) if formulas else ():
+        contact = _active_or_passive(text, match, possessive)
         if contact is not None:
             found.append(contact)
-    pair = r"(?:the\s+two|both)\s+vehicles" if len(state.vehicles) == 2 else r"(?!)"
-    for match in re.finditer(rf"\b(?:(V[1-9])\s+and\s+(V[1-9])|{pair})\s+(?:then\s+|subsequently\s+)?"
+    two = len(state.vehicles) == 2 and state.uses("rules_collisions.the_two_vehicles_collided")
+    pair = r"(?:the\s+two|both)\s+vehicles" if two else r"(?!)"
+    collided = state.uses("rules_collisions.collided_head_on_at_fault")
+    for match in () if not collided else re.finditer(rf"\b(?:(V[1-9])\s+and\s+(V[1-9])|{pair})\s+"
+                                                     r"(?:then\s+|subsequently\s+)?"
                              r"(?:collided|crashed)\b(?!\s+with)", text, re.I):
         first, second = (match.group(1), match.group(2)) if match.group(1) else ("V1", _second(state))
         striker, struck = _at_fault_first(state, first, second)
         contact = _finish(text, match, Side(striker), Side(struck), match.end())
         contact.guessed = True
         found.append(contact)
-    if not found:  # only a noun names the contact: "a head-on collision with V2"
+    if not found and state.uses("rules_collisions.noun_only_contact"):  # "a head-on collision with V2"
         for match in re.finditer(r"\b(?:collision|crash|impact)\s+(?:with|between)\s+(?:the\s+)?(V[1-9])\b"
                                  r"(?:\s+and\s+(V[1-9]))?", text, re.I):
             first = match.group(2) and match.group(1) or label_at(text, match.start()) or "V1"
             second = match.group(2) or match.group(1)
             if first == second:
                 continue
-            striker, struck = _at_fault_first(state, first, second)
+            striker, struck = _at_fault_first(state, first, second) if collided else (first, second)
             contact = _finish(text, match, Side(striker), Side(struck), match.end())
             contact.guessed = True
             found.append(contact)
-    for match in re.finditer(r"\b(V[1-9])\s+(?:was|were)\s+(?:then\s+)?(?:pushed|propelled|redirected|forced)\s+"
+    which = r",\s*(?:which|that)" if state.uses("rules_collisions.which_was_pushed_into") else r"(?!)"
+    for match in re.finditer(rf"\b(V[1-9])(?:{which})?\s+(?:was|were)\s+(?:then\s+)?"
+                             r"(?:pushed|propelled|redirected|forced)\s+"
                              r"(?:\w+\s+){0,4}?into\s+(?:the\s+(?:rear|back|side|front)\s+of\s+)?(V[1-9])\b",
                              text, re.I):
         contact = _finish(text, match, Side(match.group(1)), Side(match.group(2)), match.end())
@@ -144,7 +157,7 @@ def _contacts(state: RulesState) -> list[Contact]:
     return found
 
 
-def _active_or_passive(text: str, verb: re.Match) -> Contact | None:
+def _active_or_passive(text: str, verb: re.Match, possessive: bool = True) -> Contact | None:
     """The contact an impact verb states, or None when it names no second vehicle (a pole, a tree)."""
     start = max(text.rfind(". ", 0, verb.start()) + 2, 0)
     head = text[start:verb.start()]
@@ -159,31 +172,31 @@ def _active_or_passive(text: str, verb: re.Match) -> Contact | None:
         by = re.search(r"\bby\s+(?:the\s+)?", tail[:120], re.I)
         if by is None:
             return None
-        striker, _ = _first_vehicle(tail[by.end():by.end() + 120])
-        struck = _subject(text, start, verb.start())
+        striker, _ = _first_vehicle(tail[by.end():by.end() + 120], possessive=possessive)
+        struck = _subject(text, start, verb.start(), possessive)
         if striker is None or struck is None:
             return None
         area = re.match(rf"\s*(?:in|on|at)\s+(?:the\s+|its\s+)?(?P<area>{AREA})", tail, re.I)
         if area and not struck.words:
             struck.words = area.group("area")
         return _finish(text, verb, striker, struck, verb.end() + by.end())
-    struck, struck_end = _first_vehicle(tail[:140], clause=True)
+    struck, struck_end = _first_vehicle(tail[:140], clause=True, possessive=possessive)
     if struck is None:
         return None
-    striker = _subject(text, start, verb.start())
+    striker = _subject(text, start, verb.start(), possessive)
     if striker is None:
         return None
     rest = tail[struck_end:200]
     with_area = re.search(rf"\bwith\s+(?:its|his|her|the)\s+(?P<area>{AREA})(?:\s+of\s+(?P<label>V[1-9]))?", rest,
                           re.I)
-    if with_area and (with_area.group("label") in (None, striker.label)) and not striker.words:
+    if possessive and with_area and (with_area.group("label") in (None, striker.label)) and not striker.words:
         striker.words = with_area.group("area")
     contact = _finish(text, verb, striker, struck, verb.end())
     contact.pushed = bool(re.search(_PUSHED + r"[^.]{0,40}$", head[-60:], re.I))
     return contact
 
 
-def _first_vehicle(text: str, clause: bool = False) -> tuple[Side | None, int]:
+def _first_vehicle(text: str, clause: bool = False, possessive: bool = True) -> tuple[Side | None, int]:
     """The first vehicle the phrase names, with its stated area ('the left side of V1', "V2's rear", 'V2'),
     and where its phrase ends."""
     if clause:  # the object ends where the next clause starts
@@ -191,7 +204,7 @@ def _first_vehicle(text: str, clause: bool = False) -> tuple[Side | None, int]:
                         r"where|before|after|while|when|resulting)\b", text, re.I)
         text = text[:cut.start()] if cut else text
     best = None
-    for pattern in (_AREA_OF, _POSSESSIVE, _BARE):
+    for pattern in (_AREA_OF, _POSSESSIVE, _BARE) if possessive else (_AREA_OF, _BARE):
         match = re.search(pattern, text, re.I)
         if match and (best is None or match.start() < best.start()):
             best = match
@@ -207,12 +220,12 @@ def _first_vehicle(text: str, clause: bool = False) -> tuple[Side | None, int]:
     return Side(best.group("label").upper(), area), best.end()
 
 
-def _subject(text: str, start: int, verb_start: int) -> Side | None:
+def _subject(text: str, start: int, verb_start: int, possessive: bool = True) -> Side | None:
     """The striker: an area phrase right before the verb ('the front of V2 struck', "V3's frontal plane
     subsequently struck", 'causing the front of V2 to strike'), else the acting vehicle of the clause."""
     head = text[start:verb_start]
     glue = r"\s+(?:(?:then|subsequently|also|to|again|first|initially|partially|was|were|been|being|is|had)\s+)*$"
-    for pattern in (_AREA_OF, _POSSESSIVE):
+    for pattern in (_AREA_OF, _POSSESSIVE) if possessive else (_AREA_OF,):
         match = re.search(pattern + glue, head, re.I)
         if match:
             return Side(match.group("label").upper(), match.group("area"))
@@ -303,12 +316,12 @@ def _configuration(state: RulesState, actors: dict, striker: str, struck: str, r
     return "from_left" if delta == 90 else "from_right"  # struck travels to the striker's right: it came from its left
 
 
-def _area(side: Side, role: str, config: str) -> str:
+def _area(side: Side, role: str, config: str, corners: bool = True) -> str:
     """The area token for a stated phrase (corners resolved by the configuration) or the configuration's default."""
     end, lateral, generic = side.parts()
     crossing = config in ("crossing", "from_left", "from_right")
     if end and lateral:
-        return lateral if role == "struck" and crossing else end
+        return lateral if role == "struck" and crossing and corners else end
     if end or lateral:
         return end or lateral
     if role == "striking":

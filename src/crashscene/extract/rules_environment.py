@@ -50,7 +50,14 @@ def decide_environment(state: RulesState) -> dict:
             "road_surface": _first(state, "environment.road_surface", sources, ROAD_SURFACE)}
 
 
+# snow lying on the road is the surface, not the weather: "covered in snow and ice", "packed snow"
+_SNOW_ON_THE_ROAD = r"(?<!covered in )(?<!covered with )(?<!covered by )(?<!packed )(?<!patches of )"
+
+
 def _first(state: RulesState, path: str, sources: tuple[str, ...], table: tuple[tuple[str, str], ...]) -> str:
+    if table is WEATHER and state.uses("rules_environment.snow_on_the_road_is_not_snowfall"):
+        table = tuple((pattern.replace(r"\bsnow(?:ing", _SNOW_ON_THE_ROAD + r"\bsnow(?:ing"), token)
+                      for pattern, token in table)
     for text in sources:
         for pattern, token in table:
             match = re.search(pattern, text, re.I)

@@ -68,6 +68,15 @@ def count_lanes(state: RulesState, road_text: str, ways: int) -> int:
     if each:
         per_direction = {"a": 1, "b": 1}
         quote = around(road_text, each)
+    elif state.uses("rules_lanes.lanes_in_each_direction"):
+        # "three lanes in each direction", "two travel lanes per direction"
+        each = re.search(rf"\b{NUM}\s+(?:through\s+|travel\s+)?lanes?\s+(?:in\s+each|per|for\s+each|each)\s+"
+                         r"(?:direction|way)\b",
+                         road_text, re.I)
+        if each and count_word(each.group(1)) and not per_direction:
+            number = count_word(each.group(1))
+            per_direction = {"a": number, "b": number}
+            quote = around(road_text, each)
     if axis:  # counts of the crossing road do not describe V1's roadway
         per_direction = {d: n for d, n in per_direction.items() if d in axis.split("/") or d in ("a", "b", "_axis")}
     lanes = None

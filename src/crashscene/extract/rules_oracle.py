@@ -18,6 +18,12 @@ import re
 from crashscene.extract.narrative import around, clip, label_at, last_label_before
 from crashscene.extract.rules_road import driveway_vehicle
 from crashscene.extract.rules_state import RulesState, relative_heading
+from crashscene.monitor.rules import rule_class
+
+
+def violation_of(code: str) -> str:
+    """The violation token the rule registered for `code` declares (a RegistryError for an unknown code)."""
+    return rule_class(code).violation
 
 
 class _Oracle:
@@ -27,10 +33,11 @@ class _Oracle:
         self.state = state
         self.entries: list[dict] = []
 
-    def add(self, code: str, violation: str, role: str, description: str, quote: str | None = None) -> None:
+    def add(self, code: str, role: str, description: str, quote: str | None = None) -> None:
+        """One entry; its violation token is the one the rule registered for `code` declares."""
         if any(e["code"] == code and e["actor"] == role for e in self.entries):
             return
-        self.entries.append({"code": code, "violation": violation, "actor": role,
+        self.entries.append({"code": code, "violation": violation_of(code), "actor": role,
                              "description": clip(description, 300)})
         if quote:
             self.state.note(f"oracle[{len(self.entries) - 1}]", quote)
@@ -42,7 +49,10 @@ def decide_oracle(state: RulesState, road: dict) -> list[dict]:
     oracle = _Oracle(state)
     _manoeuvre_oracle(state, road, oracle)
     _junction_oracle(state, road, oracle)
-    _sequence_oracle(state, oracle)
+    if state.uses("rules_oracle.sequence_rear_end"):
+        _sequence_oracle(state, oracle)
+    else:
+        _rear_end_by_phrase(state, oracle)
     return oracle.entries
 
 
@@ -51,6 +61,13 @@ def stated(state: RulesState, pattern: str) -> list[tuple[str, re.Match]]:
     to stop"), else the last vehicle named before it, else V1 in a single-vehicle report."""
     text = state.t.text
     out = []
+    if not state.uses("rules_oracle.cause_statements"):
+        # switched off: the first round's reading, a statement within the sentence after a vehicle's label
+        for label in state.vehicles:
+            match = re.search(rf"\b{label}\b[^.]{{0,100}}?(?:{pattern})", text, re.I)
+            if match:
+                out.append((label, match))
+        return out
     for match in re.finditer(pattern, text, re.I):
         label = label_at(text, match.start()) or last_label_before(text, match.start())
         if label is None and len(state.vehicles) == 1:
@@ -71,38 +88,60 @@ _RAN_STOP = (r"fail(?:ed|ing|s)? to stop (?:at|for) the stop|did not stop at the
              r"(?:complete |full )?stop\b(?! for (?:the )?(?:traffic|vehicles?|V[1-9]))")
 
 
+# "failed to obey the traffic signal", "drove through the stop sign"
+_MORE_RED = r"|fail(?:ed|ing|s)? to (?:obey|observe|comply with) the (?:traffic )?(?:control )?(?:signal|light)"
+_MORE_RAN_STOP = (r"|(?:drove|traveled|travelled|went|proceeded|continued|ran|rolled) (?:straight )?(?:past|through) "
+                  r"(?:the|a) stop sign|fail(?:ed|ing|s)? to (?:obey|observe|comply with) (?:the|a) stop sign")
+
+
 def _manoeuvre_oracle(state: RulesState, road: dict, oracle: _Oracle) -> None:
     """Codes that follow from a vehicle's own manoeuvre or stated speed, wherever it happens."""
     text = state.t.text
     too_fast = {label: match for label, match in reversed(stated(state, _TOO_FAST))}
     speeding = {label: match for label, match in reversed(stated(state, _SPEEDING))}
-    red = {label: match for label, match in reversed(stated(state, _RED))}
+    more = state.uses("rules_oracle.disobeyed_device_phrasings")
+    red = {label: match for label, match in reversed(stated(state, _RED + (_MORE_RED if more else ""))) if not (
+        state.uses("rules_oracle.red_light_only_when_disobeyed") and _obeyed(text, match))}
     for label, vehicle in state.vehicles.items():
         role, behavior, quote = vehicle.role, vehicle.behavior, vehicle.behavior_quote
         if label in too_fast and behavior != "lose_control":
             quote = around(text, too_fast[label])
         if behavior == "lose_control" or label in too_fast:
-            oracle.add("CVC_22350", "unsafe_speed", role,
+            oracle.add("CVC_22350", role,
                        f"{label} lost control or was driven too fast for the conditions.", quote)
         crossed = behavior in ("cross_centerline", "overtake") or (
             behavior == "lose_control" and "cross_centerline" in vehicle.flags)
         if crossed:
-            oracle.add("CVC_21650", "wrong_side", role, f"{label} entered the opposing lanes of the roadway.", quote)
+            oracle.add("CVC_21650", role, f"{label} entered the opposing lanes of the roadway.", quote)
             if road["road_marker"] == "double_solid_line":
-                oracle.add("CVC_21460", "double_line_crossing", role, f"{label} crossed the double solid centre line.",
+                oracle.add("CVC_21460", role, f"{label} crossed the double solid centre line.",
                            quote)
         # a vehicle that lost control or crossed into the lane changer's path is the one at fault
         other_at_fault = any(v.behavior in ("lose_control", "cross_centerline", "leave_road")
                              for v in state.vehicles.values() if v is not vehicle)
         if behavior.startswith("change_lane") and not other_at_fault:
-            oracle.add("CVC_22107", "unsafe_lane_change", role,
+            oracle.add("CVC_22107", role,
                        f"{label} changed lanes into the path of another vehicle.", quote)
         if label in speeding:
-            oracle.add("CVC_22349", "speed_limit", role, f"{label} exceeded the posted speed limit.",
+            oracle.add("CVC_22349", role, f"{label} exceeded the posted speed limit.",
                        around(text, speeding[label]))
+        limit, speed = road.get("speed_limit_mph"), state.speeds.get(label)
+        if limit and speed and speed > limit and state.uses("rules_oracle.stated_speed_above_the_limit"):
+            oracle.add("CVC_22349", role,
+                       f"{label} was traveling at {speed:g} mph where {limit} mph is posted.",
+                       state.evidence.get(f"actors.{role}.speed_mph"))
         if label in red and "traffic_light" in road["traffic_signs"]:
-            oracle.add("CVC_21453", "red_light", role, f"{label} entered the intersection against a red signal.",
+            oracle.add("CVC_21453", role, f"{label} entered the intersection against a red signal.",
                        around(text, red[label]))
+
+
+def _obeyed(text: str, match: re.Match) -> bool:
+    """'was stopped for a red light', 'waiting at the red signal': the red is named, not run."""
+    head = text[max(0, text.rfind(". ", 0, match.start()), match.start() - 50):match.start()]
+    if re.search(r"\b(?:fail\w*\s+to|did\s+not|didn't|never|without)\s+(?:\w+\s+){0,3}$", head, re.I):
+        return False  # "failed to stop for the red light"
+    return bool(re.search(r"\b(?:stopped|stopping|waiting|slowed|slowing|stop|queued)\s+(?:\w+\s+){0,2}"
+                          r"(?:for|at|by)\s+(?:a|the)\s+(?:steady\s+)?$", head, re.I))
 
 
 def _junction_oracle(state: RulesState, road: dict, oracle: _Oracle) -> None:
@@ -113,38 +152,43 @@ def _junction_oracle(state: RulesState, road: dict, oracle: _Oracle) -> None:
     devices = set(road["traffic_signs"]) - {"speed_limit_sign"}
     from_driveway = driveway_vehicle(state)
     failed_to_yield = next((label for label, _ in stated(state, r"fail(?:ed|ing|s)? to yield|did not yield")), None)
-    ran_stop = {label: match for label, match in reversed(stated(state, _RAN_STOP))}
+    more = state.uses("rules_oracle.disobeyed_device_phrasings")
+    ran_stop = {label: match for label, match in reversed(stated(state, _RAN_STOP + (_MORE_RAN_STOP if more else "")))}
+    if not failed_to_yield and not devices and ran_stop and \
+            state.uses("rules_oracle.failed_to_stop_at_an_uncontrolled_junction"):
+        failed_to_yield = next(iter(ran_stop))  # no device: the one stated as not stopping lacks priority
     ran_red = any(e["code"] == "CVC_21453" for e in oracle.entries)
     arrow = re.search(r"(?:green|protected) (?:left[- ]turn )?arrow", text, re.I)
+    stated_oncoming = state.uses("rules_oracle.left_turn_stated_oncoming")
     for label, vehicle in state.vehicles.items():
         role, quote = vehicle.role, vehicle.behavior_quote
         headings = {relative_heading(vehicle, other) for other in state.vehicles.values() if other is not vehicle}
-        oncoming = "opposite_direction" in headings or (headings <= {None} and re.search(
+        oncoming = "opposite_direction" in headings or (headings <= {None} and stated_oncoming and re.search(
             r"\boncoming\b|\bopposite direction\b", state.pre_crash + " " + state.crash_sentence, re.I))
         if vehicle.behavior == "turn_left" and oncoming and not (arrow or ran_red):
-            oracle.add("CVC_21801", "left_turn_yield", role,
+            oracle.add("CVC_21801", role,
                        f"{label} turned left across the path of oncoming traffic.", quote)
         if from_driveway == label:
-            oracle.add("CVC_21804", "driveway_yield", role, f"{label} left a driveway into the path of traffic.", quote)
+            oracle.add("CVC_21804", role, f"{label} left a driveway into the path of traffic.", quote)
             continue
         if not (headings & {"from_left", "from_right"} or _crossing_contact(state, label)):
             continue
         all_way = state.stop_controlled >= set(state.vehicles) and len(state.vehicles) > 1
         if "stop_sign" in devices and label in state.stop_controlled and not all_way:
             if label in ran_stop:
-                oracle.add("CVC_22450", "stop_sign", role, f"{label} did not stop at its stop sign.",
+                oracle.add("CVC_22450", role, f"{label} did not stop at its stop sign.",
                            around(text, ran_stop[label]))
             elif vehicle.behavior not in ("stop", "static"):  # stopped, or the stop is not stated, then entered
-                oracle.add("CVC_21802", "stop_sign_yield", role,
+                oracle.add("CVC_21802", role,
                            f"{label} left its stop-controlled approach into the path of cross traffic.", quote)
         elif "yield_sign" in devices and label in state.yield_controlled:
-            oracle.add("CVC_21803", "yield_sign", role, f"{label} did not yield at its yield sign to cross traffic.",
+            oracle.add("CVC_21803", role, f"{label} did not yield at its yield sign to cross traffic.",
                        quote)
         elif (not devices or all_way) and from_driveway is None and (
                 failed_to_yield == label if failed_to_yield else "from_right" in headings):
             # uncontrolled (or all-way stop) junction: the one the report says failed to yield, else the one
             # with the other on its right
-            oracle.add("CVC_21800", "intersection_right_of_way", role,
+            oracle.add("CVC_21800", role,
                        f"{label} entered the junction without yielding to the vehicle with priority.", quote)
 
 
@@ -153,6 +197,10 @@ def _crossing_contact(state: RulesState, label: str) -> bool:
     return any(c.class_word in (None, "angle") and c.areas and "front" in c.areas.values() and
                set(c.areas.values()) & {"left", "right"} and label in (c.striking.label, c.struck.label)
                for c in state.contacts)
+
+
+# manoeuvres made under way: a vehicle stopped at a sign that then turned or changed lanes was moving when struck
+_MOVING = ("turn_left", "turn_right", "u_turn", "change_lane_left", "change_lane_right", "overtake")
 
 
 def _sequence_oracle(state: RulesState, oracle: _Oracle) -> None:
@@ -167,18 +215,50 @@ def _sequence_oracle(state: RulesState, oracle: _Oracle) -> None:
         # striking a vehicle ahead: its rear is hit (the striker's front or a glancing front side), or any part of
         # a vehicle stopped in the striker's path (stopped at an angle across the lane)
         rear_end = contact.areas.get("striking") != "rear" and contact.areas.get("struck") == "rear"
-        stopped = struck.behavior in ("stop", "static") or bool(re.search(
-            rf"\b{struck.label}\b[^.]{{0,60}}\b(?:was|had)\s+(?:\w+\s+)?stopped|stopped {struck.label}\b", text, re.I))
+        moving = struck.behavior in _MOVING and state.uses("rules_oracle.a_turning_vehicle_is_moving")
+        stopped = struck.behavior in ("stop", "static") or (not moving and bool(re.search(
+            rf"\b{struck.label}\b[^.]{{0,60}}\b(?:was|had)\s+(?:\w+\s+)?stopped|stopped {struck.label}\b", text, re.I)))
         in_path = stopped and relative_heading(striker, struck) in (None, "same_direction")
         free = not contact.pushed and striker.label not in struck_before
         if (rear_end or in_path) and free and striker.behavior not in ("leave_road", "lose_control", "static"):
             if stopped:
-                oracle.add("CVC_22350", "unsafe_speed", striker.role,
+                oracle.add("CVC_22350", striker.role,
                            f"{striker.label} struck the stopped {struck.label} ahead: too fast for the traffic "
                            f"ahead.", contact.quote)
             else:
-                oracle.add("CVC_21703", "following_too_closely", striker.role,
+                oracle.add("CVC_21703", striker.role,
                            f"{striker.label} struck the moving {struck.label} from behind.", contact.quote)
         struck_before.add(struck.label)
 
 
+_NO_LABEL = r"(?:(?!\bV[1-9]\b)[^.]){0,100}?"  # words that name no other vehicle
+_STRIKE = r"(?:struck|strikes?|striking|impacted|rear-ended|hit|contacted)"
+_REAR = (r"(?:the\s+)?(?:rear|back)(?:\s+(?:plane|corner|end|bumper))?\s+of\s+"
+         r"(?:(?:a|an|the)\s+[^.()]{0,60}?\(\s*)?(V[1-9])")  # "the rear of V2", "the rear of a parked Corolla (V2)"
+
+
+def _rear_end_by_phrase(state: RulesState, oracle: _Oracle) -> None:
+    """The first round's rear-end codes, used when `rules_oracle.sequence_rear_end` (which replaced them) is
+    switched off: a vehicle striking the rear of a moving vehicle -> CVC_21703, of a stopped one -> CVC_22350;
+    one pushed into it ("caused V1 to strike") chose nothing."""
+    text = state.t.text
+    for label, vehicle in state.vehicles.items():
+        if vehicle.behavior in ("leave_road", "lose_control", "static"):
+            continue
+        striker = rf"(?:(?:front|side|corner)(?:\s+plane)?\s+of\s+{label}|\b{label})\b"
+        for match in re.finditer(rf"{striker}{_NO_LABEL}{_STRIKE}\s+{_REAR}", text, re.I):
+            head = text[max(0, match.start() - 40):match.start()]
+            if re.search(r"\b(?:caus\w+|push\w*|forc\w+|redirect\w*|propell\w+)\s+(?:\w+\s+)?$", head, re.I):
+                continue
+            struck = state.vehicles.get(match.group(1))
+            if struck is None or struck.label == label:
+                continue
+            if struck.behavior in ("stop", "static") or re.search(
+                    rf"{struck.label}\b[^.]{{0,60}}\bstopped|stopped {struck.label}", text, re.I):
+                oracle.add("CVC_22350", vehicle.role,
+                           f"{label} struck the stopped {struck.label} from behind: too fast for the traffic ahead.",
+                           around(text, match))
+            else:
+                oracle.add("CVC_21703", vehicle.role,
+                           f"{label} struck the moving {struck.label} from behind.", around(text, match))
+            break

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import re
 
-from crashscene.extract.narrative import around, label_at
+from crashscene.extract.narrative import COMPASS, around, label_at
 from crashscene.extract.rules_state import RulesState, Vehicle, has_cross_traffic, relative_heading
 from crashscene.units import KMH_PER_MPH
 
@@ -21,12 +21,14 @@ def decide_actors(state: RulesState, road: dict) -> dict:
             reference, relation = _ego_reference(state, road, devices, at_junction)
             position = {"reference": reference, "relation": relation}
         else:
-            position = _npc_position(state, ego, vehicle, devices, at_junction, state.t.text)
+            position = _npc_position(state, ego, vehicle, devices, at_junction, state.t.text,
+                                     road["number_of_ways"] == 1)
         actors[vehicle.role] = {"label": label, "type": vehicle.type, "behavior": vehicle.behavior,
                                 "position": position}
         speed = _stated_speed(state, label)
         if speed is not None:
             actors[vehicle.role]["speed_mph"] = speed
+            state.speeds[label] = speed
     return actors
 
 
@@ -42,7 +44,10 @@ def _stated_speed(state: RulesState, label: str) -> float | None:
                              rf"calculated|travel)\s+)*(?:speed\s+of\s+)?{_SPEED_VALUE}|"
                              rf"(?:estimated|calculated|reported|pre-?crash|travel)\s+speed\s+(?:of\s+|was\s+)?"
                              rf"(?:approximately\s+|about\s+)?{_SPEED_VALUE}", text, re.I):
-        if re.search(r"limit|posted", text[max(0, match.start() - 30):match.start()], re.I):
+        start = max(0, match.start() - 30)
+        if state.uses("rules_positions.limit_words_in_the_same_sentence"):  # "limit was 45 mph. V1 was traveling"
+            start = max(start, text.rfind(". ", 0, match.start()))
+        if re.search(r"limit|posted", text[start:match.start()], re.I):
             continue
         if label_at(text, match.start()) != label:
             continue
@@ -76,10 +81,10 @@ def _ego_reference(state: RulesState, road: dict, devices: set[str], at_junction
 
 
 def _npc_position(state: RulesState, ego: Vehicle, npc: Vehicle, devices: set[str], at_junction: bool,
-                  text: str) -> dict:
+                  text: str, one_way: bool = False) -> dict:
     """Crossing traffic against the junction or its device (side from the travel directions); traffic on V1's
     road against the ego (convention 7)."""
-    heading = relative_heading(ego, npc) or _guess_heading(ego, npc, at_junction, text)
+    heading = relative_heading(ego, npc) or _guess_heading(state, ego, npc, at_junction, text, one_way)
     label = npc.label
     if heading in ("from_left", "from_right"):
         side = "left" if heading == "from_left" else "right"
@@ -98,11 +103,24 @@ def _npc_position(state: RulesState, ego: Vehicle, npc: Vehicle, devices: set[st
     return {"reference": "ego", "relation": relation, "heading": heading}
 
 
-def _guess_heading(ego: Vehicle, npc: Vehicle, at_junction: bool, text: str) -> str:
+def _guess_heading(state: RulesState, ego: Vehicle, npc: Vehicle, at_junction: bool, text: str,
+                   one_way: bool = False) -> str:
     """A heading when the report gives no travel direction: from the manoeuvres and the impact."""
     label = npc.label
     if npc.behavior in ("cross_centerline", "overtake") or ego.behavior == "cross_centerline":
         return "opposite_direction"
+    if state.uses("rules_positions.stated_opposite_direction") and re.search(
+            rf"\b{label}\b[^.]{{0,60}}\b(?:in the opposite direction|oncoming|opposing direction)", text, re.I):
+        return "opposite_direction"
+    side = re.search(rf"\b{label}\b[^.]{{0,100}}\b(?:on|from) the (north|south|east|west) side of the "
+                     rf"(?:road|roadway|street|highway)", text, re.I)
+    if side and ego.direction and at_junction and state.uses("rules_positions.access_side"):
+        origin = (COMPASS[side.group(1).lower()] - COMPASS[ego.direction]) % 360  # where it comes from
+        if origin in (90, 270):
+            return "from_right" if origin == 90 else "from_left"
+    if state.uses("rules_positions.same_direction_on_one_carriageway") and not at_junction and (
+            one_way or npc.behavior.startswith("change_lane")):
+        return "same_direction"  # one carriageway (divided, one-way) or a lane change: traffic goes V1's way
     rear_end = re.search(rf"(?:rear|back)(?: plane| end)? of {label}|{label}\b[^.]{{0,80}}\b(?:rear|back)[- ]end|"
                          rf"front of {label} struck the (?:rear|back)|{label}\b[^.]{{0,40}}\bbehind", text, re.I)
     if rear_end or npc.behavior in ("stop", "decelerate", "static"):

@@ -25,6 +25,9 @@ def decide_road_network(state: RulesState) -> dict:
     sketch_text = " ".join(state.fact_texts("text: "))
     divided_pattern = r"\bdivided\b(?! by (?:a )?(?:double|painted|yellow))|\bmedian\b|" \
                       r"\b(?:concrete|jersey|cable|median) barrier|interstate|\bfreeway\b"
+    if state.uses("rules_road.divided_by_a_line_is_not_divided"):
+        # "a two-way road divided by a solid yellow line": a painted line divides the directions, not a median
+        divided_pattern = divided_pattern.replace("(?! by (?:a )?(?:double|painted|yellow))", _BY_A_LINE)
     state.divided = bool(re.search(divided_pattern, road_text, re.I) or re.search(r"\bmedian\b", sketch_text, re.I)) \
         and not re.search(r"\bnon-?divided|\bundivided|not divided|(?:center|centre|middle) (?:two-way )?(?:left[- ])?"
                           r"turn(?:ing)? lane", road_text, re.I)
@@ -35,11 +38,20 @@ def decide_road_network(state: RulesState) -> dict:
     road_type, curve_direction = _road_type(state)
     if road_type in ("intersection", "t_intersection"):
         _sketch_devices(state)
-        _attribute_signs(state)
+        if state.uses("rules_road.attribute_signs"):
+            _attribute_signs(state)
     ways = _ways(state, road_text)
     lanes = count_lanes(state, road_text, ways)
     speed = _speed_limit(state)
     marker = _marker(state, road_text, ways)
+    if road_type not in ("intersection", "t_intersection") and \
+            state.uses("rules_road.junction_devices_only_at_a_junction"):
+        # convention 6: a stop sign, yield sign or signal away from the crash's junction controls no involved approach
+        dropped = state.signs & {"stop_sign", "yield_sign", "traffic_light"}
+        if dropped:
+            state.signs -= dropped
+            state.evidence.pop("road_network.traffic_signs", None)
+            state.note("road_network.traffic_signs", f"no junction in the crash: {', '.join(sorted(dropped))} left out")
     signs = set(state.signs)
     if speed is not None:
         signs.add("speed_limit_sign")
@@ -61,13 +73,21 @@ def _traffic_controls(state: RulesState) -> None:
                        r"\b(?:red|green|amber|yellow) (?:light|signal|arrow)\b|signal[- ]controlled|"
                        r"controlled by (?:overhead|traffic) signals?|\bsignals?\b(?= (?:at|for|controlling))",
                        text, re.I)
-    flashing = re.search(r"flashing (red|yellow|amber)", text, re.I)
+    flashes = list(re.finditer(r"flashing (red|yellow|amber)", text, re.I))
+    flashing = flashes[0] if flashes else None
     if signal and not (flashing and signal.start() >= flashing.start() - 5):
         state.signs.add("traffic_light")
         state.note("road_network.traffic_signs", around(text, signal))
-    if flashing and flashing.group(1).lower() == "red":
+    if not state.uses("rules_road.every_flashing_signal"):
+        flashes = flashes[:1]
+    for flash in flashes:  # a flashing red is a stop sign for the approach it faces (convention 6)
+        if flash.group(1).lower() != "red":
+            continue
         state.signs.add("stop_sign")
-        state.note("road_network.traffic_signs", around(text, flashing))
+        state.note("road_network.traffic_signs", around(text, flash))
+        label = label_at(text, flash.start())
+        if label and len(flashes) > 1:  # "V2 faced a flashing red" while V1's approach flashes yellow
+            state.stop_controlled.add(label)
     for match in re.finditer(r"\bstop[- ]sign|\bstop[- ]controlled|\bstop(?:ped)? (?:bar|line)|all[- ]way stop|"
                              r"\b(?:two|four|2|4)[- ]way stop", text, re.I):
         state.signs.add("stop_sign")
@@ -144,6 +164,10 @@ def _nearest_label(state: RulesState, fact: str) -> str | None:
     return label
 
 
+_BY_A_LINE = (r"(?! by (?:a |an |the )?(?:(?:double|single|solid|broken|dashed|painted|yellow|white|"
+              r"cent(?:er|re)|skip)[- ]?)+(?:lines?|stripes?|markings?))")
+
+
 _FOUR_LEGS = re.compile(r"\b(?:4|four)[- ]leg(?:ged)?\b|\bfour[- ]way intersection|\bcross(?:roads| intersection)",
                         re.I)
 _THREE_LEGS = re.compile(r"\b(?:3|three)[- ]leg(?:ged)?\b|\bT[- ]intersection|\bT-type intersection|\bTee\b|"
@@ -162,9 +186,18 @@ def _road_type(state: RulesState) -> tuple[str, str | None]:
                  state.pre_crash + " " + state.crash_sentence, flags=re.I)
     four = _FOUR_LEGS.search(text)
     three = _THREE_LEGS.search(text)
+    if state.uses("rules_road.a_junction_some_distance_away_plays_no_part"):
+        # "approximately 100 meters south of an intersection": the junction only locates the crash
+        pre = re.sub(r"\b\d+(?:\.\d+)?\s*(?:m|meters?|metres?|ft|feet|yards?|miles?|km)\b\s+(?:\w+\s+){0,2}?"
+                     r"(?:of|from|before|past|beyond)\s+(?:an?|the)\s+(?:[\w-]+\s+){0,2}?(?:intersection|junction)",
+                     " ", pre, flags=re.I)
     junction = re.search(r"\bintersection\b|\bjunction\b|\bintersecting\b", pre, re.I)
     turns_in = re.search(rf"\b(?:into|onto|to enter)\s+(?:a |the |an )?{_DRIVEWAY}", pre, re.I)
     from_access = bool(three and _ACCESS.search(three.group(0)) and (driveway_vehicle(state) is not None or turns_in))
+    if not from_access and driveway_vehicle(state) is not None and \
+            state.uses("rules_road.leaving_an_access_is_a_junction"):
+        # "exiting a parking lot", "pulled out of a private drive": the access is the third leg (convention 2)
+        three, from_access = re.search(_DRIVEWAY, text, re.I), True
     legs = None
     if from_access or (junction and three and not four and not _ACCESS.search(three.group(0))):
         legs = 3
@@ -173,12 +206,15 @@ def _road_type(state: RulesState) -> tuple[str, str | None]:
         legs = 4
         state.note("road_network.road_type", around(text, four) if four else around(pre, junction))
     curve = None
-    curve_match = re.search(r"\bcurv(?:e|es|ed|ing)\b", pre, re.I)
+    bends = state.uses("rules_road.a_bend_is_a_curve")  # "a road that bends to the right"
+    curve_match = re.search(r"\bcurv(?:e|es|ed|ing)\b" + (r"|\bbend(?:s|ing)?\b" if bends else ""), pre, re.I)
     direction = None
     if curve_match:
         window = pre[max(0, curve_match.start() - 60):curve_match.end() + 40]
         side = re.search(r"\b(left|right)(?:-hand)?\s+curve|curve[sd]?\s+(?:to\s+the\s+)?(left|right)|"
-                         r"curved\s+(?:to\s+the\s+)?(left|right)", pre, re.I)
+                         r"curved\s+(?:to\s+the\s+)?(left|right)"
+                         + (r"|\b(left|right)(?:-hand)?\s+bend|bend(?:s|ing)?\s+(?:to\s+the\s+)?(left|right)"
+                            if bends else ""), pre, re.I)
         if side:
             direction = _as_ego_sees_it(state, pre, side, next(g for g in side.groups() if g).lower())
         if not re.search(r"\bstraight\b[^.]{0,40}\bcurv|no curve", window, re.I):
@@ -205,7 +241,11 @@ def _as_ego_sees_it(state: RulesState, text: str, match: re.Match, side: str) ->
     other = None
     if owner:
         other = state.vehicles.get(owner.group(1) or owner.group(2))
-    heading = re.search(rf"heading (?:{DIR} )?to(?:wards?)? (?:the )?{DIR}|in the {DIR}bound direction", sentence, re.I)
+    stated = ""
+    if state.uses("rules_road.curve_side_for_a_stated_direction"):  # "for southbound traffic the road curved left"
+        stated = rf"|for {DIR}bound (?:traffic|vehicles|travel)"
+    heading = re.search(rf"heading (?:{DIR} )?to(?:wards?)? (?:the )?{DIR}|in the {DIR}bound direction{stated}",
+                        sentence, re.I)
     their_direction = other.direction if other and other.label != "V1" else None
     if heading:
         their_direction = next(g for g in heading.groups()[::-1] if g).lower()
@@ -246,8 +286,9 @@ def _ways(state: RulesState, road_text: str) -> int:
 def _crosses_opposing(state: RulesState) -> bool:
     """Whether the crash sequence uses the opposing carriageway (a turn across the median, a crossover)."""
     pre = state.pre_crash
-    return bool(re.search(r"left[- ]turn|turn(?:ed|ing)? left|u[- ]turn|cross(?:ed|ing)? (?:over )?the median|"
-                          r"across the median|crossover", pre, re.I))
+    words = r"(?:[\w-]+ ){0,2}" if state.uses("rules_road.crossed_the_median_words") else ""  # "the grass median"
+    return bool(re.search(rf"left[- ]turn|turn(?:ed|ing)? left|u[- ]turn|cross(?:ed|ing)? (?:over )?the {words}median|"
+                          rf"across the {words}median|crossover", pre, re.I))
 
 
 def _speed_limit(state: RulesState) -> int | None:
@@ -303,17 +344,40 @@ MARKERS = (
 )
 
 
+# more centre-line phrasings (convention 5): a yellow line is a centre line in the US, white ones separate lanes
+MORE_MARKERS = (
+    # a "middle left-turn lane" at a junction is a turn bay, not a two-way left-turn lane
+    (r"continuous (?:cent(?:er|re) )?(?:two-way )?left[- ]turn(?:ing)? lane|"
+     r"two-way (?:cent(?:er|re) )?turn(?:ing)? lane",
+     "solid_and_broken_line"),
+    (r"(?:no|without (?:a|any)) (?:painted |marked )?(?:cent(?:er|re)[- ]?line|(?:lane |road |pavement )?markings?)\b|"
+     r"(?:was|were) not (?:painted|marked|striped)", "none"),
+    (r"(?:single )?solid yellow (?:cent(?:er|re) ?)?(?:line|stripe)", "solid_line"),
+)
+
+
 def _marker(state: RulesState, road_text: str, ways: int) -> str:
     """The centre line of V1's road: stated in the text, else written on the sketch, else divided (none),
     else drawn on the sketch, else not_mentioned."""
     text = state.t.text
     sketch_text = " ".join(state.fact_texts("text: "))
-    for pattern, token in MARKERS:
+    markers = MARKERS
+    if state.uses("rules_road.marker_phrasings"):
+        extra = {token: pattern for pattern, token in MORE_MARKERS}
+        if state.junction is None:  # away from a junction a centre left-turn lane is a two-way one
+            extra["solid_and_broken_line"] += r"|(?:cent(?:er|re)|middle) left[- ]turn(?:ing)? lane"
+        markers = tuple((f"{pattern}|{extra[token]}" if token in extra else pattern, token)
+                        for pattern, token in MARKERS)
+    if state.uses("rules_road.white_lines_separate_lanes"):  # a white line is a lane line, never the centre line
+        markers = tuple((pattern.replace("(?:yellow |white )?", "(?:yellow )?(?!white)"), token)
+                        for pattern, token in markers)
+    for (pattern, token), (sketch_pattern, _) in zip(markers, MARKERS):
         match = _on_ego_road(state, pattern, text)
         if match:
             state.note("road_network.road_marker", around(text, match))
             return token
-        match = _on_ego_road(state, pattern, sketch_text, window=80)  # OCR lines: look back one line or so
+        # a label on the sketch names no road: only the first round's phrasings are read there
+        match = _on_ego_road(state, sketch_pattern, sketch_text, window=80)  # OCR lines: look back one line or so
         if match:
             state.note("road_network.road_marker", f"sketch: {match.group(0)}")
             return token

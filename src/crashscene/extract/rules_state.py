@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 
 from crashscene.extract.narrative import COMPASS, Narrative, clip
 from crashscene.extract.case_input import Report
+from crashscene.extract.rule_sources import known_rule
 from crashscene.extract.sketch import SketchFact
 
 
@@ -47,6 +48,14 @@ class RulesState:
     yield_controlled: set[str] = field(default_factory=set)
     no_controls: bool = False
     contacts: list = field(default_factory=list)  # rules_collisions.Contact, in sequence order
+    speeds: dict[str, float] = field(default_factory=dict)  # label -> stated travel speed [mph]
+    off: frozenset[str] = frozenset()  # recorded rules switched off (rule_sources): held-out extraction
+    consulted: set[str] = field(default_factory=set)  # recorded rules this extraction asked for
+
+    def uses(self, rule: str) -> bool:
+        """Whether the recorded rule `rule` (crashscene.extract.rule_sources) is on for this extraction."""
+        self.consulted.add(known_rule(rule))
+        return rule not in self.off
 
     def fact_texts(self, prefix: str = "") -> list[str]:
         """Texts of the sketch facts starting with `prefix`."""

@@ -45,7 +45,16 @@ def subject_sentences(state: RulesState, label: str) -> list[str]:
 
 
 def _direction_of(state: RulesState, label: str) -> tuple[str | None, str | None]:
-    """Travel direction and lane side from the first sentence the vehicle is the subject of."""
+    """Travel direction and lane side: stated in a clause of its own ("V2, which was traveling south", "and V2
+    was traveling west"), else from the first sentence the vehicle is the subject of."""
+    clause_direction = None
+    if state.uses("rules_vehicles.direction_in_any_clause"):
+        # "struck the front of V2, which was traveling south", "V1 was traveling north and V2 was traveling east"
+        match = re.search(rf"\b{label}\b\s*(?:\([^)]*\))?,?\s*(?:(?:which|that|who)\s+)?(?:was|had been)\s+"
+                          rf"(?:travel+ing|driving|heading|proceeding|going)\s+{DIR}(?:bound|ward)?\b",
+                          state.t.text, re.I)
+        if match:
+            clause_direction, clause = match.group(1).lower(), match.group(0)
     for sentence in subject_sentences(state, label):
         cut = re.split(r"\b(?:struck|strike|striking|impacted|collided)\b", sentence)[0]
         match = re.search(rf"(?:travel+ing|driven|heading|proceeding|going|traveled|travelled|was)\s+"
@@ -60,8 +69,10 @@ def _direction_of(state: RulesState, label: str) -> tuple[str | None, str | None
             number = re.search(rf"\bnumber\s+{NUM}\b[^.]{{0,30}}?\blane", cut, re.I)
             if number:
                 state.vehicles[label].lane_number = count_word(number.group(1))
-            return next(g for g in match.groups() if g).lower(), side
-    return None, None
+            return clause_direction or next(g for g in match.groups() if g).lower(), side
+    if clause_direction:
+        state.note(f"actors.{state.vehicles[label].role}.position", clause)
+    return clause_direction, None
 
 
 def _lane_side(word: str) -> str:
@@ -115,6 +126,11 @@ def split_pre_crash(state: RulesState) -> None:
         if impact:
             head = sentence[: impact.start()]
             kept.append(head)
+            # "V2 struck V1 after V2 drifted across the centerline": the manoeuvre is told after the impact verb
+            after = re.search(r"\b(?:after|as|when|while)\b\s+(?:the\s+driver\s+of\s+)?(?:V[1-9]|it|he|she)\b"
+                              r"[^.;]*", sentence[impact.end():], re.I)
+            if after and state.uses("rules_vehicles.manoeuvre_after_the_impact_verb"):
+                kept.append(after.group(0))
             state.crash_sentence = sentence
             between = []
             for later in sentences[index + 1:]:

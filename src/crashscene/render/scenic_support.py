@@ -501,24 +501,72 @@ def _plausible(combo, actors, topology, room):
     return True
 
 
+_MOVES = {"STRAIGHT": "go straight", "LEFT_TURN": "turn left", "RIGHT_TURN": "turn right"}
+_PLACED = {"side_left": "beside {ref} on its left", "side_right": "beside {ref} on its right",
+           "oncoming": "oncoming to {ref}", "follow": "in {ref}'s lane", "approach": "on another approach",
+           "anchor": "at the anchor"}
+
+
+def _combos(network, actors, topology, hint, curve_sign, ego_roads, room):
+    if topology in ("intersection", "t_intersection"):
+        return _junction_combos(network, actors, 4 if topology == "intersection" else 3, ego_roads)
+    return _road_combos(network, actors, topology, hint, curve_sign, ego_roads, room)
+
+
+def _where(actor):
+    """`actors.<role>.position (...)` and `actors.<role>.behavior (...)` of one actor spec, for messages."""
+    role = actor["role"]
+    placed = _PLACED.get(actor["placement"], actor["placement"]).format(ref=actor.get("ref"))
+    return (f"actors.{role}.position ({placed}) and actors.{role}.behavior ({actor.get('behavior')}, "
+            f"{_MOVES.get(actor.get('maneuver'), actor.get('maneuver'))} at the junction)"
+            if actor["placement"] == "approach" else
+            f"actors.{role}.position ({placed}) and actors.{role}.behavior ({actor.get('behavior')})")
+
+
+def _no_place(network, actors, topology, hint, curve_sign, ego_roads, room):
+    """Which DSL fields keep the scenario off this map (compile time, only when no candidate fits): the ego's
+    own manoeuvre, the lanes its lane must offer to the actors placed beside or oncoming to it, or the first
+    actor, in placement order, that finds no place once those before it are placed."""
+    ego = actors[0]
+    args = (topology, hint, curve_sign, ego_roads, room)
+    bare = dict(ego, needs={"left": 0, "right": 0, "oncoming": 0})
+    move = _MOVES.get(ego.get("maneuver"), "drive")
+    if not _combos(network, [bare], *args):
+        return (f"actors.ego.behavior ({ego.get('behavior')}) and road_network.road_type ({topology}): the map has "
+                f"no lane where the ego can {move}")
+    if not _combos(network, [ego], *args):
+        need = ego.get("needs", {})
+        offers = [f"{need[side]} same-direction lane(s) on its {side}" for side in ("left", "right")
+                  if need.get(side)] + (["an oncoming lane"] if need.get("oncoming") else [])
+        by = [a for a in actors[1:] if a.get("ref") == "ego"
+              and a["placement"] in ("side_left", "side_right", "oncoming")]
+        who = " and ".join(_where(a) for a in by) or "its own behavior"
+        return (f"actors.ego.behavior ({ego.get('behavior')}): no lane the ego can {move} from also has "
+                f"{' and '.join(offers)}, which {who} {'need' if len(by) > 1 else 'needs'}; allowed: those actors "
+                "placed on the other side, ahead or behind, or another ego behavior")
+    for k in range(2, len(actors) + 1):
+        if not _combos(network, actors[:k], *args):
+            actor = actors[k - 1]
+            return f"{_where(actor)}: no place for {actor['role']} once " + ", ".join(
+                a["role"] for a in actors[:k - 1]) + " are placed"
+    return "lanes, junction legs or manoeuvres missing"
+
+
 def candidates(network, actors, topology, hint, curve_sign, ego_roads=(), map_name="map", room=(0.0, 0.0)):
     """Every placement candidate of the program's actors on `network` (compile time).
 
     `room` = (behind, ahead) [m] of road the ego's route should offer around the anchor for the actors queued
     on it; candidates without it are dropped unless none has it (then actors may be clamped to route ends).
     """
-    if topology in ("intersection", "t_intersection"):
-        found = _junction_combos(network, actors, 4 if topology == "intersection" else 3, ego_roads)
-    else:
-        found = _road_combos(network, actors, topology, hint, curve_sign, ego_roads, room)
+    found = _combos(network, actors, topology, hint, curve_sign, ego_roads, room)
     roomy = [c for c in found if c.routes["ego"].anchor >= room[0]
              and c.routes["ego"].length - c.routes["ego"].anchor >= room[1]]
     found = roomy or found
     plausible = [c for c in found if _plausible(c, actors, topology, room)]
     found = plausible or found
     if not found:
-        raise RuntimeError(f"crashscene: no place on map {map_name!r} fits this {topology} "
-                           f"scenario (lanes, junction legs or manoeuvres missing)")
+        raise RuntimeError(f"crashscene: no place on map {map_name!r} fits this {topology} scenario: "
+                           + _no_place(network, actors, topology, hint, curve_sign, ego_roads, room))
     return found
 
 

@@ -1,8 +1,9 @@
 """Timing plans of an embedded batch, per variation: when each actor starts, how fast it cruises and when its
 manoeuvre triggers, so that the paths conflict as the report says (see `timing` for the kinematics), and the
 signal phase that gives the anchor its green. In reproduce mode also the written crash sequence beyond its
-first contact: a wrong-way driver in its head-on partner's lane, and a cascade, where a third vehicle meets
-the car the first impact pushes (`cascade`).
+first contact: the actors of a chain of rear-ends in the written order along their lane, a wrong-way driver in
+its head-on partner's lane, and a cascade, where a third vehicle meets the car the first impact pushes
+(`cascade`).
 
 Every draw comes from the variation's own generator in a fixed order, so a plan depends only on
 (scenario, seed, variation index).
@@ -33,6 +34,8 @@ LATERAL_BEHAVIORS = ("change_lane_left", "change_lane_right", "cross_centerline"
                      "leave_road")
 SYNC_SLACK = 0.8  # [s] an actor moved back to meet later is placed this much early (sync.Meeting slows it)
 START_MARGIN = 5.0  # [m] an actor moved back along its route stays this far from the route's start
+CLIP_CLOSING = 3.0  # [m/s] a vehicle pulling out around the one ahead and clipping it comes up at least this fast
+CHAIN_GAP = 4.0  # [m] at least this between the bumpers of actors reordered along their lane
 SPEEDING_RUN = 2.0  # [s] a striker charged with speeding drives this long before its impact (rules: 1 s over)
 CASCADE_WINDOW = 0.8  # [s] a later contact's striker arrives up to this long after the pushed car is in its path
 STOP_DECEL = 4.0  # [m/s2] a stopping driver's braking (drivers.behaviors.DECELERATE_RATE)
@@ -130,6 +133,8 @@ class VariationPlan:
                    lateral_target=lateral_target.copy(), planned=np.zeros(n_a), speeds=np.zeros(n_a),
                    scale=np.ones(n_a), hold=np.zeros(n_a), trigger=np.full(n_a, np.inf),
                    skids=np.full((n_a, 3), np.nan), moved=np.zeros(n_a, dtype=bool), drifted=np.zeros(n_a))
+        if ctx.reproduce:
+            plan.order_chain()
         plan.plan_speeds()  # draws nothing: the draws above are the variation's first, as always
         plan.anchor_speed = float(plan.speeds[ctx.anchor])
         plan.anchor_stop = plan.stop_dist(ctx.anchor)
@@ -188,7 +193,9 @@ class VariationPlan:
         """A lane change, centre-line crossing, overtake, loss of control or leaving the road, aimed at the
         partner's path: a sideswipe placed alongside, a sudden veer planned as a skid, else a trigger time."""
         ctx, col = self.ctx, self.ctx.columns[a]
-        partner = _partner(a, ctx.anchor, ctx.columns, self.scene)
+        partner = self.written_partner(a) if a == ctx.anchor else None
+        if partner is None:
+            partner = _partner(a, ctx.anchor, ctx.columns, self.scene)
         if partner is None:
             self.trigger[a] = self.param(a, ("TRIGGER_TIME", "MANEUVER_TIME"), self.draws.trigger[a])
             if col.behavior == "lose_control":
@@ -206,6 +213,10 @@ class VariationPlan:
         if opposite and not p_col.is_ads and p_col.behavior not in LATERAL_BEHAVIORS and gap > 0:
             self._slow_oncoming(a, partner, gap, abs(dist) / rate + lead)
         contact = ctx.classes.get(frozenset((col.role, p_col.role)))
+        if not opposite and contact in ("rear_end", "sideswipe") and col.behavior in VEER_BEHAVIORS \
+                and self.contact_area(a, partner) in ("front", "left", "right") \
+                and self._clip(a, partner, gap, contact, rate):
+            return
         if contact == "sideswipe" and not opposite and col.behavior in ("change_lane_left", "change_lane_right") \
                 and self._place_alongside(a, partner, gap, dist):
             return
@@ -224,6 +235,44 @@ class VariationPlan:
             self.d0[a] += shift
             self.drifted[a] = shift
         self.trigger[a] = max(0.0, t_trig)
+
+    def written_partner(self, a: int) -> int | None:
+        """The other actor of actor a's first written contact, None when it has none."""
+        roles = [c.role for c in self.ctx.columns]
+        for striking, struck, *_ in self.ctx.contacts:
+            if roles[a] in (striking, struck):
+                other = struck if striking == roles[a] else striking
+                return roles.index(other) if other in roles else None
+        return None
+
+    def contact_area(self, a: int, b: int) -> str | None:
+        """Actor a's area in its first written contact with b, None when none is written."""
+        ra, rb = self.ctx.columns[a].role, self.ctx.columns[b].role
+        for striking, struck, _, striking_area, struck_area in self.ctx.contacts:
+            if {striking, struck} == {ra, rb}:
+                return striking_area if striking == ra else struck_area
+        return None
+
+    def _clip(self, a: int, partner: int, gap: float, contact: str, rate: float) -> bool:
+        """Pulling out around the vehicle ahead and clipping it (a written rear-end or sideswipe with it): the
+        manoeuvre is only partly done when it reaches the partner's rear, across by a drawn part of the overlap
+        (a rear-end: still well behind it; a sideswipe: nearly clear). False when it does not close in."""
+        reach = gap - (self.length[a] + self.length[partner]) / 2
+        p_col = self.ctx.columns[partner]
+        if reach <= 0 or p_col.is_ads:
+            return False
+        if self.speeds[a] - self.speeds[partner] < CLIP_CLOSING and p_col.behavior == "go_forward":
+            # it came up on a slower vehicle ahead: the partner drives slower (within its range)
+            self.scale[partner] = max(timing.SPEED_SCALE[0], (self.speeds[a] - CLIP_CLOSING) / self.speeds[partner])
+            self.speeds[partner] = self.planned[partner] * self.scale[partner]
+        closing = self.speeds[a] - self.speeds[partner]
+        if closing < 0.5:
+            return False
+        half = (self.width[a] + self.width[partner]) / 2
+        u = (self.draws.lead[a] - 0.8) / 1.2  # [0, 1)
+        across = half * (0.15 + 0.35 * u) if contact == "rear_end" else half - 0.2 - 0.4 * u
+        self.trigger[a] = max(0.0, reach / closing - across / rate)
+        return True
 
     def _lateral_distance(self, a: int, lateral: float, opposite: bool) -> float:
         """[m] how far actor a steers sideways to reach its partner's path (sets a skid's side)."""
@@ -485,6 +534,39 @@ class VariationPlan:
         self.arrival_anchor = t_new
 
     # ---------------------------------------------------------------- later contacts
+    def order_chain(self) -> None:
+        """Written rear-ends between actors starting in one lane put each striker behind what it strikes: when
+        the sampled order along the lane says otherwise, the actors of the chain take the same stations in
+        the written order (the last struck in front), spaced by their lengths."""
+        cols = self.ctx.columns
+        roles = [c.role for c in cols]
+        behind: set[tuple[int, int]] = set()
+        for striking, struck, klass, *_ in self.ctx.contacts:
+            if klass == "rear_end" and striking in roles and struck in roles:
+                a, b = roles.index(striking), roles.index(struck)
+                if _same_lane(self.route, self.d0, a, b):
+                    behind.add((a, b))
+        if not behind or all(self.s0[a] < self.s0[b] for a, b in behind):
+            return
+        chain = sorted({i for pair in behind for i in pair})
+        order: list[int] = []
+        while len(order) < len(chain):  # the written order, the sampled one between unrelated actors
+            free = [i for i in chain if i not in order
+                    and not any(b == i and a not in order for a, b in behind)]
+            if not free:
+                return  # the contacts contradict each other
+            order.append(min(free, key=lambda i: self.s0[i]))
+        stations = sorted(float(self.s0[i]) for i in chain)
+        for k in range(len(order) - 2, -1, -1):  # from the front: each far enough behind the one ahead
+            room = (self.length[order[k]] + self.length[order[k + 1]]) / 2 + CHAIN_GAP
+            stations[k] = min(stations[k], stations[k + 1] - room)
+        if stations[0] < START_MARGIN:
+            return
+        for i, s in zip(order, stations):
+            if s != self.s0[i]:
+                self.s0[i] = s
+                self.moved[i] = True
+
     def plan_cascade(self) -> None:
         """A written sequence that starts with an end-on contact (a rear-end into a stopped car, a head-on) and
         goes on with a third vehicle meeting the struck one: the striker hits the struck car off its centre
