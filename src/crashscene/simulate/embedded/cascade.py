@@ -11,12 +11,11 @@ import math
 
 import numpy as np
 
+from crashscene.geometry import classify_contact, wrap_angle
 from crashscene.simulate.embedded import impact
 
 DT = 0.05  # [s] integration step of the prediction
 HORIZON = 4.0  # [s] how long after the impact the pushed car is followed
-SAME_BAND = math.radians(30.0)  # [rad] relative heading under which an end-on contact is rear-end (rules.md)
-RIGHT_ANGLE_BAND = (math.radians(60.0), math.radians(120.0))  # [rad] the angle class (rules.md)
 CORNER = 0.4  # [-] the striker's centre is this fraction of the struck car's width off its centre line
 
 
@@ -56,15 +55,8 @@ def pushed_path(v_striker: float, v_struck: float, side: float, m_striker: float
 
 
 def contact_class(relative_yaw: float) -> str:
-    """The class (rules.md) of a front-first contact at this relative heading [rad] of the two bodies."""
-    rel = abs(math.remainder(relative_yaw, 2 * math.pi))  # [0, pi]
-    if rel < SAME_BAND:
-        return "rear_end"
-    if rel > math.pi - SAME_BAND:
-        return "head_on"
-    if RIGHT_ANGLE_BAND[0] <= rel <= RIGHT_ANGLE_BAND[1]:
-        return "angle"
-    return "sideswipe"
+    """The class (rules.md, geometry.classify_contact) of an end-on contact at this relative heading [rad]."""
+    return str(classify_contact(abs(wrap_angle(relative_yaw)))[()])
 
 
 AREAS = ("front", "left", "rear", "right")  # a body's faces, counter-clockwise from its heading
