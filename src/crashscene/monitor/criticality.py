@@ -82,18 +82,16 @@ def time_to_collision(pa_: np.ndarray, pb_: np.ndarray, yaw_a: np.ndarray, yaw_b
     `va`, `vb` (..., 2) velocities [m/s]. Separating-axis test swept in time: on each of the four axes the
     projections overlap during an interval; the rectangles overlap while all four intervals do.
     """
-    d = pb_ - pa_
-    w = vb - va
-    ua = np.stack([np.cos(yaw_a), np.sin(yaw_a)], axis=-1)
-    ub = np.stack([np.cos(yaw_b), np.sin(yaw_b)], axis=-1)
-    perp = lambda u: np.stack([-u[..., 1], u[..., 0]], axis=-1)
-    dot = lambda p, q: (p * q).sum(-1)
-    t_in = np.zeros(d.shape[:-1])
-    t_out = np.full(d.shape[:-1], np.inf)
-    for axis in (ua, perp(ua), ub, perp(ub)):
-        radius = (half_a[..., 0] * np.abs(dot(ua, axis)) + half_a[..., 1] * np.abs(dot(perp(ua), axis))
-                  + half_b[..., 0] * np.abs(dot(ub, axis)) + half_b[..., 1] * np.abs(dot(perp(ub), axis)))
-        gap, s = dot(d, axis), dot(w, axis)   # overlap on this axis while |gap + s t| <= radius
+    dx, dy = pb_[..., 0] - pa_[..., 0], pb_[..., 1] - pa_[..., 1]
+    wx, wy = vb[..., 0] - va[..., 0], vb[..., 1] - va[..., 1]
+    ca, sa, cb, sb = np.cos(yaw_a), np.sin(yaw_a), np.cos(yaw_b), np.sin(yaw_b)
+    t_in = np.zeros(dx.shape)
+    t_out = np.full(dx.shape, np.inf)
+    # component arithmetic, in the order a dot product over a last axis of 2 sums (the same bits, no stacking)
+    for ax, ay in ((ca, sa), (-sa, ca), (cb, sb), (-sb, cb)):
+        radius = (half_a[..., 0] * np.abs(ca * ax + sa * ay) + half_a[..., 1] * np.abs(-sa * ax + ca * ay)
+                  + half_b[..., 0] * np.abs(cb * ax + sb * ay) + half_b[..., 1] * np.abs(-sb * ax + cb * ay))
+        gap, s = dx * ax + dy * ay, wx * ax + wy * ay   # overlap on this axis while |gap + s t| <= radius
         with np.errstate(divide="ignore", invalid="ignore"):
             lo, hi = (-radius - gap) / s, (radius - gap) / s
         still = s == 0
@@ -176,8 +174,9 @@ def _crossing_point(px_a, py_a, px_b, py_b, yaw_a, yaw_b):
         u = (qx * sy - qy * sx) / denom
         v = (qx * ry - qy * rx) / denom
         hit = (u >= 0) & (u <= 1) & (v >= 0) & (v <= 1) & (denom != 0)
-    angle = heading_difference(yaw_a[:, :-1, None], yaw_b[:, None, :-1])
-    hit &= (angle >= CROSSING_MIN_ANGLE) & (angle <= np.pi - CROSSING_MIN_ANGLE)
+    vi, ii, jj = np.nonzero(hit)  # the crossing angle only where the segments cross (few of V x N x N)
+    angle = heading_difference(yaw_a[vi, ii], yaw_b[vi, jj])
+    hit[vi, ii, jj] = (angle >= CROSSING_MIN_ANGLE) & (angle <= np.pi - CROSSING_MIN_ANGLE)
     n_b = hit.shape[2]
     flat = hit.reshape(len(hit), -1)
     any_hit = flat.any(axis=1)
