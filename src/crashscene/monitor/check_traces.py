@@ -7,7 +7,7 @@ import numpy as np
 import pyarrow as pa
 
 from crashscene.dsl.model import Scenario
-from crashscene.monitor.arrays import build_arrays
+from crashscene.monitor.arrays import TraceArrays, build_arrays
 from crashscene.monitor.collisions import classify_collisions, first_contact_steps
 from crashscene.monitor.context import EvalContext
 from crashscene.monitor.errors import MonitorError
@@ -24,7 +24,8 @@ from crashscene.monitor.verdicts import (
 
 def evaluate(tables: dict[str, pa.Table], scenario: Scenario | None, rulebook: Rulebook | None = None, *,
              expected: ExpectedCollision | None | Literal["auto"] = "auto",
-             stop_at_collision: bool = True, after_collision: float = 0.5) -> MonitorResult:
+             stop_at_collision: bool = True, after_collision: float = 0.5,
+             arrays: TraceArrays | None = None) -> MonitorResult:
     """Evaluate every actor of every variation in `tables` (see `crashscene.traces`).
 
     `scenario` supplies the environment (condition factors), the posted limit,
@@ -36,9 +37,10 @@ def evaluate(tables: dict[str, pa.Table], scenario: Scenario | None, rulebook: R
     `after_collision` [s] past its first collision only: what a backend without
     contact physics does afterwards (vehicles passing through each other) is
     not driving.
+    `arrays`: `build_arrays(tables)` when the caller has built them already (they are truncated in place).
     """
     rulebook = rulebook or Rulebook()
-    arrays = build_arrays(tables)
+    arrays = build_arrays(tables) if arrays is None else arrays
     ads = ads_mask(arrays)                        # is_ads, or the ego standing in (reproduce mode): verdicts
     under_test = arrays.is_ads & arrays.present    # the tables report is_ads as the simulator set it
     collisions = classify_collisions(arrays, tables.get("collisions"), under_test)

@@ -205,8 +205,10 @@ def judge_block(tables: dict[str, pa.Table], scenario: Scenario, rulebook=None) 
     from crashscene.monitor.criticality import criticality_table
 
     start = time.perf_counter()
-    result = evaluate(tables, scenario, rulebook) if rulebook is not None else evaluate(tables, scenario)
-    criticality = criticality_table(build_arrays(tables), result.collisions)
+    arrays = build_arrays(tables)  # once: the metrics read the whole traces, then the monitor truncates them
+    criticality = criticality_table(arrays, tables.get("collisions"))
+    result = evaluate(tables, scenario, rulebook, arrays=arrays) if rulebook is not None \
+        else evaluate(tables, scenario, arrays=arrays)
     return Judged(result, criticality, time.perf_counter() - start)
 
 
