@@ -184,13 +184,14 @@ def _sampler_for(backend: str, sampler: str | None) -> str:
 
 
 MIN_BLOCK = 100  # variations per process below which forking costs more than it saves
+BLOCKS_PER_WORKER = 2  # smaller blocks than workers: a worker whose block ran fast takes the next one
 _INHERITED: dict[str, Any] = {}  # the request, read by forked children only
 
 
 @dataclasses.dataclass
 class Judged:
-    """The monitor's result and the criticality metrics of a batch, and the wall time they took [s] (the
-    longest block's, when blocks ran in parallel)."""
+    """The monitor's result and the criticality metrics of a batch, and the wall time they took [s] (their
+    blocks' time over the number of workers, when blocks ran in parallel)."""
 
     result: Any  # crashscene.monitor.result.MonitorResult
     criticality: pa.Table
@@ -214,7 +215,7 @@ def judge_block(tables: dict[str, pa.Table], scenario: Scenario, rulebook=None) 
 
 def simulate_blocks(backend: str, settings: SimulationSettings, request: SimulationRequest, workers: int,
                     judge: Callable[[dict[str, pa.Table]], Judged] | None = None) -> tuple[BatchResult, Judged | None]:
-    """`request` simulated in up to `workers` forked processes, one contiguous block of scenes each, and each
+    """`request` simulated in up to `workers` forked processes, in contiguous blocks of scenes (two per worker), each
     block judged (`judge`: monitor and metrics) in its process.
 
     Variation i depends only on its scene, so the concatenated tables equal one process's. Only the embedded
@@ -227,7 +228,8 @@ def simulate_blocks(backend: str, settings: SimulationSettings, request: Simulat
             result = simulator.simulate(request)
         return result, (judge(result.tables) if judge is not None else None)
     start = time.perf_counter()
-    bounds = [len(scenes) * k // workers for k in range(workers + 1)]
+    blocks = min(BLOCKS_PER_WORKER * workers, max(1, len(scenes) // MIN_BLOCK))
+    bounds = [len(scenes) * k // blocks for k in range(blocks + 1)]
     _INHERITED.update(backend=backend, settings=settings, request=request, judge=judge)
     try:
         context = multiprocessing.get_context("fork")  # children inherit the imports and the parsed map
@@ -249,7 +251,7 @@ def simulate_blocks(backend: str, settings: SimulationSettings, request: Simulat
 
     judged = [part[1] for part in parts]
     return result, Judged(combine([j.result for j in judged]), pa.concat_tables([j.criticality for j in judged]),
-                          max(j.seconds for j in judged))
+                          sum(j.seconds for j in judged) / workers)
 
 
 def _simulate_block(lo: int, hi: int) -> tuple[BatchResult, Judged | None, int]:
