@@ -61,25 +61,22 @@ def _simulate_and_monitor(task: ChunkTask, run_dir: Path) -> ChunkResult:
                       allow_imports=opts.allow_imports, rendered_dir=rendered,
                       sampler=opts.sampler)
     tables = {name: read_table(run_dir, name) for name in TABLES if (run_dir / f"{name}.parquet").exists()}
-    result = rows_from(tables, _monitored(run_dir), _ads_ttc(run_dir))
-    if (run_dir / "criticality.parquet").exists():
-        result.criticality = pq.read_table(run_dir / "criticality.parquet").select(CRITICALITY_ROWS.names)
+    path = run_dir / "criticality.parquet"
+    criticality = pq.read_table(path) if path.exists() else None   # written when the monitor ran
+    result = rows_from(tables, _monitored(run_dir), _ads_ttc(criticality))
+    if criticality is not None:
+        result.criticality = criticality.select(CRITICALITY_ROWS.names)
     return result
 
 
-def _ads_ttc(run_dir: Path) -> dict[int, float] | None:
-    """Per variation, the lowest time to collision [s] of a pair with the ADS (criticality.parquet, when written)."""
-    path = run_dir / "criticality.parquet"
-    if not path.exists():
+def _ads_ttc(criticality: pa.Table | None) -> dict[int, float] | None:
+    """Per variation, the lowest time to collision [s] of a pair with the ADS, where one was on a collision
+    course (`monitor.criticality.ads_objectives`)."""
+    if criticality is None:
         return None
-    names = pq.read_schema(path).names
-    if not {"variation", "involves_ads", "min_ttc"} <= set(names):
-        return None
-    out: dict[int, float] = {}
-    for r in pq.read_table(path, columns=["variation", "involves_ads", "min_ttc"]).to_pylist():
-        if r["involves_ads"] and r["min_ttc"] is not None and math.isfinite(r["min_ttc"]):
-            out[r["variation"]] = min(out.get(r["variation"], math.inf), r["min_ttc"])
-    return out
+    from crashscene.monitor.criticality import ads_objectives
+
+    return {v: m["min_ttc"] for v, m in ads_objectives(criticality).items() if math.isfinite(m["min_ttc"])}
 
 
 def _monitored(run_dir: Path) -> dict[str, pa.Table]:
