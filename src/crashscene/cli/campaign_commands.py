@@ -16,12 +16,11 @@ from crashscene.cli.simulation_options import (
     CarlaPortOpt,
     DtOpt,
     HorizonOpt,
+    ModeOpt,
     parse_ads_params,
 )
 
 EXTRACTORS = ("rules", "openai", "local", "auto")
-ModeOpt = Annotated[str, typer.Option("--mode", help="reproduce (re-enact the crash), test (ego = ADS under test), "
-                                                     "or both.")]
 
 
 def build_config(n: int, seed: int, mode: str, engine: str, workers: int | None, address: str | None, resume: bool,

@@ -16,12 +16,9 @@ from crashscene.cli.simulation_options import (
     CarlaPortOpt,
     DtOpt,
     HorizonOpt,
+    ModeOpt,
     parse_ads_params,
 )
-
-# kept here (not imported from campaign_commands) so that `run` is registered, and listed, before `campaign`
-ModeOpt = Annotated[str, typer.Option("--mode", help="reproduce (re-enact the crash), test (ego = ADS under test), "
-                                                     "or both.")]
 
 
 @app.command()

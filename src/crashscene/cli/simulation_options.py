@@ -15,6 +15,8 @@ DtOpt = Annotated[float, typer.Option("--dt", help="Time step [s].")]
 HorizonOpt = Annotated[float, typer.Option("--horizon", help="Simulated time per variation [s].")]
 CarlaHostOpt = Annotated[str, typer.Option("--carla-host", help="CARLA server host.")]
 CarlaPortOpt = Annotated[int, typer.Option("--carla-port", help="CARLA server port.")]
+ModeOpt = Annotated[str, typer.Option("--mode", help="reproduce (re-enact the crash), test (ego = ADS under test), "
+                                                     "or both.")]  # `run` and `campaign`
 AllowImportsOpt = Annotated[bool, typer.Option("--allow-imports", help="Let the --rules file's `imports:` import "
                                                "Python modules (runs their code).")]
 
