@@ -208,8 +208,7 @@ def judge_block(tables: dict[str, pa.Table], scenario: Scenario, rulebook=None) 
     start = time.perf_counter()
     arrays = build_arrays(tables)  # once: the metrics read the whole traces, then the monitor truncates them
     criticality = criticality_table(arrays, tables.get("collisions"))
-    result = evaluate(tables, scenario, rulebook, arrays=arrays) if rulebook is not None \
-        else evaluate(tables, scenario, arrays=arrays)
+    result = evaluate(tables, scenario, rulebook, arrays=arrays)
     return Judged(result, criticality, time.perf_counter() - start)
 
 

@@ -105,8 +105,8 @@ def _evaluate(simulator, settings, scenario, compiled, program: Path, rendered, 
               first: int, objective: str) -> tuple[list[dict[str, Any]], pa.Table]:
     """Simulate and monitor one round; one row per variation (objective NaN for invalid ones)."""
     from crashscene.monitor.criticality import CRITICALITY_SCHEMA, ads_objectives
-    from crashscene.simulate.backend import SimulationRequest
     from crashscene.pipeline.simulate import judge_block
+    from crashscene.simulate.backend import SimulationRequest
 
     drawn = pinned_scenes(compiled, program, values, seed, first)
     scenes = [s for s in drawn if not isinstance(s, str)]
