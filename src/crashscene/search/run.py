@@ -70,7 +70,7 @@ def search_scenario(scenario: Scenario, out_dir: Path, *, budget: int, sampler: 
     out_dir.mkdir(parents=True, exist_ok=True)
     dump_file(scenario, out_dir / "scenario.yaml")
     try:
-        rendered = render(scenario, out_dir, map_mode=map_mode, carla_maps=carla_maps)
+        rendered = render(scenario, out_dir, map_mode=map_mode, carla_maps=carla_maps, search_ads=ego_role)
         program = Path(rendered.program)
         compiled = compile_program(program)
     except RenderError as exc:
