@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from crashscene.monitor.rules import Disposition
-from crashscene.render.plan import LEAD_TIME, SIGNAL_GREEN
+from crashscene.render.plan import LATERAL_BEHAVIORS, LEAD_TIME, SIGNAL_GREEN
 from crashscene.scene import SampledScene
 from crashscene.simulate.drivers.behaviors import OVER_LIMIT, SPEEDING_CODES, speed_factor
 from crashscene.simulate.embedded import cascade, signals, timing
@@ -31,8 +31,6 @@ if TYPE_CHECKING:
     from crashscene.simulate.embedded.setup import ActorColumn
 
 VEER_BEHAVIORS = ("change_lane_left", "change_lane_right", "cross_centerline", "overtake")
-LATERAL_BEHAVIORS = ("change_lane_left", "change_lane_right", "cross_centerline", "overtake", "lose_control",
-                     "leave_road")
 SYNC_SLACK = 0.8  # [s] an actor moved back to meet later is placed this much early (sync.Meeting slows it)
 START_MARGIN = 5.0  # [m] an actor moved back along its route stays this far from the route's start
 CLIP_CLOSING = 3.0  # [m/s] a vehicle pulling out around the one ahead and clipping it comes up at least this fast
