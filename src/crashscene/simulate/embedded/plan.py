@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from crashscene.monitor.rules import Disposition
-from crashscene.render.plan import LATERAL_BEHAVIORS, LEAD_TIME, SIGNAL_GREEN
+from crashscene.render.plan import LATERAL_BEHAVIORS, LEAD_TIME, SIGNAL_GREEN, SKID_ROTATION
 from crashscene.scene import SampledScene
 from crashscene.simulate.drivers.behaviors import OVER_LIMIT, SPEEDING_CODES, speed_factor
 from crashscene.simulate.embedded import cascade, signals, timing
@@ -82,7 +82,7 @@ class Draws:
         return cls(offset=rng.normal(timing.ARRIVAL_OFFSET_MEAN, timing.ARRIVAL_OFFSET_SD, n_a),
                    lead=rng.uniform(*LEAD_TIME, n_a), trigger=rng.uniform(1.0, 4.0, n_a),
                    green=rng.uniform(*SIGNAL_GREEN), spin=rng.choice([-1.0, 1.0], n_a),
-                   rotation=rng.uniform(0.0, 1.0, n_a), cascade=rng.uniform(0.0, 1.0, n_a))
+                   rotation=rng.uniform(*SKID_ROTATION, n_a), cascade=rng.uniform(0.0, 1.0, n_a))
 
 
 @dataclass
@@ -330,10 +330,11 @@ class VariationPlan:
                  "head_on": (length[partner] + length[a]) / 2,
                  "rear_end": (length[partner] + length[a]) / 2}.get(contact or "", 0.0)
         ahead = 1.0 if (opposite or gap > 0) else -1.0
+        rotation = self.param(a, ("SKID_ROTATION",), self.draws.rotation[a])  # sampled in a search, else drawn
         skid = skid_plan.plan(self.speeds[a], gap - ahead * reach, self.speeds[partner], opposite,
                               (0.0 if moves_in else lateral) - self.d0[a],
                               self.lane_width, self.ctx.friction, float(length[a]), float(width[a]),
-                              skid_plan.rotation_for(contact, opposite, float(self.draws.rotation[a])),
+                              skid_plan.rotation_for(contact, opposite, rotation),
                               contact)
         if skid is not None and skid.partner_shift:
             placed = self.shift_start(partner, skid.partner_shift)
