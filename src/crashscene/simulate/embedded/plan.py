@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from crashscene.monitor.rules import Disposition
+from crashscene.render.plan import LATERAL_BEHAVIORS, LEAD_TIME, SIGNAL_GREEN
 from crashscene.scene import SampledScene
 from crashscene.simulate.drivers.behaviors import OVER_LIMIT, SPEEDING_CODES, speed_factor
 from crashscene.simulate.embedded import cascade, signals, timing
@@ -30,13 +31,14 @@ if TYPE_CHECKING:
     from crashscene.simulate.embedded.setup import ActorColumn
 
 VEER_BEHAVIORS = ("change_lane_left", "change_lane_right", "cross_centerline", "overtake")
-LATERAL_BEHAVIORS = ("change_lane_left", "change_lane_right", "cross_centerline", "overtake", "lose_control",
-                     "leave_road")
 SYNC_SLACK = 0.8  # [s] an actor moved back to meet later is placed this much early (sync.Meeting slows it)
 START_MARGIN = 5.0  # [m] an actor moved back along its route stays this far from the route's start
 CLIP_CLOSING = 3.0  # [m/s] a vehicle pulling out around the one ahead and clipping it comes up at least this fast
 CHAIN_GAP = 4.0  # [m] at least this between the bumpers of actors reordered along their lane
 SPEEDING_RUN = 2.0  # [s] a striker charged with speeding drives this long before its impact (rules: 1 s over)
+CASCADE_SETTLE = 1.5  # [s] a striker steering to the corner it is to hit is there this long before the impact
+CASCADE_LAG = 0.7  # [-] a steering driver follows its lateral reference this much slower than the reference moves
+CASCADE_ACROSS = 0.9  # [-] at most this part of the way across is done before the scene starts
 CASCADE_WINDOW = 0.8  # [s] a later contact's striker arrives up to this long after the pushed car is in its path
 STOP_DECEL = 4.0  # [m/s2] a stopping driver's braking (drivers.behaviors.DECELERATE_RATE)
 STOP_NEAR_JUNCTION = 40.0  # [m] a stopping driver this close to a junction stops at its line
@@ -78,8 +80,8 @@ class Draws:
     @classmethod
     def take(cls, rng: np.random.Generator, n_a: int) -> Draws:
         return cls(offset=rng.normal(timing.ARRIVAL_OFFSET_MEAN, timing.ARRIVAL_OFFSET_SD, n_a),
-                   lead=rng.uniform(0.8, 2.0, n_a), trigger=rng.uniform(1.0, 4.0, n_a),
-                   green=rng.uniform(3.0, 15.0), spin=rng.choice([-1.0, 1.0], n_a),
+                   lead=rng.uniform(*LEAD_TIME, n_a), trigger=rng.uniform(1.0, 4.0, n_a),
+                   green=rng.uniform(*SIGNAL_GREEN), spin=rng.choice([-1.0, 1.0], n_a),
                    rotation=rng.uniform(0.0, 1.0, n_a), cascade=rng.uniform(0.0, 1.0, n_a))
 
 
@@ -157,8 +159,13 @@ class VariationPlan:
 
     # ---------------------------------------------------------------- shared steps
     def param(self, a: int, names: tuple[str, ...], default: float) -> float:
-        """Actor a's sampled scene parameter (`_param`), else `default`."""
-        return _param(self.scene.params, self.ctx.columns[a].role, names, default)
+        """Actor a's sampled scene parameter (`scene_param`), else `default`."""
+        return scene_param(self.scene.params, self.ctx.columns[a].role, names, default)
+
+    def lead_time(self, a: int) -> float:
+        """[s] how long before meeting its partner actor a's lateral manoeuvre is under way: its sampled
+        `LEAD_TIME` (a search declares it), else its draw."""
+        return self.param(a, ("LEAD_TIME",), self.draws.lead[a])
 
     def plan_speeds(self) -> None:
         """The cruise speed each driver will hold (`_planned_speed`)."""
@@ -205,9 +212,9 @@ class VariationPlan:
         gap, lateral = _relative(ctx.arrays, self.route[a], self.s0[a], other.x, other.y)
         opposite = math.cos(other.yaw - self.scene.actors[a].yaw) < -0.3
         dist = self._lateral_distance(a, lateral, opposite)
-        lead = self.param(a, ("LEAD_TIME",), self.draws.lead[a])
+        lead = self.lead_time(a)
         if col.behavior == "lose_control":
-            lead = (self.draws.lead[a] - 1.4) / 1.2 * 0.6  # [-0.3, 0.3] s around reaching the partner's lane
+            lead = (lead - 1.4) / 1.2 * 0.6  # [-0.3, 0.3] s around reaching the partner's lane
         rate = timing.lateral_rate(col.behavior)
         p_col = ctx.columns[partner]
         if opposite and not p_col.is_ads and p_col.behavior not in LATERAL_BEHAVIORS and gap > 0:
@@ -269,7 +276,7 @@ class VariationPlan:
         if closing < 0.5:
             return False
         half = (self.width[a] + self.width[partner]) / 2
-        u = (self.draws.lead[a] - 0.8) / 1.2  # [0, 1)
+        u = (self.lead_time(a) - 0.8) / 1.2  # [0, 1)
         across = half * (0.15 + 0.35 * u) if contact == "rear_end" else half - 0.2 - 0.4 * u
         self.trigger[a] = max(0.0, reach / closing - across / rate)
         return True
@@ -300,7 +307,7 @@ class VariationPlan:
         rate = timing.lateral_rate(self.ctx.columns[a].behavior)
         t_trig = float(self.draws.trigger[a])
         touch = t_trig + max(abs(dist) - 0.5 * (self.width[a] + self.width[partner]), 0.0) / rate
-        want_gap = (self.speeds[a] - self.speeds[partner]) * touch + (self.draws.lead[a] - 1.4) * 1.5
+        want_gap = (self.speeds[a] - self.speeds[partner]) * touch + (self.lead_time(a) - 1.4) * 1.5
         placed = self.shift_start(a, gap - want_gap)
         if placed is None:
             return False
@@ -572,7 +579,8 @@ class VariationPlan:
         goes on with a third vehicle meeting the struck one: the striker hits the struck car off its centre
         line, on the side that turns it (the impulse of cascade.pushed_path, the simulator's impact model) so
         that the third vehicle meets it as the later contact's class says, and the third vehicle is placed to
-        reach the pushed car just after it is in its path."""
+        reach the pushed car just after it is in its path (or, with no room behind, slowed and held at its start);
+        a striker steering across (an overtake) is on its corner before the impact (`_settle_before`)."""
         found = self._cascade_actors()
         if found is None:
             return
@@ -602,24 +610,54 @@ class VariationPlan:
         arrive = t1 + (k + 1) * cascade.DT
         # a striker drifting out of the lane ahead of it is no obstacle to a start behind it
         passing = (si,) if self.ctx.columns[si].behavior in LATERAL_BEHAVIORS else ()
-        placed = _shift_start(self.ctx.arrays, xi, self.route, self.s0,
-                              gap_k - self.length[xi] / 2 - extent - self.speeds[xi] * arrive, self.length, self.d0,
-                              passing=passing)
-        if placed is None:
+        reach = gap_k - self.length[xi] / 2 - extent  # [m] how far the third actor drives to the meeting
+        placed = _shift_start(self.ctx.arrays, xi, self.route, self.s0, reach - self.speeds[xi] * arrive,
+                              self.length, self.d0, passing=passing)
+        if placed is not None:
+            self.s0[xi] = placed
+            self.moved[xi] = True
+        elif not self._arrive_later(xi, reach, arrive):
             return
-        self.s0[xi] = placed
-        self.moved[xi] = True
         # the striker holds its centre off the struck car's centre line, toward the corner it hits (its own
         # left is the struck car's right when it comes the other way)
         offset = side * cascade.CORNER * self.width[ti] * (-1.0 if head_on else 1.0)
         if cols[si].behavior in LATERAL_BEHAVIORS:
             self.lateral_target[si] += offset
+            self._settle_before(si, t1)
             return
         _, lat_s = _relative(arrays, self.route[si], self.s0[si], px, py)
         target = (self.lateral_target[si] if head_on else lat_s) + offset
         self.drifted[si] += target - self.d0[si]
         self.d0[si] = target
         self.lateral_target[si] = target
+
+    def _settle_before(self, a: int, t1: float) -> None:
+        """Actor a steers across to its lateral target and is there CASCADE_SETTLE [s] before its impact at t1 [s]:
+        it starts earlier, or is already part of the way across at the start (the corner it is to hit is further
+        across than the partner's path its trigger was timed to)."""
+        rate = CASCADE_LAG * timing.lateral_rate(self.ctx.columns[a].behavior)
+        left = self.lateral_target[a] - self.d0[a]
+        self.trigger[a] = float(np.clip(t1 - CASCADE_SETTLE - abs(left) / rate, 0.0, self.trigger[a]))
+        short = abs(left) - max(t1 - CASCADE_SETTLE - self.trigger[a], 0.0) * rate
+        if short > 0:
+            shift = min(short, CASCADE_ACROSS * abs(left)) * math.copysign(1.0, left)
+            self.d0[a] += shift
+            self.drifted[a] += shift
+
+    def _arrive_later(self, a: int, reach: float, arrive: float) -> bool:
+        """Actor a, with no room to start further back, covers `reach` [m] in `arrive` [s] instead by driving
+        slower (within its timing range) and, if that is not slow enough, waiting at its start; False when it
+        cannot arrive in time."""
+        if reach <= 0 or arrive <= 0:
+            return False
+        sc = reach / arrive / self.speeds[a]  # [-] on its planned speed
+        if sc > timing.SPEED_SCALE[1]:
+            return False
+        sc = max(timing.SPEED_SCALE[0], sc)
+        self.scale[a] *= sc
+        self.speeds[a] *= sc
+        self.hold[a] = max(0.0, arrive - reach / self.speeds[a])
+        return True
 
     def _first_impact(self, si: int, ti: int, head_on: bool) -> tuple[float, float, float] | None:
         """(time [s], the struck actor's station [m], its speed [m/s]) of the first written contact: a rear-end
@@ -792,7 +830,7 @@ def _start_back(arrays: RouteArrays, a: int, route: np.ndarray, s0: np.ndarray, 
     return float(new)
 
 
-def _param(params: dict, role: str, names: tuple[str, ...], default: float) -> float:
+def scene_param(params: dict, role: str, names: tuple[str, ...], default: float) -> float:
     """A sampled scene parameter `<role>_<NAME>` (ego's spelled EGO_<NAME>), else `default`."""
     for name in names:
         for key in (f"{role}_{name}", f"{role.upper()}_{name}"):
