@@ -59,6 +59,7 @@ class PlanContext:
     cond: float  # [-] condition factor on the posted limit
     default_limit: float  # [m/s] the DSL's posted limit, NaN if none
     friction: float  # [-] tyre-road friction coefficient
+    skid_paths: skid_plan.SkidPaths  # candidate skids (at this friction and the simulator's step), by speed
     contacts: tuple[tuple[str, str, str, str, str], ...] = ()  # the written sequence, in order: (striking,
     # struck, class, striking area, struck area)
 
@@ -193,9 +194,10 @@ class VariationPlan:
         """A lane change, centre-line crossing, overtake, loss of control or leaving the road, aimed at the
         partner's path: a sideswipe placed alongside, a sudden veer planned as a skid, else a trigger time."""
         ctx, col = self.ctx, self.ctx.columns[a]
-        partner = self.written_partner(a) if a == ctx.anchor else None
-        if partner is None:
-            partner = _partner(a, ctx.anchor, ctx.columns, self.scene)
+        partner = self.lateral_partner(a)
+        if partner is not None and not self.as_skid(a, partner) and self.as_skid(partner, a) \
+                and self.lateral_partner(partner) == a:
+            return  # the partner's loss of control is planned to meet it on its way: it holds its lane till then
         if partner is None:
             self.trigger[a] = self.param(a, ("TRIGGER_TIME", "MANEUVER_TIME"), self.draws.trigger[a])
             if col.behavior == "lose_control":
@@ -235,6 +237,22 @@ class VariationPlan:
             self.d0[a] += shift
             self.drifted[a] = shift
         self.trigger[a] = max(0.0, t_trig)
+
+    def lateral_partner(self, a: int) -> int | None:
+        """The actor whose path actor a's lateral manoeuvre is aimed at: the anchor's written partner, else
+        `_partner`."""
+        partner = self.written_partner(a) if a == self.ctx.anchor else None
+        return _partner(a, self.ctx.anchor, self.ctx.columns, self.scene) if partner is None else partner
+
+    def as_skid(self, a: int, partner: int) -> bool:
+        """Whether actor a's lateral manoeuvre toward `partner` is planned as a skid: a loss of control, or a
+        sudden veer (a lateral manoeuvre ending in an angle contact) toward a partner not losing control."""
+        col, p_col = self.ctx.columns[a], self.ctx.columns[partner]
+        if col.is_ads or col.behavior not in LATERAL_BEHAVIORS:
+            return False
+        contact = self.ctx.classes.get(frozenset((col.role, p_col.role)))
+        return col.behavior == "lose_control" or (contact == "angle" and col.behavior in VEER_BEHAVIORS
+                                                  and p_col.behavior != "lose_control")
 
     def written_partner(self, a: int) -> int | None:
         """The other actor of actor a's first written contact, None when it has none."""
@@ -313,21 +331,16 @@ class VariationPlan:
                    opposite: bool) -> bool:
         """A loss of control, or a lateral manoeuvre ending in an angle contact (a sudden veer), planned as a
         skid (skid.plan) into the partner; False when none fits."""
-        col, p_col = self.ctx.columns[a], self.ctx.columns[partner]
-        if not (col.behavior == "lose_control" or (contact == "angle" and col.behavior in VEER_BEHAVIORS)):
+        if not self.as_skid(a, partner):
             return False
-        moves_in = p_col.behavior in ("change_lane_left", "change_lane_right") and not opposite
-        length, width = self.length, self.width
-        # the partner's front meets the skidding car's side (its front, end-on) before the centres align
-        reach = {"angle": length[partner] / 2 + width[a] / 2,
-                 "head_on": (length[partner] + length[a]) / 2,
-                 "rear_end": (length[partner] + length[a]) / 2}.get(contact or "", 0.0)
-        ahead = 1.0 if (opposite or gap > 0) else -1.0
-        skid = skid_plan.plan(self.speeds[a], gap - ahead * reach, self.speeds[partner], opposite,
-                              (0.0 if moves_in else lateral) - self.d0[a],
-                              self.lane_width, self.ctx.friction, float(length[a]), float(width[a]),
-                              skid_plan.rotation_for(contact, opposite, float(self.draws.rotation[a])),
-                              contact)
+        wanted = skid_plan.Wanted(contact, self.contact_area(a, partner), self.contact_area(partner, a),
+                                  skidder_first=a < partner)
+        skid = skid_plan.plan(self.ctx.skid_paths.get(self.speeds[a]), self.speeds[a], gap, self.speeds[partner],
+                              opposite, lateral - self.d0[a],
+                              skid_plan.Body(float(self.length[a]), float(self.width[a])),
+                              skid_plan.Body(float(self.length[partner]), float(self.width[partner])),
+                              skid_plan.rotation_for(contact, opposite, float(self.draws.rotation[a])), wanted,
+                              self.ctx.skid_paths.dt, self._centre_line(a) if opposite else None)
         if skid is not None and skid.partner_shift:
             placed = self.shift_start(partner, skid.partner_shift)
             if placed is None:
@@ -340,6 +353,12 @@ class VariationPlan:
         self.skids[a] = (skid.spin_rate, skid.drift, skid.hold)
         self.trigger[a] = skid.trigger
         return True
+
+    def _centre_line(self, a: int) -> float:
+        """[m] the road's centre line from actor a's start, left positive (NaN on a one-way road)."""
+        arrays = self.ctx.arrays
+        return float(arrays.sample(arrays.centerline_offset, np.array(self.route[a]), np.array(self.s0[a]))) \
+            - float(self.d0[a])
 
     def enter_wrong_way(self, a: int) -> None:
         """A vehicle going straight that meets its written head-on partner coming the other way in another
@@ -755,6 +774,16 @@ def struck_offset(arrays: RouteArrays, r_t: int, cs_t: float, r_s: int, cs_s: fl
     rel = np.abs(np.remainder(arrays.yaw[r_t, k] - yaw_s + np.pi, 2 * np.pi) - np.pi)
     miss = np.abs(rel - target) + 0.02 * np.abs(u - default)
     return float(u[int(np.argmin(miss))])
+
+
+def prepare_skids(ctx: PlanContext, route: np.ndarray, s0: np.ndarray, speed: np.ndarray) -> None:
+    """Integrates at once the candidate skids of every actor of a batch that may lose control
+    (`VariationPlan._plan_skid`), at the cruise speed it plans; route, s0, speed (V, A) start rows."""
+    angle_roles = {role for pair, klass in ctx.classes.items() if klass == "angle" for role in pair}
+    skidding = [a for a, col in enumerate(ctx.columns) if not col.is_ads and (
+        col.behavior == "lose_control" or (col.behavior in VEER_BEHAVIORS and col.role in angle_roles))]
+    ctx.skid_paths.prepare([_planned_speed(ctx.arrays, route[v, a], s0[v, a], speed[v, a], ctx.columns[a], ctx.cond,
+                                           ctx.default_limit) for v in range(route.shape[0]) for a in skidding])
 
 
 def _same_lane(route: np.ndarray, d0: np.ndarray | None, a: int, b: int) -> bool:
