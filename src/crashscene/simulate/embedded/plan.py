@@ -19,7 +19,7 @@ import numpy as np
 from crashscene.monitor.rules import Disposition
 from crashscene.scene import SampledScene
 from crashscene.simulate.drivers.behaviors import OVER_LIMIT, SPEEDING_CODES, speed_factor
-from crashscene.simulate.embedded import cascade, signals, timing
+from crashscene.simulate.embedded import cascade, signals, swerve, timing
 from crashscene.simulate.embedded import skid as skid_plan
 from crashscene.simulate.embedded.control import entry_before
 from crashscene.simulate.embedded.world import RouteArrays
@@ -35,6 +35,7 @@ LATERAL_BEHAVIORS = ("change_lane_left", "change_lane_right", "cross_centerline"
 SYNC_SLACK = 0.8  # [s] an actor moved back to meet later is placed this much early (sync.Meeting slows it)
 START_MARGIN = 5.0  # [m] an actor moved back along its route stays this far from the route's start
 CLIP_CLOSING = 3.0  # [m/s] a vehicle pulling out around the one ahead and clipping it comes up at least this fast
+CLIP_PARTS = 8  # [-] a clip's partner may start within a step's closing further ahead, in this many parts
 CHAIN_GAP = 4.0  # [m] at least this between the bumpers of actors reordered along their lane
 SPEEDING_RUN = 2.0  # [s] a striker charged with speeding drives this long before its impact (rules: 1 s over)
 CASCADE_WINDOW = 0.8  # [s] a later contact's striker arrives up to this long after the pushed car is in its path
@@ -217,7 +218,7 @@ class VariationPlan:
         contact = ctx.classes.get(frozenset((col.role, p_col.role)))
         if not opposite and contact in ("rear_end", "sideswipe") and col.behavior in VEER_BEHAVIORS \
                 and self.contact_area(a, partner) in ("front", "left", "right") \
-                and self._clip(a, partner, gap, contact, rate):
+                and self._clip(a, partner, gap, lateral, contact, rate):
             return
         if contact == "sideswipe" and not opposite and col.behavior in ("change_lane_left", "change_lane_right") \
                 and self._place_alongside(a, partner, gap, dist):
@@ -271,10 +272,12 @@ class VariationPlan:
                 return striking_area if striking == ra else struck_area
         return None
 
-    def _clip(self, a: int, partner: int, gap: float, contact: str, rate: float) -> bool:
+    def _clip(self, a: int, partner: int, gap: float, lateral: float, contact: str, rate: float) -> bool:
         """Pulling out around the vehicle ahead and clipping it (a written rear-end or sideswipe with it): the
-        manoeuvre is only partly done when it reaches the partner's rear, across by a drawn part of the overlap
-        (a rear-end: still well behind it; a sideswipe: nearly clear). False when it does not close in."""
+        manoeuvre is only partly done when it reaches the partner's rear, timed on its path (swerve.path) so that
+        where they first touch the contact has the written class (skid.first_contact); when no start does,
+        across by a drawn part of the overlap (a rear-end: still well behind it; a sideswipe: nearly clear).
+        False when it does not close in."""
         reach = gap - (self.length[a] + self.length[partner]) / 2
         p_col = self.ctx.columns[partner]
         if reach <= 0 or p_col.is_ads:
@@ -286,11 +289,44 @@ class VariationPlan:
         closing = self.speeds[a] - self.speeds[partner]
         if closing < 0.5:
             return False
+        timed = self._clip_on_path(a, partner, gap, lateral, contact, rate, reach / closing)
+        if timed is not None:
+            self.trigger[a] = timed
+            return True
         half = (self.width[a] + self.width[partner]) / 2
         u = (self.draws.lead[a] - 0.8) / 1.2  # [0, 1)
         across = half * (0.15 + 0.35 * u) if contact == "rear_end" else half - 0.2 - 0.4 * u
         self.trigger[a] = max(0.0, reach / closing - across / rate)
         return True
+
+    def _clip_on_path(self, a: int, partner: int, gap: float, lateral: float, contact: str, rate: float,
+                      t_reach: float) -> float | None:
+        """[s] the trigger of actor a's pull-out whose path first touches the partner ahead (both at their
+        planned speeds) with the written class, before a reaches it straight on (`t_reach` [s]); None if none."""
+        limits = self.ctx.columns[a].limits
+        other = self.scene.actors[partner]
+        gap, lateral = _relative(self.ctx.arrays, self.route[a], self.s0[a], other.x, other.y, exact=True)
+        offset = float(self.lateral_target[a] - self.d0[a])
+        dt = self.ctx.skid_paths.dt
+        path = swerve.path(float(self.speeds[a]), abs(offset), rate, float(self.length[a]) * limits.wheelbase_ratio,
+                           limits.steer_rate, limits.steer_max, dt)
+        wanted = skid_plan.Wanted(contact, self.contact_area(a, partner), self.contact_area(partner, a),
+                                  skidder_first=a < partner)
+        found = skid_plan.first_contact(path, 1.0 if offset >= 0 else -1.0, float(self.speeds[a]), gap,
+                                        float(self.speeds[partner]), False, lateral - float(self.d0[a]),
+                                        skid_plan.Body(float(self.length[a]), float(self.width[a])),
+                                        skid_plan.Body(float(self.length[partner]), float(self.width[partner])),
+                                        skid_plan.CLASS_HEADING[contact], wanted, dt, latest=t_reach - dt,
+                                        place=False, fine=CLIP_PARTS)
+        if found is None:
+            return None
+        if found[3]:
+            placed = self.shift_start(partner, found[3])
+            if placed is None:
+                return None
+            self.s0[partner] = placed
+            self.moved[partner] = True
+        return found[1]
 
     def _lateral_distance(self, a: int, lateral: float, opposite: bool) -> float:
         """[m] how far actor a steers sideways to reach its partner's path (sets a skid's side)."""
@@ -897,11 +933,14 @@ def _partner(a: int, anchor: int, columns: list[ActorColumn], scene: SampledScen
     return best
 
 
-def _relative(arrays: RouteArrays, r: int, s: float, x: float, y: float) -> tuple[float, float]:
-    """(gap along route r from station s to the point, lateral offset of the point) [m]."""
+def _relative(arrays: RouteArrays, r: int, s: float, x: float, y: float, exact: bool = False
+              ) -> tuple[float, float]:
+    """(gap along route r from station s to the point, lateral offset of the point) [m]; the gap to the nearest
+    route sample (ROUTE_DS), or with `exact` to the point's own projection on the route."""
     xy = arrays.xy[r]
     k = int(np.argmin(np.hypot(xy[:, 0] - x, xy[:, 1] - y)))
     yaw = arrays.yaw[r, k]
     dx, dy = x - xy[k, 0], y - xy[k, 1]
     lateral = -math.sin(yaw) * dx + math.cos(yaw) * dy
-    return k * ROUTE_DS - s, lateral
+    along = math.cos(yaw) * dx + math.sin(yaw) * dy if exact else 0.0
+    return k * ROUTE_DS + along - s, lateral

@@ -28,6 +28,7 @@ PLACE_STEP = 0.25  # [m] the grid of such placements
 PLACE_COST = 0.5  # [rad] a placed partner counts as this much rotation off the drawn one
 CROSS_COST = 2.0  # [rad] a contact before my centre is in the partner's lane counts as this much rotation off
 CROSS_MARGIN = 0.5  # [m] my centre this far past the boundary counts as in the partner's lane
+CENTRAL_TOLERANCE = 0.05  # [rad] offsets whose miss is this close to the best one's count as about as good
 AREA_COST = 1.0  # [rad] a contact with other areas than written counts as this much rotation off the drawn one
 # relative heading [rad] between the two vehicles at contact that each class needs (rules.md bands, mid)
 CLASS_HEADING = {"rear_end": 0.1, "head_on": math.pi - 0.2, "angle": math.pi / 2, "sideswipe": 0.4}
@@ -163,10 +164,30 @@ def plan(paths: tuple[np.ndarray, np.ndarray, np.ndarray], speed: float, gap: fl
     does), turned closest to `rotation` [rad], early rather than late. paths: `SkidPaths.get(speed)`; gap: the
     partner's centre ahead of mine along the road [m] (negative: behind); partner_lateral: its offset [m] (left
     positive); boundary: how far across [m] my centre is in the partner's lane (or across the centre line),
-    by default halfway to the partner, and as far beyond its lane centre at most. The partner is met where it is when a start time within LATEST fits,
-    else placed (partner_shift). None when no candidate gives the written class."""
-    x, y, yaw = paths
+    by default halfway to the partner, and as far beyond its lane centre at most. The partner is met where it
+    is when a start time within LATEST fits, else placed (partner_shift). None when no candidate gives the
+    written class."""
     sign = 1.0 if partner_lateral >= 0 else -1.0
+    found = first_contact(paths, sign, speed, gap, partner_speed, opposite, partner_lateral, me, partner, rotation,
+                          wanted, dt, boundary)
+    if found is None:
+        return None
+    c, trigger, t_meet, shift = found
+    spin, drift = candidates()
+    return Skid(sign * float(spin[c]), sign * float(drift[c]), trigger, t_meet, t_meet + 0.5, shift)
+
+
+def first_contact(paths: tuple[np.ndarray, np.ndarray, np.ndarray], sign: float, speed: float, gap: float,
+                  partner_speed: float, opposite: bool, partner_lateral: float, me: Body, partner: Body,
+                  rotation: float, wanted: Wanted, dt: float, boundary: float | None = None,
+                  latest: float = LATEST, place: bool = True, fine: int = 1) -> tuple[int, float, float, float] | None:
+    """(path, trigger [s], time from the trigger to the contact [s], the partner's shift [m]) of the best of
+    `paths` (x, y, yaw (C, K) every dt after the trigger, turning left; mirrored when `sign` is -1) started on
+    a simulator step by `latest` [s], or (when `place`) a second after the start with the partner placed:
+    its first contact with the partner has the wanted class (`plan` for the rest). With `fine` > 1 the partner
+    may also start up to a step's closing further ahead, in `fine` parts, and the middle of the best run of
+    such starts is taken (a narrow window: a glancing contact)."""
+    x, y, yaw = paths
     n_cand, n_steps = x.shape
     tau = dt * np.arange(1, n_steps + 1)
     sigma = -1.0 if opposite else 1.0
@@ -174,11 +195,12 @@ def plan(paths: tuple[np.ndarray, np.ndarray, np.ndarray], speed: float, gap: fl
     along = x - sigma * partner_speed * tau[None, :]  # my centre along the road from the partner's, + its start
     dy = sign * y - partner_lateral
     lo, hi = overlap_interval(dy, sign * yaw, me, partner)
-    # the poses from the loss of control on (its first column: at the loss of control)
+    # the poses from the trigger on (its first column: at the trigger)
     full = [np.concatenate([np.full((n_cand, 1), first), q], axis=1)
             for first, q in ((0.0, along), (-partner_lateral, dy), (0.0, sign * yaw))]
-    n_trig = int(LATEST / dt) + 1
-    starts = gap - closing * dt * np.arange(n_trig)  # the partner's offset at each loss of control on a step
+    n_trig = int(latest / dt + 1e-9) + 1
+    parts = closing * dt * np.arange(fine) / fine  # [m] finer starts of the partner within a step's closing
+    starts = ((gap - closing * dt * np.arange(n_trig))[:, None] + parts[None, :]).ravel()  # its offset at each trigger
     t0 = round(PLACED_TRIGGER / dt) * dt
     shifts = np.arange(-PLACE_RANGE, PLACE_RANGE + PLACE_STEP / 2, PLACE_STEP)
     cross = abs(partner_lateral) / 2 if boundary is None or not np.isfinite(boundary) else abs(boundary)
@@ -187,23 +209,22 @@ def plan(paths: tuple[np.ndarray, np.ndarray, np.ndarray], speed: float, gap: fl
         return (sign * (py + partner_lateral) >= cross + CROSS_MARGIN) \
             & (np.abs(py) <= abs(partner_lateral) - cross - CROSS_MARGIN)
 
-    for offsets, placed in ((starts, False), (gap - closing * t0 + shifts, True)):
+    passes = ((starts, False), (gap - closing * t0 + shifts, True)) if place else ((starts, False),)
+    for offsets, placed in passes:
         best = _best(full, lo, hi, offsets, me, partner, rotation, wanted, sigma, tau, crossed,
-                     np.abs(shifts) if placed else None)
+                     np.abs(shifts) if placed else None, central=fine > 1)
         if best is None:
             continue
         c, j, k = best
-        trigger = t0 if placed else j * dt
-        shift = float(shifts[j]) if placed else 0.0
-        # lose control half a step before the simulator step it is planned on
-        spin, drift = candidates()
-        return Skid(sign * float(spin[c]), sign * float(drift[c]), max(trigger - dt / 2, 0.0),
-                    float(tau[k]), float(tau[k]) + 0.5, shift)
+        trigger = t0 if placed else (j // fine) * dt
+        shift = float(shifts[j]) if placed else float(parts[j % fine])
+        # triggered half a step before the simulator step it is planned on
+        return c, max(trigger - dt / 2, 0.0), float(tau[k]), shift
     return None
 
 
 def _best(full, lo, hi, offsets, me: Body, partner: Body, rotation: float, wanted: Wanted,
-          sigma: float, tau: np.ndarray, crossed: np.ndarray, shift_cost: np.ndarray | None
+          sigma: float, tau: np.ndarray, crossed, shift_cost: np.ndarray | None, central: bool = False
           ) -> tuple[int, int, int] | None:
     """(candidate, offset index, step) of the best first contact over the partner's offsets (O,) at the loss
     of control: the written class; ranked by the miss of the rotation, my centre in the partner's lane
@@ -242,6 +263,10 @@ def _best(full, lo, hi, offsets, me: Body, partner: Body, rotation: float, wante
         miss = miss + np.where(fits, 0.0, AREA_COST)
     order = np.argsort(miss, kind="stable")
     i = int(order[0])
+    if central:  # the middle of the run of offsets about as good as the best
+        run = np.nonzero((cc == cc[i]) & (miss <= miss[i] + CENTRAL_TOLERANCE))[0]
+        run = run[np.argsort(jj[run], kind="stable")]
+        i = int(run[len(run) // 2])
     return int(cc[i]), int(jj[i]), int(kk[i])
 
 
