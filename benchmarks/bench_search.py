@@ -1,11 +1,13 @@
 """Benchmark: random sampling against the adaptive samplers, per bundled case with a contact.
 
-Run by hand: `.venv/bin/python benchmarks/bench_search.py [--budget 400] [--samplers random,ce,bo]
-[--cases 100237,120013] [--limit K] [--out out/bench_search] [--objective robustness]`.
+Run by hand: `.venv/bin/python benchmarks/bench_search.py [--budget 400] [--samplers random,halton,ce,bo]
+[--cases 100237,120013] [--limit K] [--out out/bench_search] [--objective ttc] [--ego auto]`.
 
 For every case of examples/ciren whose golden DSL has a contact between actors
 (its `collisions` list, or, in a DSL without it, an actor the ego can collide
-with), test mode with the reference ADS, the same budget and seed per sampler:
+with), test mode with the reference ADS in the seat `--ego` names (default
+`auto`: V1's, or the seat V1's own swerve came at, crashscene.search.seat),
+the same budget and seed per sampler:
 prints the minimum objective and the failures found by each sampler, then the
 share of cases where an adaptive sampler found a lower minimum than random and
 the failures summed per sampler. Results are also appended as JSON lines to
@@ -40,8 +42,9 @@ def cases_with_contact() -> list[Path]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--budget", type=int, default=400)
-    parser.add_argument("--samplers", default="random,ce,bo")
-    parser.add_argument("--objective", default="robustness")
+    parser.add_argument("--samplers", default="random,halton,ce,bo")
+    parser.add_argument("--objective", default="ttc")
+    parser.add_argument("--ego", default="auto", help="the ADS's role: auto (crashscene.search.seat) or a role")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--cases", default="", help="comma-separated case ids (default: every case with a contact)")
     parser.add_argument("--limit", type=int, default=0, help="at most this many cases (0: all)")
@@ -66,29 +69,30 @@ def main() -> None:
     if log.exists():
         for line in log.read_text().splitlines():
             row = json.loads(line)
-            done[(row["case"], row["sampler"], row["budget"], row["objective"], row["seed"])] = row
+            row.setdefault("ego", "ego")  # rows written before --ego
+            done[(row["case"], row["sampler"], row["budget"], row["objective"], row["seed"], row["ego"])] = row
     start = time.perf_counter()
     for golden in goldens:
         case = golden.parent.name
         scenario = load_file(golden)
         for sampler in samplers:
-            key = (case, sampler, args.budget, args.objective, args.seed)
+            key = (case, sampler, args.budget, args.objective, args.seed, args.ego)
             if key in done:
                 continue
             try:
-                s = search_scenario(scenario, args.out / case / sampler, budget=args.budget, sampler=sampler,
-                                    objective=args.objective, seed=args.seed)
+                s = search_scenario(scenario, args.out / case / f"{sampler}-{args.ego}", budget=args.budget,
+                                    sampler=sampler, objective=args.objective, seed=args.seed, ego_role=args.ego)
                 row = {"case": case, "sampler": sampler, "budget": args.budget, "objective": args.objective,
-                       "seed": args.seed, "min_objective": s["min_objective"], "failures": s["failures"],
-                       "invalid": s["invalid"], "seconds": s["seconds"]}
+                       "seed": args.seed, "ego": args.ego, "seat": s["ego_role"], "min_objective": s["min_objective"],
+                       "failures": s["failures"], "invalid": s["invalid"], "seconds": s["seconds"]}
             except Exception as exc:  # a case that cannot be searched is reported, not fatal
                 row = {"case": case, "sampler": sampler, "budget": args.budget, "objective": args.objective,
-                       "seed": args.seed, "error": f"{type(exc).__name__}: {exc}"[:300]}
+                       "seed": args.seed, "ego": args.ego, "error": f"{type(exc).__name__}: {exc}"[:300]}
             done[key] = row
             with open(log, "a", encoding="utf-8") as fh:
                 fh.write(json.dumps(row) + "\n")
             print(json.dumps(row), flush=True)
-    print_table([done[k] for k in done if k[2:] == (args.budget, args.objective, args.seed)], samplers)
+    print_table([done[k] for k in done if k[2:] == (args.budget, args.objective, args.seed, args.ego)], samplers)
     print(f"wall time this invocation: {time.perf_counter() - start:.0f} s")
 
 
@@ -97,13 +101,14 @@ def print_table(rows: list[dict], samplers: list[str]) -> None:
     for row in rows:
         by_case.setdefault(row["case"], {})[row["sampler"]] = row
     complete = {c: r for c, r in by_case.items() if all(s in r and "error" not in r[s] for s in samplers)}
-    header = "| case | " + " | ".join(f"{s} min | {s} fail" for s in samplers) + " |"
+    header = "| case | ADS | " + " | ".join(f"{s} min | {s} fail" for s in samplers) + " |"
     print(header)
-    print("|" + "---|" * (1 + 2 * len(samplers)))
-    fmt = lambda v: "-" if v is None else f"{v:.3f}"
+    print("|" + "---|" * (2 + 2 * len(samplers)))
+    fmt = lambda v: "-" if v is None else f"{v:.4f}"
     for case, r in sorted(complete.items()):
-        print(f"| {case} | " + " | ".join(f"{fmt(r[s]['min_objective'])} | {r[s]['failures']}" for s in samplers)
-              + " |")
+        seat = r[samplers[0]].get("seat", "ego")
+        print(f"| {case} | {seat} | " + " | ".join(f"{fmt(r[s]['min_objective'])} | {r[s]['failures']}"
+                                                  for s in samplers) + " |")
     for case, r in sorted(by_case.items()):
         for s in samplers:
             if s in r and "error" in r[s]:

@@ -86,6 +86,25 @@ def test_program_text_is_deterministic(tmp_path):
     assert a == b
 
 
+def _declared(text: str) -> dict[str, str]:
+    return dict(re.findall(r"^param (\w+) = (VerifaiRange\([^)]*\))", text, re.MULTILINE))
+
+
+@pytest.mark.parametrize(("case", "ads", "wanted"), [
+    ("100237", "ego", {"npc1_PULL_OUT_TTA": "VerifaiRange(1.5, 4.0)"}),   # V2 does not yield at its sign
+    ("3-C4-2017-007", "ego", {"SIGNAL_GREEN_REMAINING": "VerifaiRange(3.0, 15.0)"}),
+    ("103378", "npc1", {"EGO_LEAD_TIME": "VerifaiRange(0.8, 2.0)"}),     # V1 drifts over, the ADS drives V2
+    ("103378", "ego", {}),                                                 # the ADS's own manoeuvre: none
+])
+def test_a_search_program_declares_the_timings_the_simulator_would_draw(case, ads, wanted, tmp_path):
+    scenario = load_file(EXAMPLES / case / "golden.yaml")
+    plain = _declared(render(scenario, tmp_path / "plain", cache_dir=CACHE).program.read_text())
+    searched = _declared(render(scenario, tmp_path / "search", cache_dir=CACHE, search_ads=ads).program.read_text())
+    assert {k: v for k, v in searched.items() if k not in plain} == wanted
+    assert {k: searched[k] for k in plain} == plain  # everything else as declared without a search
+    assert not set(wanted) & set(plain)
+
+
 @pytest.mark.parametrize("value", ["a'b", "x\ny", "import os; x", "{{ x }}", "a b", "é", 1e400])
 def test_py_refuses_anything_but_tokens_and_finite_numbers(value):
     with pytest.raises(RenderError):

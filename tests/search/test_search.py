@@ -112,7 +112,7 @@ def test_search_pins_parameters_and_repeats(tmp_path):
 
     pdt.assert_frame_equal(table_a.to_pandas(), table_b.to_pandas())   # NaN (no TTC) equals NaN here
     report = json.loads((tmp_path / "run0" / "search.json").read_text())
-    assert [r["round"] for r in report["rounds"]] == [0, 1]
+    assert [r["round"] for r in report["rounds"]] == [0, 1] and report["ego_role"] == "ego"
     names = [p["name"] for p in report["parameters"]]
     # the pinned values are what the simulator saw: compare with the scenes' sampled parameters
     from crashscene.dsl import load_file

@@ -113,6 +113,26 @@ def test_reproduce_collides_and_the_reference_ads_yields(four_way_map):
     assert sum(r["valid"] for r in rows) >= len(rows) / 2
 
 
+def test_a_sampled_pull_out_time_moves_the_pull_out(four_way_map):
+    """A search samples `npc1_PULL_OUT_TTA`: the NPC pulls out when the ADS is that far in time from the
+    conflict point (the default is 2 s), so a longer time lets it go earlier and a shorter one holds it longer."""
+    def crossing_time(tta: float | None) -> np.ndarray:
+        scenes = crossing_scenes(four_way_map, 6)
+        for scene in scenes:
+            if tta is not None:
+                scene.params["npc1_PULL_OUT_TTA"] = tta
+        tables = run(YIELD_CASE, scenes, four_way_map, mode="test")
+        out = []
+        for v in range(len(scenes)):
+            npc = actor_trace(tables, v, "npc1")
+            out.append(float(npc["t"][np.argmax(npc["y"] > -8.0)]))  # its front is past its line
+        return np.array(out)
+
+    early, default, late = crossing_time(4.0), crossing_time(None), crossing_time(0.5)
+    assert (early <= default + 1e-9).all() and (default <= late + 1e-9).all()
+    assert (early < default).sum() >= 3 and (default < late).sum() >= 3
+
+
 def test_npc_without_disposition_yields_to_the_ego(four_way_map):
     scenes = crossing_scenes(four_way_map, 30, npc_dispositions=())
     tables = run(YIELD_CASE, scenes, four_way_map, mode="reproduce")

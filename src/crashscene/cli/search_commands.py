@@ -24,7 +24,9 @@ def search(
     ads: Annotated[str | None, typer.Option("--ads", help="User ADS driver 'package.module:Class' "
                                                            "(default: the reference ADS).")] = None,
     rounds: Annotated[int, typer.Option("--rounds", help="Rounds of budget/rounds variations (each one batch).")] = 8,
-    ego: Annotated[str, typer.Option("--ego", help="DSL role driven by the ADS under test.")] = "ego",
+    ego: Annotated[str, typer.Option("--ego", help="DSL role driven by the ADS under test; auto: the seat the "
+                                                   "report's hazard came at (V2's when V1's own swerve caused "
+                                                   "the crash; crashscene.search.seat).")] = "ego",
     as_json: Annotated[bool, typer.Option("--json", help="Summary as JSON on stdout.")] = False,
 ) -> None:
     """Search FILE's VerifaiRange parameters in rounds for variations where the ADS fails; write --out."""
@@ -51,7 +53,8 @@ def search(
         typer.echo(json.dumps({key: summary[key] for key in SUMMARY_KEYS}, indent=2))
         return
     typer.echo(f"{summary['evaluated']} variations [{sampler}, {objective}] in {summary['seconds']:.1f} s -> {out}")
-    typer.echo(f"  failures: {summary['failures']}; min objective: {summary['min_objective']}")
+    typer.echo(f"  the ADS drives {summary['ego_role']}; failures: {summary['failures']}; "
+               f"min objective: {summary['min_objective']}")
     typer.echo(f"  best parameters: {summary['best_parameters']}")
     for rule in summary["rules"]:
         typer.echo(f"  {rule['rule']}")

@@ -36,13 +36,18 @@ class Rendered:
 
 
 def render(scenario: Scenario, out_dir: Path, map_mode: str = "generated", carla_maps: Path | None = None,
-           cache_dir: Path | None = None, town_override: dict[str, str] | None = None) -> Rendered:
-    """Write out_dir/scenario.scenic, map.xodr, sampler.json and render.json for the scenario."""
+           cache_dir: Path | None = None, town_override: dict[str, str] | None = None,
+           search_ads: str | None = None) -> Rendered:
+    """Write out_dir/scenario.scenic, map.xodr, sampler.json and render.json for the scenario.
+
+    `search_ads`: for a test-mode search, the role the ADS takes; the program then also declares the timing
+    choices the embedded simulator otherwise draws per variation for the other actors (`plan.search_parameters`),
+    so that the search can steer them. None (default): the program is unchanged."""
     out_dir = Path(out_dir)
     plan = convert(scenario)
     cached, town = prepare_map(plan, map_mode, carla_maps, cache_dir, town_override)
     digest = scenario_hash(scenario, map_mode=map_mode, town=town or "")
-    context = program_context(plan, carla_town=town)
+    context = program_context(plan, carla_town=town, search_ads=search_ads)
     text = program_text(context, scenario_hash_value=digest, summary=scenario.summary)
     out_dir.mkdir(parents=True, exist_ok=True)
     map_path = install_map(cached, out_dir, MAP_NAME)

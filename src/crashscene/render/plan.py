@@ -48,6 +48,15 @@ SIDE_OFFSET = (-3.0, 6.0)  # [m] longitudinal offset of an actor in the adjacent
 ARRIVAL_OFFSET = (-1.0, 1.0)  # [s] NPC arrival at the conflict point minus the ego's
 MANEUVER_TIME = (1.0, 3.0)  # [s] when a lane change, braking, loss of control or run-off starts
 STOP_DURATION = (2.0, 4.0)  # [s] how long a stopping actor stays stopped before it may proceed
+# Timing choices the embedded simulator draws per variation; a search (`render(..., search_ads=ROLE)`)
+# declares them as sampled parameters instead, over the same ranges, so that it can steer them.
+LEAD_TIME = (0.8, 2.0)  # [s] a lateral manoeuvre aimed at another vehicle is under way this long before they meet
+SIGNAL_GREEN = (3.0, 15.0)  # [s] green left for the anchor's axis (test mode: the ADS's) at its junction
+PULL_OUT_TTA = (1.5, 4.0)  # [s] test mode: the ADS's time to the conflict point when a stop- or yield-controlled
+# NPC that does not yield pulls out (never below the ADS's reaction plus braking time: simulate.embedded.pullout)
+LATERAL_BEHAVIORS = frozenset({Behavior.CHANGE_LANE_LEFT, Behavior.CHANGE_LANE_RIGHT, Behavior.CROSS_CENTERLINE,
+                               Behavior.OVERTAKE, Behavior.LOSE_CONTROL, Behavior.LEAVE_ROAD})
+PULL_OUT_BEHAVIORS = frozenset({Behavior.GO_FORWARD, Behavior.TURN_LEFT, Behavior.TURN_RIGHT, Behavior.U_TURN})
 # [s] a vehicle standing in the ego's lane ahead is placed this many seconds away at the ego's top sampled
 # speed: room for a prudent driver to stop (0.5 s reaction + 6 m/s2 braking needs ~2.6 s at 25 m/s), so a
 # test-mode ADS is not handed an unavoidable crash, while a driver charged with CVC_22350 still strikes it.
@@ -384,6 +393,29 @@ def _check_references(actors: list[ActorPlan]) -> None:
         for actor in ready:
             placed.add(actor.role)
             pending.remove(actor)
+
+
+def search_parameters(plan: RenderPlan, actor: ActorPlan, prefix: str,
+                      is_ads: bool) -> list[tuple[str, Range, str]]:
+    """(name, range, unit note) of the timing choices the embedded simulator would draw for `actor` (its
+    parameters' prefix: EGO, npc1, ...), declared as sampled parameters for a search: unless the ADS drives it,
+    a lateral manoeuvre's `<prefix>_LEAD_TIME` and a pull-out's `<prefix>_PULL_OUT_TTA` (a stop- or
+    yield-controlled actor charged with not yielding); on the ADS, the green its axis has left when it reaches
+    a signalised junction (`SIGNAL_GREEN_REMAINING`)."""
+    out: list[tuple[str, Range, str]] = []
+    behavior = Behavior(actor.behavior)
+    if behavior in LATERAL_BEHAVIORS and not is_ads:
+        out.append((f"{prefix}_LEAD_TIME", Range(low=LEAD_TIME[0], high=LEAD_TIME[1]),
+                    "[s] the manoeuvre is under way this long before meeting its partner"))
+    if actor.controlled_by in (Sign.STOP_SIGN.value, Sign.YIELD_SIGN.value) and behavior in PULL_OUT_BEHAVIORS \
+            and Disposition.NO_YIELD in dispositions_of(actor.dispositions) and not is_ads:
+        out.append((f"{prefix}_PULL_OUT_TTA", Range(low=PULL_OUT_TTA[0], high=PULL_OUT_TTA[1]),
+                    "[s] test mode: pulls out when the ADS is this far in time from the conflict point"))
+    if is_ads and Sign.TRAFFIC_LIGHT.value in plan.traffic_signs \
+            and plan.topology in (RoadType.INTERSECTION.value, RoadType.T_INTERSECTION.value):
+        out.append(("SIGNAL_GREEN_REMAINING", Range(low=SIGNAL_GREEN[0], high=SIGNAL_GREEN[1]),
+                    "[s] green left for the ADS's axis when it reaches the junction"))
+    return out
 
 
 def placement_order(actors: list[ActorPlan]) -> list[ActorPlan]:

@@ -10,7 +10,8 @@ only into comments.
 What a program offers its readers (backends, `crashscene.render.sample`):
 - global parameters: `EGO_SPEED` [m/s], `EGO_INIT_DIST` [m], `EGO_MANEUVER_TIME` [s], the same per NPC as
   `npc1_SPEED`, `npc1_INIT_DIST`, ..., `npcN_ARRIVAL_OFFSET` [s] for junction approaches, `*_SIDE_OFFSET` [m],
-  `*_STOP_DURATION` [s], `*_PROCEED_SPEED` [m/s], `*_LOSS_STEER` [-]; `weather` (CARLA preset),
+  `*_STOP_DURATION` [s], `*_PROCEED_SPEED` [m/s], `*_LOSS_STEER` [-]; for a search also `*_LEAD_TIME`,
+  `*_PULL_OUT_TTA` [s] and `SIGNAL_GREEN_REMAINING` [s]; `weather` (CARLA preset),
   `time_of_day_hour` [h], `cs_topology`, `cs_speed_limit` [m/s], `cs_horizon` [s], `cs_weather`, ...
 - on every object: `cs_role`, `cs_label`, `cs_type`, `cs_behavior`, `cs_route_intent`, `cs_reference`,
   `cs_relation`, `cs_heading_relation`, `cs_dispositions` (comma-joined codes), `cs_placement`,
@@ -33,6 +34,7 @@ from crashscene.render.plan import (
     RenderPlan,
     placement_order,
 )
+from crashscene.render.plan import search_parameters as plan_search_parameters
 
 __all__ = ["comment", "program_context", "program_text", "py", "render_program", "rng"]
 
@@ -148,9 +150,12 @@ def render_program(plan: RenderPlan, *, scenario_hash_value: str, summary: str |
                         scenario_hash_value=scenario_hash_value, summary=summary)
 
 
-def program_context(plan: RenderPlan, *, carla_town: str | None = None, map_name: str = MAP_NAME) -> dict[str, Any]:
+def program_context(plan: RenderPlan, *, carla_town: str | None = None, map_name: str = MAP_NAME,
+                    search_ads: str | None = None) -> dict[str, Any]:
     """What the template needs (and the compiled sampling plan reads): actors in placement order with their
-    parameters, the placement specs handed to `scenic_support.candidates`, and the program's constants."""
+    parameters, the placement specs handed to `scenic_support.candidates`, and the program's constants.
+    `search_ads`: the role of the ADS in a search; the other actors' timing choices are declared too
+    (`plan.search_parameters`)."""
     actors = []
     lengths = {}
     for actor in placement_order(plan.actors):
@@ -176,6 +181,8 @@ def program_context(plan: RenderPlan, *, carla_town: str | None = None, map_name
             placement=actor.placement.value)
         data["behavior_call"] = _behavior_call(data)
         data["params"] = _actor_params(data)
+        if search_ads is not None:
+            data["params"] += plan_search_parameters(plan, actor, prefix, is_ads=actor.role == search_ads)
         actors.append(data)
     actor_specs = [{"role": a["role"], "placement": a["placement"], "ref": a["placement_ref"],
                     "heading": a["relative_heading"], "maneuver": a["maneuver"], "behavior": a["behavior"],

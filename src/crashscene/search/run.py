@@ -22,6 +22,7 @@ from crashscene.dsl import Scenario, dump_file
 from crashscene.search.errors import SearchError
 from crashscene.search.objective import FAILURE_VERDICTS, OBJECTIVES, objective_values, worst_value
 from crashscene.search.samplers import SAMPLERS, create_sampler
+from crashscene.search.seat import resolve_seat
 from crashscene.search.space import ParameterSpace, parameter_space, pinned_scenes
 
 DEFAULT_ROUNDS = 8
@@ -56,7 +57,8 @@ def search_scenario(scenario: Scenario, out_dir: Path, *, budget: int, sampler: 
                     progress: Callable[[int], None] | None = None) -> dict[str, Any]:
     """Search `scenario`'s sampled parameters for ADS failures in test mode; write `out_dir`; the summary.
 
-    The returned dict has SUMMARY_KEYS plus `rounds` (convergence), `rules` (failure region), `parameters`.
+    `ego_role`: the role the ADS drives, or `auto` (`seat.ads_seat`). The returned dict has SUMMARY_KEYS plus
+    `ego_role`, `rounds` (convergence), `rules` (failure region), `parameters`.
     """
     from crashscene.render import RenderError, render
     from crashscene.render.sample import compile_program
@@ -64,13 +66,14 @@ def search_scenario(scenario: Scenario, out_dir: Path, *, budget: int, sampler: 
 
     start = time.perf_counter()
     size = check_request(budget, sampler, objective, rounds)
+    ego_role = resolve_seat(scenario, ego_role)
     settings = SimulationSettings(mode="test", ego_role=ego_role, ads=ads, ads_params=ads_params or {})
     check_ego_role(scenario, settings)
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     dump_file(scenario, out_dir / "scenario.yaml")
     try:
-        rendered = render(scenario, out_dir, map_mode=map_mode, carla_maps=carla_maps)
+        rendered = render(scenario, out_dir, map_mode=map_mode, carla_maps=carla_maps, search_ads=ego_role)
         program = Path(rendered.program)
         compiled = compile_program(program)
     except RenderError as exc:
@@ -97,7 +100,8 @@ def search_scenario(scenario: Scenario, out_dir: Path, *, budget: int, sampler: 
             convergence.append(_round_stats(number, rows, batch))
             if progress is not None:
                 progress(k)
-    summary = _write(out_dir, space, rows, crit_parts, convergence, sampler, objective, seed, budget, ads, start)
+    summary = _write(out_dir, space, rows, crit_parts, convergence, sampler, objective, seed, budget, ads, ego_role,
+                     start)
     return summary
 
 
@@ -143,7 +147,7 @@ def _round_stats(number: int, rows: list[dict[str, Any]], batch: list[dict[str, 
 
 def _write(out_dir: Path, space: ParameterSpace, rows: list[dict[str, Any]], crit_parts: list[pa.Table],
            convergence: list[dict[str, Any]], sampler: str, objective: str, seed: int, budget: int,
-           ads: str | None, start: float) -> dict[str, Any]:
+           ads: str | None, ego_role: str, start: float) -> dict[str, Any]:
     from crashscene.search.region import failure_rules
 
     columns: dict[str, pa.Array] = {
@@ -174,7 +178,7 @@ def _write(out_dir: Path, space: ParameterSpace, rows: list[dict[str, Any]], cri
         "objective": objective,
         "seconds": round(time.perf_counter() - start, 3),
     }
-    report = {**summary, "seed": seed, "budget": budget, "ads": ads or "reference",
+    report = {**summary, "seed": seed, "budget": budget, "ads": ads or "reference", "ego_role": ego_role,
               "invalid": int((~valid).sum()),
               "parameters": [{"name": n, "low": float(lo), "high": float(hi)}
                              for n, lo, hi in zip(space.names, space.low, space.high)],

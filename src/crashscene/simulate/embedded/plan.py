@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from crashscene.monitor.rules import Disposition
+from crashscene.render.plan import LATERAL_BEHAVIORS, LEAD_TIME, SIGNAL_GREEN
 from crashscene.scene import SampledScene
 from crashscene.simulate.drivers.behaviors import OVER_LIMIT, SPEEDING_CODES, speed_factor
 from crashscene.simulate.embedded import cascade, signals, swerve, timing
@@ -30,8 +31,6 @@ if TYPE_CHECKING:
     from crashscene.simulate.embedded.setup import ActorColumn
 
 VEER_BEHAVIORS = ("change_lane_left", "change_lane_right", "cross_centerline", "overtake")
-LATERAL_BEHAVIORS = ("change_lane_left", "change_lane_right", "cross_centerline", "overtake", "lose_control",
-                     "leave_road")
 SYNC_SLACK = 0.8  # [s] an actor moved back to meet later is placed this much early (sync.Meeting slows it)
 START_MARGIN = 5.0  # [m] an actor moved back along its route stays this far from the route's start
 CLIP_CLOSING = 3.0  # [m/s] a vehicle pulling out around the one ahead and clipping it comes up at least this fast
@@ -80,8 +79,8 @@ class Draws:
     @classmethod
     def take(cls, rng: np.random.Generator, n_a: int) -> Draws:
         return cls(offset=rng.normal(timing.ARRIVAL_OFFSET_MEAN, timing.ARRIVAL_OFFSET_SD, n_a),
-                   lead=rng.uniform(0.8, 2.0, n_a), trigger=rng.uniform(1.0, 4.0, n_a),
-                   green=rng.uniform(3.0, 15.0), spin=rng.choice([-1.0, 1.0], n_a),
+                   lead=rng.uniform(*LEAD_TIME, n_a), trigger=rng.uniform(1.0, 4.0, n_a),
+                   green=rng.uniform(*SIGNAL_GREEN), spin=rng.choice([-1.0, 1.0], n_a),
                    rotation=rng.uniform(0.0, 1.0, n_a), cascade=rng.uniform(0.0, 1.0, n_a))
 
 
@@ -159,8 +158,13 @@ class VariationPlan:
 
     # ---------------------------------------------------------------- shared steps
     def param(self, a: int, names: tuple[str, ...], default: float) -> float:
-        """Actor a's sampled scene parameter (`_param`), else `default`."""
-        return _param(self.scene.params, self.ctx.columns[a].role, names, default)
+        """Actor a's sampled scene parameter (`scene_param`), else `default`."""
+        return scene_param(self.scene.params, self.ctx.columns[a].role, names, default)
+
+    def lead_time(self, a: int) -> float:
+        """[s] how long before meeting its partner actor a's lateral manoeuvre is under way: its sampled
+        `LEAD_TIME` (a search declares it), else its draw."""
+        return self.param(a, ("LEAD_TIME",), self.draws.lead[a])
 
     def plan_speeds(self) -> None:
         """The cruise speed each driver will hold (`_planned_speed`)."""
@@ -208,9 +212,9 @@ class VariationPlan:
         gap, lateral = _relative(ctx.arrays, self.route[a], self.s0[a], other.x, other.y)
         opposite = math.cos(other.yaw - self.scene.actors[a].yaw) < -0.3
         dist = self._lateral_distance(a, lateral, opposite)
-        lead = self.param(a, ("LEAD_TIME",), self.draws.lead[a])
+        lead = self.lead_time(a)
         if col.behavior == "lose_control":
-            lead = (self.draws.lead[a] - 1.4) / 1.2 * 0.6  # [-0.3, 0.3] s around reaching the partner's lane
+            lead = (lead - 1.4) / 1.2 * 0.6  # [-0.3, 0.3] s around reaching the partner's lane
         rate = timing.lateral_rate(col.behavior)
         p_col = ctx.columns[partner]
         if opposite and not p_col.is_ads and p_col.behavior not in LATERAL_BEHAVIORS and gap > 0:
@@ -294,7 +298,7 @@ class VariationPlan:
             self.trigger[a] = timed
             return True
         half = (self.width[a] + self.width[partner]) / 2
-        u = (self.draws.lead[a] - 0.8) / 1.2  # [0, 1)
+        u = (self.lead_time(a) - 0.8) / 1.2  # [0, 1)
         across = half * (0.15 + 0.35 * u) if contact == "rear_end" else half - 0.2 - 0.4 * u
         self.trigger[a] = max(0.0, reach / closing - across / rate)
         return True
@@ -354,7 +358,7 @@ class VariationPlan:
         rate = timing.lateral_rate(self.ctx.columns[a].behavior)
         t_trig = float(self.draws.trigger[a])
         touch = t_trig + max(abs(dist) - 0.5 * (self.width[a] + self.width[partner]), 0.0) / rate
-        want_gap = (self.speeds[a] - self.speeds[partner]) * touch + (self.draws.lead[a] - 1.4) * 1.5
+        want_gap = (self.speeds[a] - self.speeds[partner]) * touch + (self.lead_time(a) - 1.4) * 1.5
         placed = self.shift_start(a, gap - want_gap)
         if placed is None:
             return False
@@ -857,7 +861,7 @@ def _start_back(arrays: RouteArrays, a: int, route: np.ndarray, s0: np.ndarray, 
     return float(new)
 
 
-def _param(params: dict, role: str, names: tuple[str, ...], default: float) -> float:
+def scene_param(params: dict, role: str, names: tuple[str, ...], default: float) -> float:
     """A sampled scene parameter `<role>_<NAME>` (ego's spelled EGO_<NAME>), else `default`."""
     for name in names:
         for key in (f"{role}_{name}", f"{role.upper()}_{name}"):

@@ -1,6 +1,6 @@
 """Test mode keeps a junction a real test: a stop- or yield-controlled NPC whose oracle says it does not yield
-waits at (or near) its line and pulls out when the ADS is about PULL_OUT_TTA away from their conflict point,
-never later than the ADS's reaction plus braking distance allows. When the ADS is already inside that distance
+waits at (or near) its line and pulls out when the ADS is about PULL_OUT_TTA away from their conflict point (a
+search samples that time as `<role>_PULL_OUT_TTA`), never later than the ADS's reaction plus braking distance allows. When the ADS is already inside that distance
 as the NPC reaches its line, the plan cannot give it a fair chance: the variation is invalid (`unavoidable`).
 """
 from __future__ import annotations
@@ -27,7 +27,8 @@ def stopping_distance(v: np.ndarray, brake: np.ndarray | float) -> np.ndarray:
 @dataclass
 class PullOut:
     """Per variation (V,): the waiting NPC column (-1: none), the ADS column, the NPC's line station and both
-    conflict stations [m]; `released` / `judged` record the run."""
+    conflict stations [m], the ADS's time to the conflict point [s] at which the NPC pulls out; `released` /
+    `judged` record the run."""
 
     npc: np.ndarray
     ads: np.ndarray
@@ -37,11 +38,13 @@ class PullOut:
     ads_brake: float  # [m/s2] the ADS vehicle's braking limit
     released: np.ndarray
     judged: np.ndarray
+    tta: np.ndarray  # [s]
 
     @classmethod
     def none(cls, n_v: int, ads_brake: float = 8.0) -> "PullOut":
         return cls(np.full(n_v, -1), np.full(n_v, -1), np.full(n_v, np.nan), np.full(n_v, np.nan),
-                   np.full(n_v, np.nan), ads_brake, np.zeros(n_v, dtype=bool), np.zeros(n_v, dtype=bool))
+                   np.full(n_v, np.nan), ads_brake, np.zeros(n_v, dtype=bool), np.zeros(n_v, dtype=bool),
+                   np.full(n_v, PULL_OUT_TTA))
 
     def step(self, t: float, s: np.ndarray, v: np.ndarray, length: np.ndarray, hold_until: np.ndarray,
              invalid: list) -> None:
@@ -56,7 +59,7 @@ class PullOut:
         ads_dist = self.cs_ads[idx] - (s[idx, a] + length[idx, a] / 2)
         passed = ads_dist < -length[idx, a]
         need = stopping_distance(v_a, self.ads_brake)
-        pull_tta = np.maximum(PULL_OUT_TTA, need / v_a + MARGIN)
+        pull_tta = np.maximum(self.tta[idx], need / v_a + MARGIN)
         at_line = (to_line < v_n ** 2 / (2.0 * WAIT_DECEL) + 0.5) | self.judged[idx]
         first = at_line & ~self.judged[idx]
         for k in np.nonzero(first & ~passed & (ads_dist >= 0) & (ads_dist < need))[0]:

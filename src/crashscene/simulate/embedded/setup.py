@@ -21,8 +21,16 @@ from crashscene.simulate.backend import SimulationError, SimulationSettings
 from crashscene.simulate.drivers.behaviors import NO_YIELD_CODES
 from crashscene.simulate.embedded import skid, timing
 from crashscene.simulate.embedded.control import control_tables, entry_before, priorities
-from crashscene.simulate.embedded.plan import PlanContext, VariationPlan, mph, prepare_skids, stop_dist, struck_offset
-from crashscene.simulate.embedded.pullout import PullOut, line_station
+from crashscene.simulate.embedded.plan import (
+    PlanContext,
+    VariationPlan,
+    mph,
+    prepare_skids,
+    scene_param,
+    stop_dist,
+    struck_offset,
+)
+from crashscene.simulate.embedded.pullout import PULL_OUT_TTA, PullOut, line_station
 from crashscene.simulate.embedded.sync import Meeting
 from crashscene.simulate.embedded.vehicles import VehicleLimits, limits_for
 from crashscene.simulate.embedded.world import RouteArrays
@@ -146,7 +154,7 @@ def build(scenario: Scenario, scenes: list[SampledScene], roadmap: RoadMap,
 
     factor = condition_factor(scenario, settings.conditions)
     plans = _timing_plans(scenario, scenes, columns, anchor, layout, start, tables, lane_width, factor, settings)
-    pullout = _pullout(columns, anchor, arrays, route, s0, tables, priority, plans.hold, settings)
+    pullout = _pullout(scenes, columns, anchor, arrays, route, s0, tables, priority, plans.hold, settings)
     start_cap = _apply_plan_moves(arrays, route, start, plans)
     speed0 = _initial_speeds(columns, arrays, route, start, plans, tables, start_cap)
     limit = scenario.road_network.speed_limit_mph
@@ -445,10 +453,12 @@ def unseen_partners(scenario: Scenario, columns: list[ActorColumn], reproduce: b
     return out
 
 
-def _pullout(columns: list[ActorColumn], anchor: int, arrays: RouteArrays, route: np.ndarray, s0: np.ndarray,
-             tables: list, priority: np.ndarray, hold: np.ndarray, settings: SimulationSettings) -> PullOut:
+def _pullout(scenes: list[SampledScene], columns: list[ActorColumn], anchor: int, arrays: RouteArrays,
+             route: np.ndarray, s0: np.ndarray, tables: list, priority: np.ndarray, hold: np.ndarray,
+             settings: SimulationSettings) -> PullOut:
     """Test mode: the NPC that must yield to the ADS at a stop or yield line and, by its oracle, does not
-    (pullout.PullOut); it drives to its line instead of being held at its start."""
+    (pullout.PullOut); it drives to its line instead of being held at its start, and pulls out at its sampled
+    `PULL_OUT_TTA` when the scene has one."""
     n_v = route.shape[0]
     out = PullOut.none(n_v, columns[anchor].limits.brake_max)
     if settings.mode != "test" or not columns[anchor].is_ads:
@@ -465,6 +475,7 @@ def _pullout(columns: list[ActorColumn], anchor: int, arrays: RouteArrays, route
             if j is None or int(tables[v][0][r, j]) not in (2, 3) or arrays.entry_s[r, j] <= s0[v, a]:
                 continue
             out.npc[v], out.ads[v] = a, anchor
+            out.tta[v] = scene_param(scenes[v].params, col.role, ("PULL_OUT_TTA",), PULL_OUT_TTA)
             out.line[v] = line_station(float(arrays.entry_s[r, j]))
             out.cs_npc[v], out.cs_ads[v] = cs, cs_ads
             hold[v, a] = 0.0
