@@ -12,7 +12,7 @@ from crashscene.cli import app
 from crashscene.dsl import dumps
 from crashscene.extract.held_out import evaluate_held_out
 from crashscene.extract.case_input import Report, load_report
-from crashscene.extract.rule_sources import FROM_CONVENTIONS, RULE_SOURCES, rules_written_from
+from crashscene.extract.rule_sources import FROM_SYNTHETIC, RULE_SOURCES, rules_written_from
 from crashscene.extract.rules import extract_rules
 
 PACKAGE = Path(__file__).resolve().parents[2] / "src" / "crashscene" / "extract"
@@ -83,10 +83,10 @@ def test_held_out_scores_a_case_without_the_rules_written_from_it(tmp_path):
     assert effect.verdict == "generalises"
 
 
-def test_rules_written_from_the_conventions_change_no_bundled_case_but_those_they_were_corrected_on():
+def test_rules_written_from_synthetic_narratives_change_no_bundled_case_but_those_they_were_corrected_on():
     for folder in sorted(p for p in CIREN.iterdir() if (p / "golden.yaml").is_file()):
         report = load_report(folder)  # narrative and case XML; the sketch facts are not needed to show a change
-        off = [rule for rule in FROM_CONVENTIONS if folder.name not in RULE_SOURCES[rule]]
+        off = [rule for rule in FROM_SYNTHETIC if folder.name not in RULE_SOURCES[rule]]
         assert dumps(extract_rules(report)) == dumps(extract_rules(report, off=off)), folder.name
 
 

@@ -171,3 +171,21 @@ def test_same_seed_same_bytes(tmp_path):
     run(text, tmp_path / "b", n=4)
     for name in ("traces", "collisions", "variations"):
         assert (tmp_path / "a" / f"{name}.parquet").read_bytes() == (tmp_path / "b" / f"{name}.parquet").read_bytes()
+
+
+HEAD_ON_CASCADE = scenario(
+    "two_way", "speed_limit_sign", 55,
+    actor("ego", "go_forward", "reference: road, relation: behind")
+    + actor("npc1", "overtake", "reference: ego, relation: front, heading: opposite_direction")
+    + actor("npc2", "go_forward", "reference: ego, relation: front, heading: opposite_direction"),
+    oracle("CVC_21650", "wrong_side", "npc1"),
+    contact("npc1", "ego", "front", "front", "head_on") + contact("npc2", "ego", "front", "left", "angle"))
+
+
+@pytest.mark.slow
+def test_cascade_a_head_on_spins_the_struck_car_into_the_path_of_the_overtaken_one(tmp_path):
+    # the overtaker hits the corner the plan chose, so the struck car turns its side to the car behind it
+    # (0.1 of the variations before the overtaker was settled on that corner in time)
+    summary = run(HEAD_ON_CASCADE, tmp_path)
+    assert summary["first_contact_rate"] >= 0.9
+    assert summary["sequence_rate"] >= 0.4, summary["collisions"]

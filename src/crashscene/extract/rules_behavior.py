@@ -23,32 +23,36 @@ def _any(*alternatives: str) -> str:
 _LOSE = _any(r"\blost control", r"\bloss of control", r"\blose control",
              r"\bbegan (?:to )?(?:rotat|yaw|skid|spin|fishtail)", r"\bbegan a (?:\w+ )?(?:rotation|yaw|spin)",
              r"\b(?:spun|yawed|fishtailed|hydroplaned)\b")
-_CROSS = _any(
+# dsl.md section 3 and conventions 8, 9: crossed the centre line, drift, wrong way, entering the opposing lanes
+_CROSS_SPEC = _any(
     r"cross(?:ed|ing|es)?\s+(?:over\s+)?the\s+(?:double\s+(?:yellow\s+)?|solid\s+|painted\s+)*"
     r"(?:cent(?:er|re)[- ]?lines?|cent(?:er|re) lane lines|double (?:yellow )?lines?|yellow lines?)",
-    r"left[- ]of[- ]cent(?:er|re)",
     r"into the (?:opposing|oncoming) (?:traffic )?(?:travel )?lane",
     r"wrong[- ]way",
     r"drift(?:ed|ing)? (?:across|over) the cent",
     r"into (?:the )?(?:path of )?oncoming traffic",
-    r"encroach\w* (?:\w+ ){0,2}into V[1-9]'s (?:travel )?lane",
-    r"against the flow", r"in the wrong direction")
-_LEAVE = _any(
+    r"in the wrong direction")
+_CROSS_MORE = _any(r"left[- ]of[- ]cent(?:er|re)", r"encroach\w* (?:\w+ ){0,2}into V[1-9]'s (?:travel )?lane",
+                   r"against the flow")  # read in the reports
+_CROSS = _any(_CROSS_SPEC, _CROSS_MORE)
+_LEAVE_SPEC = _any(
     r"(?:depart(?:ed|ing|s)?|exit(?:ed|ing|s)?|ran|run|running|drove|went|veered|travel(?:ed|led)?)\s+(?:off\s+)?"
     r"(?:of\s+)?the\s+(?:left|right|north|south|east|west)?\s*(?:side|edge)\s+of\s+the\s+"
     r"(?:road|roadway|travel lane|highway|lane)",
     r"ran off the road", r"off the roadway",
     # "exited the roadway onto the exit ramp" is not leaving the road
     r"(?:depart(?:ed|ing)?|exit(?:ed|ing)?|left) the (?:road|roadway)\b"
-    r"(?! onto the (?:single |one |\w+ )?(?:lane )?(?:exit |entrance )?ramp)",
+    r"(?! onto the (?:single |one |\w+ )?(?:lane )?(?:exit |entrance )?ramp)")
+_LEAVE_MORE = _any(  # read in the reports: the shoulder, the roadside, off the travel lane
     r"onto the (?:left |right )?(?:shoulder|roadside)",
     r"entered the (?:[\w-]+ ){0,4}?(?:edge of the )?(?:left |right )?shoulder",
     r"drift(?:ed|ing)? (?:partially )?(?:off|to the (?:right|left) of) the (?:travel lane|road|roadway)")
 _OVERTAKE = _any(r"attempt(?:ed|ing)? to pass\b", r"\bpass(?:ed|ing)? (?:a |the )?(?:slower|V[1-9])", r"\bovertak\w+",
                  r"to pass V[1-9]")
 # "veered to the left and into the left northbound lane": groups = side, target lane, its direction
-_LANE_CHANGE = (r"(?:veer(?:ed|ing)?|mov(?:ed|ing)|chang(?:ed|ing) lanes|steer(?:ed|ing)|swerv(?:ed|ing)|"
-                r"merg(?:ed|ing)|drift(?:ed|ing))\s+(?:\w+\s+){0,3}?(?:to\s+the\s+)?(left|right)?[^.]{0,40}?into the "
+_LANE_CHANGE_VERBS = r"chang(?:ed|ing) lanes|merg(?:ed|ing)"  # section 3 and convention 8: a lane change, merging
+_LANE_CHANGE_MORE_VERBS = r"veer(?:ed|ing)?|mov(?:ed|ing)|steer(?:ed|ing)|swerv(?:ed|ing)|drift(?:ed|ing)"
+_LANE_CHANGE = (r"(?:VERBS)\s+(?:\w+\s+){0,3}?(?:to\s+the\s+)?(left|right)?[^.]{0,40}?into the "
                 r"(left|right|adjacent|middle|center|inside|outside|passing|(?:north|south|east|west)bound)\s*"
                 r"((?:north|south|east|west)bound)?")
 _LANE_CHANGE_SIDE = _any(r"chang(?:e|ed|ing|es) lanes? (?:to|into) the (left|right)",
@@ -62,9 +66,11 @@ _TURN_RIGHT = _any(r"turn(?:ed|ing|s)?\s+right", r"right[- ]turn(?:ing)?(?! lane
 _U_TURN = r"\bu[- ]turn(?:ing|ed)?\b(?! lane)"
 _STOPPED = _any(r"\b(?:brought|came|come|coming)\s+(?:\w+\s+){0,2}to a (?:stop|halt)",
                 r"\b(?:was|were|had|been|came to a|come to a) (?:stopped|stationary|stopping|slowing to a stop)",
-                r"\bstopped in (?:the )?(?:travel )?lane", r"\bwaiting (?:to|for)\b",
+                r"\bstopped in (?:the )?(?:travel )?lane",
                 r"\bstopped (?:in|for|at|behind) (?:traffic|the|a)\b", r"\bstopped\b")
-_PARKED = _any(r"\bparked\b", r"\bdisabled\b", r"\bunoccupied\b", r"\babandoned\b")
+_WAITING = r"\bwaiting (?:to|for)\b"  # read in the reports
+_PARKED = _any(r"\bparked\b", r"\bdisabled\b")  # convention 1: a parked or disabled vehicle is static
+_UNOCCUPIED = _any(r"\bunoccupied\b", r"\babandoned\b")  # read in the reports
 _DECEL = _any(r"\bslow(?:ed|ing)(?: down)?\b", r"\bbrak(?:ed|ing)\b", r"\bdecelerat\w+")
 _PROCEED = (r"\b(?:then |and )?(?:proceeded|pulled (?:out|into|forward)|entered|accelerated|"
             r"began to (?:cross|proceed|move))")
@@ -76,16 +82,30 @@ _INTO_PATH = (r"(?:drift|veer|swerv|steer|travel|mov|cross|went|go)\w*\s+(?:[\w,
 _INTO_LANE = (r"across the (?:north|south|east|west)bound (?:travel )?lanes?|(?:into|enter(?:ed|ing|s)?|in) the "
               r"(?:north|south|east|west)bound (?:travel )?lanes?(?! of)")
 _RAMP = r"\b(?:entrance|on)[- ]ramp\b|\bacceleration lane\b"
-_PARKED_NAMED = (r"\b(?:parked|unoccupied|non-occupied|abandoned)\b[^.()]{{0,60}}\(\s*{label}\s*\)|"
-                 r"\(\s*{label}\s*\)\s*(?:that|which)\s+was\s+(?:legally\s+)?(?:parked|unoccupied)|"
+_PARKED_NAMED = (r"\b(?:parked{unoccupied})\b[^.()]{{0,60}}\(\s*{label}\s*\)|"
+                 r"\(\s*{label}\s*\)\s*(?:that|which)\s+was\s+(?:legally\s+)?(?:parked{unoccupied})|"
                  r"\b{label}\b[^.]{{0,80}}\bwas\s+(?:legally\s+)?parked\b")
 _PARKED_APPOSITION = r"|\b{label},\s+an?\s+(?:[\w-]+\s+){{0,3}}?(?:parked|unoccupied|disabled)\b"  # "V2, a parked car"
-# phrase table: (pattern, token); a token names a behaviour or a clue the resolution reads
+# phrase table: (switch, pattern, token); a token names a behaviour or a clue the resolution reads. The first
+# round's phrasings: the spec's own words (dsl.md sections 3 and 5) and, apart, those read in the reports
 PHRASES = (
-    (_LOSE, "lose_control"), (_CROSS, "cross_centerline"), (_LEAVE, "leave_road"), (_OVERTAKE, "overtake"),
-    (_LANE_CHANGE, "lane_change"), (_LANE_CHANGE_SIDE, "lane_change_side"), (_RAMP_MERGE, "ramp_merge"),
-    (_TURN_LEFT, "turn_left"), (_TURN_RIGHT, "turn_right"), (_U_TURN, "u_turn"), (_STOPPED, "stop"),
-    (_PARKED, "static"), (_DECEL, "decelerate"), (_INTO_LANE, "into_lane"), (_INTO_PATH, "into_path"),
+    ("rules_behavior.lose_control_words", _LOSE, "lose_control"),
+    ("rules_behavior.centre_line_crossing_words", _CROSS_SPEC, "cross_centerline"),
+    ("rules_behavior.more_crossing_phrases", _CROSS_MORE, "cross_centerline"),
+    ("rules_behavior.run_off_road_words", _LEAVE_SPEC, "leave_road"),
+    ("rules_behavior.shoulder_is_leaving_the_road", _LEAVE_MORE, "leave_road"),
+    ("rules_behavior.overtake_words", _OVERTAKE, "overtake"),
+    ("rules_behavior.lane_change_words", _LANE_CHANGE.replace("VERBS", _LANE_CHANGE_VERBS), "lane_change"),
+    ("rules_behavior.veering_into_a_lane", _LANE_CHANGE.replace("VERBS", _LANE_CHANGE_MORE_VERBS), "lane_change"),
+    ("rules_behavior.lane_change_words", _LANE_CHANGE_SIDE, "lane_change_side"),
+    ("rules_behavior.lane_change_words", _RAMP_MERGE, "ramp_merge"),
+    ("rules_behavior.turn_words", _TURN_LEFT, "turn_left"), ("rules_behavior.turn_words", _TURN_RIGHT, "turn_right"),
+    ("rules_behavior.turn_words", _U_TURN, "u_turn"), ("rules_behavior.stop_words", _STOPPED, "stop"),
+    ("rules_behavior.waiting_is_stopped", _WAITING, "stop"),
+    ("rules_behavior.parked_words", _PARKED, "static"), ("rules_behavior.unoccupied_is_parked", _UNOCCUPIED, "static"),
+    ("rules_behavior.slowing_words", _DECEL, "decelerate"),
+    ("rules_behavior.centre_line_crossing_words", _INTO_LANE, "into_lane"),
+    ("rules_behavior.centre_line_crossing_words", _INTO_PATH, "into_path"),
 )
 # general phrasings of the same manoeuvres (dsl.md convention 8), each a recorded switch (rule_sources)
 MORE_PHRASES = (
@@ -114,7 +134,8 @@ def decide_behaviors(state: RulesState) -> None:
     for label, vehicle in state.vehicles.items():
         found = sorted(phrases[label], key=lambda item: item[0])
         vehicle.behavior, quote = _resolve(state, vehicle, found)
-        if vehicle.behavior in ("go_forward", "decelerate") and state.between:
+        if vehicle.behavior in ("go_forward", "decelerate") and state.between and \
+                state.uses("rules_behavior.opposing_entry_between_impacts"):
             # "V1 struck V2's rear ... V3 saw V1 enter the eastbound lane" then V1 and V3 collide head-on
             entered = _entered_opposing(state, vehicle)
             if entered:
@@ -131,10 +152,11 @@ def _phrases(state: RulesState) -> dict[str, list[Phrase]]:
     """Every behaviour phrase of the pre-crash text, attributed to the vehicle(s) it describes."""
     pre = state.pre_crash
     phrases: dict[str, list[Phrase]] = {label: [] for label in state.vehicles}
-    leaders = [v.label for v in state.vehicles.values() if v.role != "ego" and re.search(
+    leaders = [v.label for v in state.vehicles.values() if v.role != "ego" and
+               state.uses("rules_behavior.slowing_traffic_is_the_leaders") and re.search(
         rf"\b{v.label}\b[^.]{{0,200}}\b(?:ahead of|in front of) (?:V1|him|her)\b", state.t.text, re.I)]
-    more = [(pattern, token) for name, pattern, token in MORE_PHRASES if state.uses(name)]
-    for pattern, token in (*PHRASES, *more):
+    table = [(pattern, token) for name, pattern, token in (*PHRASES, *MORE_PHRASES) if state.uses(name)]
+    for pattern, token in table:
         if token == "ramp_merge" and not re.search(_RAMP, pre, re.I):
             continue
         for match in re.finditer(pattern, pre, re.I):
@@ -201,7 +223,9 @@ def _resolve(state: RulesState, vehicle: Vehicle, found: list[Phrase]) -> tuple[
     if static:
         return "static", quote(static)
     named = _PARKED_NAMED + (_PARKED_APPOSITION if state.uses("rules_behavior.parked_in_apposition") else "")
-    parked = re.search(named.format(label=vehicle.label), state.t.text, re.I)
+    unoccupied = "|unoccupied|non-occupied|abandoned" if state.uses("rules_behavior.unoccupied_is_parked") else ""
+    parked = re.search(named.format(label=vehicle.label, unoccupied=unoccupied), state.t.text, re.I) \
+        if state.uses("rules_behavior.parked_words") else None
     if parked:
         return "static", around(state.t.text, parked, 80)
     events = [(m, e) for _, token, m in found if token in _EVENTS for e in [_event(vehicle, token, m, state)] if e]
@@ -225,18 +249,21 @@ def _resolve(state: RulesState, vehicle: Vehicle, found: list[Phrase]) -> tuple[
         match = next((m for _, t, m in found if t == token), None)
         if match:
             stop_to = state.uses("rules_behavior.stopped_to_turn_is_a_stop")
-            waiting = _waiting_to_turn(pre, vehicle, stop, match, stop_to)
+            waiting = state.uses("rules_behavior.waiting_to_turn_is_a_stop") and \
+                _waiting_to_turn(pre, vehicle, stop, match, stop_to)
             return ("stop", quote(stop)) if waiting else (token, quote(match))
-    if stop:
+    if stop and state.uses("rules_behavior.stopped_then_proceeded"):
         went_on = _PROCEED
         if state.uses("rules_behavior.failing_to_yield_after_a_stop_is_proceeding"):
             went_on += r"|\bfail(?:ed|ing|s)? to yield|\bpulled into"  # "stopped, then failed to yield"
         for proceed in re.finditer(went_on, pre[stop.end():], re.I):
             if label_at(pre, stop.end() + proceed.start()) in (vehicle.label, None):
                 return "go_forward", quote(stop)  # stopped at the sign, then went on (convention 8)
+    if stop:
         return "stop", quote(stop)
     decel = next((m for _, t, m in found if t == "decelerate"), None)
-    if decel and (vehicle.role != "ego" or not re.search(r"avoid", pre[decel.start() - 60: decel.end()], re.I)):
+    avoiding = vehicle.role == "ego" and decel and re.search(r"avoid", pre[decel.start() - 60: decel.end()], re.I)
+    if decel and not (avoiding and state.uses("rules_vehicles.avoidance_is_not_the_manoeuvre")):
         return "decelerate", quote(decel)
     return "go_forward", None
 

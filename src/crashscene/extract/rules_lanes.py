@@ -27,36 +27,41 @@ def count_lanes(state: RulesState, road_text: str, ways: int) -> int:
             quote = quote or around(road_text, match)
 
     # "two lanes northbound ... two lanes southbound", "three northbound lanes and four southbound lanes"
-    for match in re.finditer(rf"\b{NUM}\s+(?:straight\s+)?(?:through\s+)?(?:travel\s+)?(?:lanes?\s+)?{DIR}bound"
+    for match in () if not state.uses("rules_lanes.lanes_per_direction_phrases") else re.finditer(rf"\b{NUM}\s+(?:straight\s+)?(?:through\s+)?(?:travel\s+)?(?:lanes?\s+)?{DIR}bound"
                              rf"(?:\s+(?:through\s+|travel\s+)?lanes?)?|\b{NUM}\s+(?:travel\s+)?lanes?\s+{DIR}bound",
                              road_text, re.I):
         groups = [g for g in match.groups() if g]
         put(groups[1].lower(), count_word(groups[0]), match)
     # "the southbound traffic-way consisted of a six-lane roadway", "the westbound roadway has three travel lanes"
-    for match in re.finditer(rf"(?<![/-]){DIR}(?:bound)?\s+(?:roadway|lanes|traffic-?way|carriageway|side)\b"
+    for match in () if not state.uses("rules_lanes.carriageway_lane_phrases") else re.finditer(
+            rf"(?<![/-]){DIR}(?:bound)?\s+(?:roadway|lanes|traffic-?way|carriageway|side)\b"
                              rf"[^.]{{0,60}}?"
                              rf"\b{NUM}[- ](?:{_PLAIN_WORD}\s+){{0,3}}?lanes?\b", road_text, re.I):
         put(match.group(1).lower(), count_word(match.group(2)), match, override=True)
     # "the two-way east/west roadway consisted of two travel lanes": a total for the road on V1's axis
     axis = "north/south" if ego.direction in ("north", "south") else "east/west" if ego.direction else None
-    for match in re.finditer(rf"\b(north[/-]south|east[/-]west)\s+(?:roadway|road|street|highway|trafficway)\b"
+    for match in () if not state.uses("rules_lanes.carriageway_lane_phrases") else re.finditer(
+            rf"\b(north[/-]south|east[/-]west)\s+(?:roadway|road|street|highway|trafficway)\b"
                              rf"[^.]{{0,60}}?\b{NUM}[- ](?:{_PLAIN_WORD}\s+){{0,3}}?lanes?\b", road_text, re.I):
         if axis and match.group(1).lower().replace("-", "/") == axis and not any(
                 d in per_direction for d in axis.split("/")):
             put("_axis", count_word(match.group(2)), match)
     # explicit through-lane breakdowns and "three lanes continue westbound" override totals that hold turn lanes
-    for match in re.finditer(rf"{DIR}bound lanes (?:are|were) composed of ([^.]*)", road_text, re.I):
+    breakdown = state.uses("rules_lanes.through_lane_breakdown")
+    for match in re.finditer(rf"{DIR}bound lanes (?:are|were) composed of ([^.]*)", road_text if breakdown else "",
+                             re.I):
         through = re.search(rf"{NUM}\s+(?:straight\s+)?through", match.group(2), re.I)
         if through:
             put(match.group(1).lower(), count_word(through.group(1)), match, override=True)
             per_direction.setdefault("_breakdown", 0)
-    for match in re.finditer(rf"\b{NUM}\s+(?:through\s+)?lanes\s+continu\w*(?:[^.]{{0,30}}?{DIR})?", road_text, re.I):
+    for match in re.finditer(rf"\b{NUM}\s+(?:through\s+)?lanes\s+continu\w*(?:[^.]{{0,30}}?{DIR})?",
+                             road_text if breakdown else "", re.I):
         direction = (match.group(2) or ego.direction or "").lower()
         if direction:
             put(direction, count_word(match.group(1)), match, override=True)
     if "_breakdown" in per_direction:
         del per_direction["_breakdown"]
-    else:
+    elif state.uses("rules_lanes.turn_lane_named_in_a_count"):
         # "six southbound lanes, with the far-left lane being a U-turn lane and the adjacent one a left turn lane"
         for turn in re.finditer(r"\b(?:being|is|was|as)\s+an?\s+(?:dedicated\s+)?(?:u-turn|left[- ]turn(?:[- ]only)?|"
                                 r"right[- ]turn(?:[- ]only)?)\s+lane", road_text, re.I):
@@ -64,7 +69,8 @@ def count_lanes(state: RulesState, road_text: str, ways: int) -> int:
             key = direction[-1].lower() if direction else None
             if key in per_direction and per_direction[key] > 1:
                 per_direction[key] -= 1
-    each = re.search(r"one (?:travel )?lane in each direction|single lane in each direction", road_text, re.I)
+    each = re.search(r"one (?:travel )?lane in each direction|single lane in each direction", road_text, re.I) \
+        if state.uses("rules_lanes.one_lane_in_each_direction") else None
     if each:
         per_direction = {"a": 1, "b": 1}
         quote = around(road_text, each)
@@ -90,14 +96,16 @@ def count_lanes(state: RulesState, road_text: str, ways: int) -> int:
         else:
             lanes = sum(per_direction.values()) if len(per_direction) > 1 else 2 * next(iter(per_direction.values()))
     else:
-        match = re.search(rf"\b{NUM}[- ]lane\b", road_text, re.I)
-        if match:
+        match = re.search(rf"\b{NUM}[- ]lane\b", road_text, re.I) if state.uses("rules_lanes.n_lane_road") else None
+        if match:  # convention 3: "a 'two-lane, two-way road' is 2"
             total = count_word(match.group(1))
             quote = around(road_text, match)
             if ways == 2:
                 # an odd count on a two-way road holds a centre turn lane ("five-lane ... middle left-turn lane")
-                lanes = total - 1 if total >= 3 and total % 2 else total
-            elif state.divided and total >= 4 and total % 2 == 0 and not re.search(r"one[- ]way", road_text, re.I):
+                odd = total >= 3 and total % 2 and state.uses("rules_lanes.odd_total_holds_a_turn_lane")
+                lanes = total - 1 if odd else total
+            elif state.divided and total >= 4 and total % 2 == 0 and not re.search(r"one[- ]way", road_text, re.I) \
+                    and state.uses("rules_lanes.divided_total_is_halved"):
                 lanes = total // 2  # "a four-lane divided highway": two lanes each way
             else:
                 lanes = total
@@ -106,7 +114,7 @@ def count_lanes(state: RulesState, road_text: str, ways: int) -> int:
         quote = "no lane count stated: one lane per direction"
     merge = re.search(r"\b(?:entrance|on)[- ]ramp\b|\bacceleration lane\b|\bmerg(?:e|ed|ing)\b",
                       state.pre_crash + " " + state.crash_sentence, re.I)
-    if merge and ways == 1 and len(state.vehicles) > 1:
+    if merge and ways == 1 and len(state.vehicles) > 1 and state.uses("rules_lanes.acceleration_lane_in_a_merge"):
         lanes += 1  # the acceleration lane counts when a merge is part of the crash (dsl.md convention 3)
         quote = f"{quote}; + acceleration lane: {around(state.pre_crash + ' ' + state.crash_sentence, merge, 40)}"
     state.note("road_network.number_of_lanes", quote or "lane count per direction")

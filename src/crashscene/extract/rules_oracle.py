@@ -77,15 +77,20 @@ def stated(state: RulesState, pattern: str) -> list[tuple[str, re.Match]]:
     return out
 
 
-_TOO_FAST = (r"\btoo fast\b|excessive (?:speed|rate of speed)|unsafe speed|speed too (?:great|high|fast)|"
-             r"high rate of speed|speed (?:was|as) (?:a|the) (?:\w+ )?factor")
+# cause statements in convention 9's and issue 11's words: "too fast for conditions", "stated speeding", "red
+# light", "failed to stop" / "no stop at a stop sign"
+_TOO_FAST = r"\btoo fast\b|unsafe speed"
 _SPEEDING = (r"\bspeeding\b|exceed(?:ed|ing) the (?:posted )?speed limit|above the (?:posted )?speed limit|"
              r"over the (?:posted )?speed limit")
-_RED = (r"red (?:light|signal|indication|traffic signal)|against (?:the|a) (?:steady )?red|ran the red|"
-        r"disregard\w* the (?:traffic )?(?:signal|light)")
+_RED = r"red (?:light|signal|indication|traffic signal)|against (?:the|a) (?:steady )?red|ran the red"
 _RAN_STOP = (r"fail(?:ed|ing|s)? to stop (?:at|for) the stop|did not stop at the stop|ran the stop|"
-             r"without stopping|disregarded the stop|rolled through the stop|fail(?:ed|ing|s)? to (?:come to a )?"
+             r"without stopping|fail(?:ed|ing|s)? to (?:come to a )?"
              r"(?:complete |full )?stop\b(?! for (?:the )?(?:traffic|vehicles?|V[1-9]))")
+# the first round's further phrasings, read in the reports
+_MORE_TOO_FAST = (r"|excessive (?:speed|rate of speed)|speed too (?:great|high|fast)|high rate of speed|"
+                  r"speed (?:was|as) (?:a|the) (?:\w+ )?factor")
+_MORE_RED_WORDS = r"|disregard\w* the (?:traffic )?(?:signal|light)"
+_MORE_STOP_WORDS = r"|disregarded the stop|rolled through the stop"
 
 
 # "failed to obey the traffic signal", "drove through the stop sign"
@@ -97,10 +102,12 @@ _MORE_RAN_STOP = (r"|(?:drove|traveled|travelled|went|proceeded|continued|ran|ro
 def _manoeuvre_oracle(state: RulesState, road: dict, oracle: _Oracle) -> None:
     """Codes that follow from a vehicle's own manoeuvre or stated speed, wherever it happens."""
     text = state.t.text
-    too_fast = {label: match for label, match in reversed(stated(state, _TOO_FAST))}
+    words = state.uses("rules_oracle.more_cause_phrases")
+    too_fast = {label: match for label, match in reversed(stated(state, _TOO_FAST + (_MORE_TOO_FAST if words else "")))}
     speeding = {label: match for label, match in reversed(stated(state, _SPEEDING))}
     more = state.uses("rules_oracle.disobeyed_device_phrasings")
-    red = {label: match for label, match in reversed(stated(state, _RED + (_MORE_RED if more else ""))) if not (
+    red_words = _RED + (_MORE_RED_WORDS if words else "") + (_MORE_RED if more else "")
+    red = {label: match for label, match in reversed(stated(state, red_words)) if not (
         state.uses("rules_oracle.red_light_only_when_disobeyed") and _obeyed(text, match))}
     for label, vehicle in state.vehicles.items():
         role, behavior, quote = vehicle.role, vehicle.behavior, vehicle.behavior_quote
@@ -117,9 +124,7 @@ def _manoeuvre_oracle(state: RulesState, road: dict, oracle: _Oracle) -> None:
                 oracle.add("CVC_21460", role, f"{label} crossed the double solid centre line.",
                            quote)
         # a vehicle that lost control or crossed into the lane changer's path is the one at fault
-        other_at_fault = any(v.behavior in ("lose_control", "cross_centerline", "leave_road")
-                             for v in state.vehicles.values() if v is not vehicle)
-        if behavior.startswith("change_lane") and not other_at_fault:
+        if behavior.startswith("change_lane"):
             oracle.add("CVC_22107", role,
                        f"{label} changed lanes into the path of another vehicle.", quote)
         if label in speeding:
@@ -153,12 +158,14 @@ def _junction_oracle(state: RulesState, road: dict, oracle: _Oracle) -> None:
     from_driveway = driveway_vehicle(state)
     failed_to_yield = next((label for label, _ in stated(state, r"fail(?:ed|ing|s)? to yield|did not yield")), None)
     more = state.uses("rules_oracle.disobeyed_device_phrasings")
-    ran_stop = {label: match for label, match in reversed(stated(state, _RAN_STOP + (_MORE_RAN_STOP if more else "")))}
+    stop_words = _RAN_STOP + (_MORE_STOP_WORDS if state.uses("rules_oracle.more_cause_phrases") else "")
+    ran_stop = {label: match for label, match in reversed(stated(state, stop_words + (_MORE_RAN_STOP if more else "")))}
     if not failed_to_yield and not devices and ran_stop and \
             state.uses("rules_oracle.failed_to_stop_at_an_uncontrolled_junction"):
         failed_to_yield = next(iter(ran_stop))  # no device: the one stated as not stopping lacks priority
     ran_red = any(e["code"] == "CVC_21453" for e in oracle.entries)
-    arrow = re.search(r"(?:green|protected) (?:left[- ]turn )?arrow", text, re.I)
+    arrow = re.search(r"(?:green|protected) (?:left[- ]turn )?arrow", text, re.I) and \
+        state.uses("rules_oracle.protected_arrow_exempts_a_left_turn")
     stated_oncoming = state.uses("rules_oracle.left_turn_stated_oncoming")
     for label, vehicle in state.vehicles.items():
         role, quote = vehicle.role, vehicle.behavior_quote
@@ -171,7 +178,8 @@ def _junction_oracle(state: RulesState, road: dict, oracle: _Oracle) -> None:
         if from_driveway == label:
             oracle.add("CVC_21804", role, f"{label} left a driveway into the path of traffic.", quote)
             continue
-        if not (headings & {"from_left", "from_right"} or _crossing_contact(state, label)):
+        crossing = state.uses("rules_oracle.angle_contact_is_crossing") and _crossing_contact(state, label)
+        if not (headings & {"from_left", "from_right"} or crossing):
             continue
         all_way = state.stop_controlled >= set(state.vehicles) and len(state.vehicles) > 1
         if "stop_sign" in devices and label in state.stop_controlled and not all_way:

@@ -25,7 +25,7 @@ def decide_actors(state: RulesState, road: dict) -> dict:
                                      road["number_of_ways"] == 1)
         actors[vehicle.role] = {"label": label, "type": vehicle.type, "behavior": vehicle.behavior,
                                 "position": position}
-        speed = _stated_speed(state, label)
+        speed = _stated_speed(state, label) if state.uses("rules_positions.stated_speed") else None
         if speed is not None:
             actors[vehicle.role]["speed_mph"] = speed
             state.speeds[label] = speed
@@ -121,9 +121,11 @@ def _guess_heading(state: RulesState, ego: Vehicle, npc: Vehicle, at_junction: b
     if state.uses("rules_positions.same_direction_on_one_carriageway") and not at_junction and (
             one_way or npc.behavior.startswith("change_lane")):
         return "same_direction"  # one carriageway (divided, one-way) or a lane change: traffic goes V1's way
-    rear_end = re.search(rf"(?:rear|back)(?: plane| end)? of {label}|{label}\b[^.]{{0,80}}\b(?:rear|back)[- ]end|"
+    rear_end = state.uses("rules_positions.rear_end_is_same_direction") and re.search(
+        rf"(?:rear|back)(?: plane| end)? of {label}|{label}\b[^.]{{0,80}}\b(?:rear|back)[- ]end|"
                          rf"front of {label} struck the (?:rear|back)|{label}\b[^.]{{0,40}}\bbehind", text, re.I)
-    if rear_end or npc.behavior in ("stop", "decelerate", "static"):
+    if rear_end or (npc.behavior in ("stop", "decelerate", "static") and
+                    state.uses("rules_positions.rear_end_is_same_direction")):
         return "same_direction"
     return "from_left" if at_junction else "opposite_direction"
 
@@ -131,20 +133,19 @@ def _guess_heading(state: RulesState, ego: Vehicle, npc: Vehicle, at_junction: b
 def _same_direction_relation(state: RulesState, ego: Vehicle, npc: Vehicle, text: str) -> str:
     """Beside (lane sides, lane numbers, where it is parked, the side a lane changer leaves), behind, or ahead."""
     label = npc.label
-    if npc.behavior == "static" and re.search(rf"\b{label}\b[^.]{{0,120}}\b(?:parked|stopped|disabled)\b[^.]{{0,40}}"
+    if npc.behavior == "static" and state.uses("rules_positions.parked_on_the_shoulder_side") and re.search(rf"\b{label}\b[^.]{{0,120}}\b(?:parked|stopped|disabled)\b[^.]{{0,40}}"
                                               rf"\b(?:shoulder|curb|roadside|side of the road)", text, re.I):
         side = re.search(rf"\b{label}\b[^.]{{0,160}}\b(left|median|inside)\b[^.]{{0,10}}shoulder", text, re.I)
         return "left" if side else "right"
-    if ego.lane_number and npc.lane_number and ego.lane_number != npc.lane_number:
-        return "left" if npc.lane_number > ego.lane_number else "right"
-    if npc.behavior in ("change_lane_left", "change_lane_right") and not (ego.lane_side and npc.lane_side):
+    if npc.behavior in ("change_lane_left", "change_lane_right") and not (ego.lane_side and npc.lane_side) and \
+            state.uses("rules_positions.lane_changer_comes_from_the_side_it_leaves"):
         return "right" if npc.behavior == "change_lane_left" else "left"  # it comes from the side it leaves
     if ego.lane_side and npc.lane_side and ego.lane_side != npc.lane_side and "middle" not in (ego.lane_side,
                                                                                                npc.lane_side):
         if not re.search(rf"{label}\b[^.]{{0,60}}\bbehind|behind V1|following V1", text, re.I) or \
                 ego.behavior.startswith("change_lane") or npc.behavior.startswith("change_lane"):
             return npc.lane_side
-    behind = re.search(rf"\b{label}\b[^.]{{0,80}}\b(?:behind|following)\b[^.]{{0,20}}V1|"
+    behind = state.uses("rules_positions.behind_words") and re.search(rf"\b{label}\b[^.]{{0,80}}\b(?:behind|following)\b[^.]{{0,20}}V1|"
                        rf"\bfront (?:plane )?of {label}\b[^.]{{0,40}}\b(?:struck|impacted|contacted)\b[^.]{{0,20}}"
                        rf"(?:rear|back)|"
                        rf"(?:rear|back)(?: plane)? of V1\b[^.]{{0,40}}(?:struck|impacted) by[^.]{{0,30}}{label}|"

@@ -23,26 +23,36 @@ def decide_road_network(state: RulesState) -> dict:
                                                           r"trafficway|lanes?|route|avenue|ramp)\b", s, re.I)]
     road_text = " ".join(road_sentences)
     sketch_text = " ".join(state.fact_texts("text: "))
+    # convention 3: "a divided roadway (median or barrier)"
     divided_pattern = r"\bdivided\b(?! by (?:a )?(?:double|painted|yellow))|\bmedian\b|" \
-                      r"\b(?:concrete|jersey|cable|median) barrier|interstate|\bfreeway\b"
+                      r"\b(?:concrete|jersey|cable|median) barrier"
+    if not state.uses("rules_road.divided_roadway"):
+        divided_pattern = r"(?!)"
+    if state.uses("rules_road.freeway_is_divided"):
+        divided_pattern += r"|interstate|\bfreeway\b"
     if state.uses("rules_road.divided_by_a_line_is_not_divided"):
         # "a two-way road divided by a solid yellow line": a painted line divides the directions, not a median
         divided_pattern = divided_pattern.replace("(?! by (?:a )?(?:double|painted|yellow))", _BY_A_LINE)
-    state.divided = bool(re.search(divided_pattern, road_text, re.I) or re.search(r"\bmedian\b", sketch_text, re.I)) \
-        and not re.search(r"\bnon-?divided|\bundivided|not divided|(?:center|centre|middle) (?:two-way )?(?:left[- ])?"
-                          r"turn(?:ing)? lane", road_text, re.I)
+    not_divided = r"\bnon-?divided|\bundivided|not divided"
+    if state.uses("rules_road.centre_turn_lane_is_not_divided"):
+        not_divided += r"|(?:center|centre|middle) (?:two-way )?(?:left[- ])?turn(?:ing)? lane"
+    sketch_median = state.uses("rules_road.sketch_median") and re.search(r"\bmedian\b", sketch_text, re.I)
+    state.divided = bool(re.search(divided_pattern, road_text, re.I) or sketch_median) \
+        and not re.search(not_divided, road_text, re.I)
     if state.divided:
         match = re.search(divided_pattern, road_text, re.I)
         state.note("road_network.number_of_ways", around(road_text, match) if match else "sketch: median")
-    _traffic_controls(state)
+    if state.uses("rules_road.traffic_control_words"):
+        _traffic_controls(state)
     road_type, curve_direction = _road_type(state)
     if road_type in ("intersection", "t_intersection"):
-        _sketch_devices(state)
+        if state.uses("rules_road.sketch_devices"):
+            _sketch_devices(state)
         if state.uses("rules_road.attribute_signs"):
             _attribute_signs(state)
     ways = _ways(state, road_text)
     lanes = count_lanes(state, road_text, ways)
-    speed = _speed_limit(state)
+    speed = _speed_limit(state) if state.uses("rules_road.posted_limit") else None
     marker = _marker(state, road_text, ways)
     if road_type not in ("intersection", "t_intersection") and \
             state.uses("rules_road.junction_devices_only_at_a_junction"):
@@ -182,16 +192,19 @@ def _road_type(state: RulesState) -> tuple[str, str | None]:
     Returns the road type and the curve's side as V1 sees it."""
     text = state.t.text
     # "warning signs for an intersection ahead" names a junction that plays no part
-    pre = re.sub(r"[^.]*\b(?:intersection|junction) ahead\b[^.]*|[^.]*\bwarning signs?\b[^.]*", " ",
-                 state.pre_crash + " " + state.crash_sentence, flags=re.I)
-    four = _FOUR_LEGS.search(text)
-    three = _THREE_LEGS.search(text)
+    pre = state.pre_crash + " " + state.crash_sentence
+    if state.uses("rules_road.junction_ahead_plays_no_part"):
+        pre = re.sub(r"[^.]*\b(?:intersection|junction) ahead\b[^.]*", " ", pre, flags=re.I)
+    legs_stated = state.uses("rules_road.leg_words")  # convention 2: 4 legs; 3 legs, a driveway or business access
+    four = _FOUR_LEGS.search(text) if legs_stated else None
+    three = _THREE_LEGS.search(text) if legs_stated else None
     if state.uses("rules_road.a_junction_some_distance_away_plays_no_part"):
         # "approximately 100 meters south of an intersection": the junction only locates the crash
         pre = re.sub(r"\b\d+(?:\.\d+)?\s*(?:m|meters?|metres?|ft|feet|yards?|miles?|km)\b\s+(?:\w+\s+){0,2}?"
                      r"(?:of|from|before|past|beyond)\s+(?:an?|the)\s+(?:[\w-]+\s+){0,2}?(?:intersection|junction)",
                      " ", pre, flags=re.I)
-    junction = re.search(r"\bintersection\b|\bjunction\b|\bintersecting\b", pre, re.I)
+    junction = re.search(r"\bintersection\b|\bjunction\b|\bintersecting\b", pre, re.I) \
+        if state.uses("rules_road.junction_words") else None
     turns_in = re.search(rf"\b(?:into|onto|to enter)\s+(?:a |the |an )?{_DRIVEWAY}", pre, re.I)
     from_access = bool(three and _ACCESS.search(three.group(0)) and (driveway_vehicle(state) is not None or turns_in))
     if not from_access and driveway_vehicle(state) is not None and \
@@ -207,7 +220,8 @@ def _road_type(state: RulesState) -> tuple[str, str | None]:
         state.note("road_network.road_type", around(text, four) if four else around(pre, junction))
     curve = None
     bends = state.uses("rules_road.a_bend_is_a_curve")  # "a road that bends to the right"
-    curve_match = re.search(r"\bcurv(?:e|es|ed|ing)\b" + (r"|\bbend(?:s|ing)?\b" if bends else ""), pre, re.I)
+    curve_match = re.search((r"\bcurv(?:e|es|ed|ing)\b" if state.uses("rules_road.curve_words") else r"(?!)")
+                            + (r"|\bbend(?:s|ing)?\b" if bends else ""), pre, re.I)
     direction = None
     if curve_match:
         window = pre[max(0, curve_match.start() - 60):curve_match.end() + 40]
@@ -217,7 +231,8 @@ def _road_type(state: RulesState) -> tuple[str, str | None]:
                             if bends else ""), pre, re.I)
         if side:
             direction = _as_ego_sees_it(state, pre, side, next(g for g in side.groups() if g).lower())
-        if not re.search(r"\bstraight\b[^.]{0,40}\bcurv|no curve", window, re.I):
+        if not (re.search(r"\bstraight\b[^.]{0,40}\bcurv|no curve", window, re.I) and
+                state.uses("rules_road.straight_before_a_curve")):
             curve = "curve"
             state.note("road_network.road_type", around(pre, curve_match))
     if legs is not None:
@@ -260,6 +275,8 @@ _DRIVEWAY = r"(?:private |commercial |residential |business )?(?:driveway|drive\
 
 def driveway_vehicle(state: RulesState) -> str | None:
     """The vehicle that enters the road from a driveway, parking lot or business access, if one does."""
+    if not state.uses("rules_road.driveway_exit"):
+        return None
     text = state.pre_crash + " " + state.crash_sentence
     for match in re.finditer(rf"(?:from|out of|exit(?:ed|ing)?|leav(?:e|ing)|in the mouth of|pull(?:ed|ing)? out of)\s+"
                              rf"(?:of\s+)?(?:a |the |an )?{_DRIVEWAY}", text, re.I):
@@ -278,7 +295,8 @@ def _ways(state: RulesState, road_text: str) -> int:
         return 1
     if state.divided and not _crosses_opposing(state):
         match = re.search(r"divided|median|barrier|interstate|freeway", road_text, re.I)
-        state.note("road_network.number_of_ways", "divided roadway: V1's carriageway only; " + around(road_text, match))
+        where = around(road_text, match) if match else "sketch: median"  # a median drawn, not written
+        state.note("road_network.number_of_ways", "divided roadway: V1's carriageway only; " + where)
         return 1
     return 2
 
@@ -337,7 +355,7 @@ MARKERS = (
     (r"double (?:solid )?(?:yellow )?(?:cent(?:er|re) ?)?lines?|solid double|double[- ]yellow|"
      r"(?:two|2) solid (?:yellow )?lines", "double_solid_line"),
     (r"two-way (?:center |centre )?left[- ]turn lane|center (?:two-way )?turn lane|\bTWLTL\b|"
-     r"solid (?:and|with) (?:a )?broken|broken (?:and|with) (?:a )?solid|passing zone", "solid_and_broken_line"),
+     r"solid (?:and|with) (?:a )?broken|broken (?:and|with) (?:a )?solid", "solid_and_broken_line"),
     (r"(?:broken|dashed|skip) (?:yellow |white )?(?:cent(?:er|re) ?)?lines?", "broken_line"),
     (r"no (?:cent(?:er|re) ?line|pavement|lane) markings?|unmarked|unpaved|gravel road|dirt road", "none"),
     (r"single solid (?:yellow )?(?:cent(?:er|re) ?)?line|solid (?:yellow )?cent(?:er|re) ?line", "solid_line"),
@@ -361,17 +379,21 @@ def _marker(state: RulesState, road_text: str, ways: int) -> str:
     else drawn on the sketch, else not_mentioned."""
     text = state.t.text
     sketch_text = " ".join(state.fact_texts("text: "))
-    markers = MARKERS
+    markers = MARKERS if state.uses("rules_road.centre_line_words") else tuple((r"(?!)", t) for _, t in MARKERS)
+    sketch_markers = markers
+    if state.uses("rules_road.passing_zone"):  # a passing zone: a broken line beside the solid one
+        markers = tuple((p + (r"|passing zone" if t == "solid_and_broken_line" else ""), t) for p, t in markers)
+        sketch_markers = markers
     if state.uses("rules_road.marker_phrasings"):
         extra = {token: pattern for pattern, token in MORE_MARKERS}
         if state.junction is None:  # away from a junction a centre left-turn lane is a two-way one
             extra["solid_and_broken_line"] += r"|(?:cent(?:er|re)|middle) left[- ]turn(?:ing)? lane"
         markers = tuple((f"{pattern}|{extra[token]}" if token in extra else pattern, token)
-                        for pattern, token in MARKERS)
+                        for pattern, token in markers)
     if state.uses("rules_road.white_lines_separate_lanes"):  # a white line is a lane line, never the centre line
         markers = tuple((pattern.replace("(?:yellow |white )?", "(?:yellow )?(?!white)"), token)
                         for pattern, token in markers)
-    for (pattern, token), (sketch_pattern, _) in zip(markers, MARKERS):
+    for (pattern, token), (sketch_pattern, _) in zip(markers, sketch_markers):
         match = _on_ego_road(state, pattern, text)
         if match:
             state.note("road_network.road_marker", around(text, match))
@@ -384,7 +406,7 @@ def _marker(state: RulesState, road_text: str, ways: int) -> str:
     if state.divided:
         state.note("road_network.road_marker", "divided roadway: no centre line on V1's carriageway")
         return "none"
-    if ways == 2:
+    if ways == 2 and state.uses("rules_road.drawn_centre_line"):
         for fact, token in (("double solid line drawn", "double_solid_line"), ("broken line drawn", "broken_line")):
             if state.fact_texts(fact):
                 state.note("road_network.road_marker", f"sketch: {fact}")

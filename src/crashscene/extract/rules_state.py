@@ -22,7 +22,6 @@ class Vehicle:
     role: str  # ego, npc1, ...
     direction: str | None = None  # north|south|east|west
     lane_side: str | None = None  # left|right|middle lane of its direction
-    lane_number: int | None = None  # NHTSA "number two lane", counted from the right edge
     type: str = "car"
     behavior: str = "go_forward"
     behavior_quote: str | None = None

@@ -6,7 +6,7 @@ from __future__ import annotations
 import re
 
 from crashscene.extract.errors import RulesError
-from crashscene.extract.narrative import DIR, NUM, count_word, subject_of
+from crashscene.extract.narrative import DIR, subject_of
 from crashscene.extract.rules_state import RulesState, Vehicle
 
 
@@ -30,8 +30,10 @@ def find_vehicles(state: RulesState) -> None:
         label = f"V{number}"
         state.vehicles[label] = Vehicle(label=label, role="ego" if index == 0 else f"npc{index}")
     for label, vehicle in state.vehicles.items():
-        vehicle.direction, vehicle.lane_side = _direction_of(state, label)
-        vehicle.type = _type_of(state, label)
+        if state.uses("rules_vehicles.travel_direction"):
+            vehicle.direction, vehicle.lane_side = _direction_of(state, label)
+        if state.uses("rules_vehicles.body_type"):
+            vehicle.type = _type_of(state, label)
 
 
 def subject_sentences(state: RulesState, label: str) -> list[str]:
@@ -64,11 +66,8 @@ def _direction_of(state: RulesState, label: str) -> tuple[str | None, str | None
         if match:
             lane = re.search(r"\b(left|right|middle|center|far[- ]left|far[- ]right|inboard|outboard)\b[^.]{0,30}?"
                              rf"{DIR}bound\s+(?:travel\s+)?lane", cut, re.I)
-            side = _lane_side(lane.group(1).lower()) if lane else None
+            side = _lane_side(lane.group(1).lower()) if lane and state.uses("rules_vehicles.lane_side") else None
             state.note(f"actors.{state.vehicles[label].role}.position", sentence)
-            number = re.search(rf"\bnumber\s+{NUM}\b[^.]{{0,30}}?\blane", cut, re.I)
-            if number:
-                state.vehicles[label].lane_number = count_word(number.group(1))
             return clause_direction or next(g for g in match.groups() if g).lower(), side
     if clause_direction:
         state.note(f"actors.{state.vehicles[label].role}.position", clause)
@@ -83,10 +82,11 @@ def _lane_side(word: str) -> str:
     return "middle"
 
 
-# pickups, vans and SUVs are cars (dsl.md aliases)
-_TRUCK = re.compile(r"tractor|semi\b|semi-trailer|\bbus\b|school bus|motorcoach|box truck|dump truck|straight truck|"
-                    r"delivery truck|garbage truck|cement|concrete mixer|tow truck|fire truck|flatbed|"
-                    r"commercial (?:truck|vehicle)|heavy truck|single[- ]unit truck|\bGVWR\b", re.I)
+# pickups, vans and SUVs are cars (dsl.md section 2 aliases: semi, tractor-trailer, bus, box truck -> truck); a
+# named kind of truck is a truck
+_TRUCK = (r"tractor|semi\b|semi-trailer|\bbus\b|box truck|dump truck|straight truck|delivery truck|garbage truck|"
+          r"tow truck|fire truck|heavy truck|single[- ]unit truck|commercial truck")
+_MORE_TRUCK = r"|motorcoach|cement|concrete mixer|flatbed|commercial vehicle|\bGVWR\b"  # read in the reports
 _MOTORCYCLE = re.compile(r"motorcycle|motorbike|moped|scooter|\bHarley\b", re.I)
 
 
@@ -101,10 +101,11 @@ def _type_of(state: RulesState, label: str) -> str:
     for match in sorted((m for m in (after, before) if m), key=lambda m: m.start()):
         texts.append(match.group(1))
     texts += [t for t in state.fact_texts(f"vehicle {label}:")]
+    truck = _TRUCK + (_MORE_TRUCK if state.uses("rules_vehicles.more_truck_words") else "")
     for descriptor in texts:
         if _MOTORCYCLE.search(descriptor):
             return "motorcycle"
-        if _TRUCK.search(descriptor):
+        if re.search(truck, descriptor, re.I):
             state.note(f"actors.{state.vehicles[label].role}.type", descriptor)
             return "truck"
     return "car"
@@ -120,7 +121,8 @@ def split_pre_crash(state: RulesState) -> None:
     kept = []
     sentences = state.t.sentences
     for index, sentence in enumerate(sentences):
-        if _SUMMARY_SENTENCE.search(sentence) and not re.search(r"\bV[1-9]\b.*\b(?:travel|driv|turn)", sentence):
+        if _SUMMARY_SENTENCE.search(sentence) and not re.search(r"\bV[1-9]\b.*\b(?:travel|driv|turn)", sentence) \
+                and state.uses("rules_vehicles.summary_lead_is_not_the_sequence"):
             continue
         impact = _IMPACT.search(sentence)
         if impact:
@@ -142,6 +144,9 @@ def split_pre_crash(state: RulesState) -> None:
             break
         kept.append(sentence)
     pre = " ".join(kept)
+    if not state.uses("rules_vehicles.avoidance_is_not_the_manoeuvre"):
+        state.pre_crash = pre
+        return
     pre = re.sub(r"(?:in an? )?(?:attempt(?:ed|ing)?|tried|trying)\s+to\s+avoid[^.;]*", " ", pre, flags=re.I)
     pre = re.sub(r"\bto avoid (?:a )?(?:collision|the crash|impact)[^.;]*", " ", pre, flags=re.I)
     pre = re.sub(r"\breacted by[^.;]*|[^.;,]*\b(?:in avoidance|as an avoidance|avoidance maneuver|evasive)[^.;]*", " ",

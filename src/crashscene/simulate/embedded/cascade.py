@@ -4,6 +4,7 @@ A rear-end can push the struck car out of its lane when it strikes one rear corn
 (`impact.exchange`, the simulator's own model) turns the struck car and it slides (`impact.slide`) the
 way its nose points. `pushed_path` integrates that motion from the moment of contact, so that the plan
 can place the third vehicle of the written sequence where the pushed car will be, when it is there.
+`slide_path` is that slide for any vehicle already sliding (later.LaterMeetings times later contacts with it).
 """
 from __future__ import annotations
 
@@ -40,17 +41,23 @@ def pushed_path(v_striker: float, v_struck: float, side: float, m_striker: float
     vb = np.array([[v_struck], [0.0]])
     _, _, vb, wb, _ = impact.exchange(nx, ny, px, py, xa, ya, va, 0 * one, ma, ia, 0 * one, 0 * one, vb,
                                       0 * one, mb, ib)
-    vx, vy, w = vb[0], vb[1], wb
-    x, y, yaw = np.zeros(1), np.zeros(1), np.zeros(1)
-    steps = int(HORIZON / DT)
-    out = np.zeros((3, steps))
+    x, y, yaw = slide_path(np.zeros(1), np.zeros(1), np.zeros(1), vb[0], vb[1], wb, friction, l_struck * one,
+                           w_struck * one, DT, int(HORIZON / DT))
+    return x[0], y[0], yaw[0]
+
+
+def slide_path(x, y, yaw, vx, vy, yaw_rate, friction: float, length, width, dt: float, steps: int):
+    """(x, y, yaw) (N, steps) of N sliding vehicles every dt [s] from now ([m], [m/s], [rad/s] (N,)), integrated
+    as the simulator moves a vehicle after an impact (simulator._move: impact.slide, trapezoidal), exact until
+    it touches something else."""
+    out = np.zeros((3, len(x), steps))
     for k in range(steps):
-        vx1, vy1, w1 = impact.slide(vx, vy, yaw, w, friction, l_struck * one, w_struck * one, DT)
-        x = x + 0.5 * (vx + vx1) * DT
-        y = y + 0.5 * (vy + vy1) * DT
-        yaw = yaw + 0.5 * (w + w1) * DT
-        vx, vy, w = vx1, vy1, w1
-        out[:, k] = x[0], y[0], yaw[0]
+        vx1, vy1, w1 = impact.slide(vx, vy, yaw, yaw_rate, friction, length, width, dt)
+        x = x + 0.5 * (vx + vx1) * dt
+        y = y + 0.5 * (vy + vy1) * dt
+        yaw = yaw + 0.5 * (yaw_rate + w1) * dt
+        vx, vy, yaw_rate = vx1, vy1, w1
+        out[:, :, k] = x, y, yaw
     return out[0], out[1], out[2]
 
 

@@ -37,6 +37,9 @@ CLIP_CLOSING = 3.0  # [m/s] a vehicle pulling out around the one ahead and clipp
 CLIP_PARTS = 8  # [-] a clip's partner may start within a step's closing further ahead, in this many parts
 CHAIN_GAP = 4.0  # [m] at least this between the bumpers of actors reordered along their lane
 SPEEDING_RUN = 2.0  # [s] a striker charged with speeding drives this long before its impact (rules: 1 s over)
+CASCADE_SETTLE = 1.5  # [s] a striker steering to the corner it is to hit is there this long before the impact
+CASCADE_LAG = 0.7  # [-] a steering driver follows its lateral reference this much slower than the reference moves
+CASCADE_ACROSS = 0.9  # [-] at most this part of the way across is done before the scene starts
 CASCADE_WINDOW = 0.8  # [s] a later contact's striker arrives up to this long after the pushed car is in its path
 STOP_DECEL = 4.0  # [m/s2] a stopping driver's braking (drivers.behaviors.DECELERATE_RATE)
 STOP_NEAR_JUNCTION = 40.0  # [m] a stopping driver this close to a junction stops at its line
@@ -631,7 +634,8 @@ class VariationPlan:
         goes on with a third vehicle meeting the struck one: the striker hits the struck car off its centre
         line, on the side that turns it (the impulse of cascade.pushed_path, the simulator's impact model) so
         that the third vehicle meets it as the later contact's class says, and the third vehicle is placed to
-        reach the pushed car just after it is in its path."""
+        reach the pushed car just after it is in its path (or, with no room behind, slowed and held at its start);
+        a striker steering across (an overtake) is on its corner before the impact (`_settle_before`)."""
         found = self._cascade_actors()
         if found is None:
             return
@@ -661,24 +665,54 @@ class VariationPlan:
         arrive = t1 + (k + 1) * cascade.DT
         # a striker drifting out of the lane ahead of it is no obstacle to a start behind it
         passing = (si,) if self.ctx.columns[si].behavior in LATERAL_BEHAVIORS else ()
-        placed = _shift_start(self.ctx.arrays, xi, self.route, self.s0,
-                              gap_k - self.length[xi] / 2 - extent - self.speeds[xi] * arrive, self.length, self.d0,
-                              passing=passing)
-        if placed is None:
+        reach = gap_k - self.length[xi] / 2 - extent  # [m] how far the third actor drives to the meeting
+        placed = _shift_start(self.ctx.arrays, xi, self.route, self.s0, reach - self.speeds[xi] * arrive,
+                              self.length, self.d0, passing=passing)
+        if placed is not None:
+            self.s0[xi] = placed
+            self.moved[xi] = True
+        elif not self._arrive_later(xi, reach, arrive):
             return
-        self.s0[xi] = placed
-        self.moved[xi] = True
         # the striker holds its centre off the struck car's centre line, toward the corner it hits (its own
         # left is the struck car's right when it comes the other way)
         offset = side * cascade.CORNER * self.width[ti] * (-1.0 if head_on else 1.0)
         if cols[si].behavior in LATERAL_BEHAVIORS:
             self.lateral_target[si] += offset
+            self._settle_before(si, t1)
             return
         _, lat_s = _relative(arrays, self.route[si], self.s0[si], px, py)
         target = (self.lateral_target[si] if head_on else lat_s) + offset
         self.drifted[si] += target - self.d0[si]
         self.d0[si] = target
         self.lateral_target[si] = target
+
+    def _settle_before(self, a: int, t1: float) -> None:
+        """Actor a steers across to its lateral target and is there CASCADE_SETTLE [s] before its impact at t1 [s]:
+        it starts earlier, or is already part of the way across at the start (the corner it is to hit is further
+        across than the partner's path its trigger was timed to)."""
+        rate = CASCADE_LAG * timing.lateral_rate(self.ctx.columns[a].behavior)
+        left = self.lateral_target[a] - self.d0[a]
+        self.trigger[a] = float(np.clip(t1 - CASCADE_SETTLE - abs(left) / rate, 0.0, self.trigger[a]))
+        short = abs(left) - max(t1 - CASCADE_SETTLE - self.trigger[a], 0.0) * rate
+        if short > 0:
+            shift = min(short, CASCADE_ACROSS * abs(left)) * math.copysign(1.0, left)
+            self.d0[a] += shift
+            self.drifted[a] += shift
+
+    def _arrive_later(self, a: int, reach: float, arrive: float) -> bool:
+        """Actor a, with no room to start further back, covers `reach` [m] in `arrive` [s] instead by driving
+        slower (within its timing range) and, if that is not slow enough, waiting at its start; False when it
+        cannot arrive in time."""
+        if reach <= 0 or arrive <= 0:
+            return False
+        sc = reach / arrive / self.speeds[a]  # [-] on its planned speed
+        if sc > timing.SPEED_SCALE[1]:
+            return False
+        sc = max(timing.SPEED_SCALE[0], sc)
+        self.scale[a] *= sc
+        self.speeds[a] *= sc
+        self.hold[a] = max(0.0, arrive - reach / self.speeds[a])
+        return True
 
     def _first_impact(self, si: int, ti: int, head_on: bool) -> tuple[float, float, float] | None:
         """(time [s], the struck actor's station [m], its speed [m/s]) of the first written contact: a rear-end
