@@ -35,3 +35,26 @@ def test_a_rear_end_into_a_corner_turns_the_struck_car_and_pushes_it_to_the_othe
 def test_a_square_rear_end_pushes_straight_on():
     fwd, left, yaw = cascade.pushed_path(20.0, 0.0, 0.0, 1500.0, 1500.0, L, W, L, W, 0.8)
     assert fwd[-1] > 5.0 and abs(left[-1]) < 1e-6 and abs(yaw[-1]) < 1e-6
+
+
+def test_pushed_paths_gives_each_offsets_pushed_path():
+    offsets = np.array([-0.6, -0.3, 0.4])
+    fwd, left, yaw = cascade.pushed_paths(20.0, 3.0, offsets, 2500.0, 1500.0, 5.5, 2.1, L, W, 0.7)
+    for j, offset in enumerate(offsets):
+        one = cascade.pushed_path(20.0, 3.0, np.sign(offset), 2500.0, 1500.0, 5.5, 2.1, L, W, 0.7,
+                                  corner=abs(offset))
+        assert np.array_equal(one[0], fwd[j]) and np.array_equal(one[1], left[j]) and np.array_equal(one[2], yaw[j])
+
+
+@pytest.mark.parametrize(("deg", "klass", "margin"), [(10, "rear_end", 20), (100, "angle", 20), (70, "angle", 10),
+                                                       (45, "sideswipe", 15), (140, "sideswipe", 10),
+                                                       (170, "head_on", 20), (50, "angle", -10)])
+def test_class_margin_is_the_distance_inside_the_class_heading_range(deg, klass, margin):
+    assert float(cascade.class_margin(np.radians(deg), klass)) == pytest.approx(margin)
+    assert float(cascade.class_margin(-np.radians(deg), klass)) == pytest.approx(margin)
+
+
+def test_facing_area_is_the_face_turned_towards_the_striker():
+    # a car heading +x, struck by vehicles coming from behind, from its left and head on
+    areas = cascade.facing_area(np.zeros(3), np.array([0.0, -np.pi / 2, np.pi]))
+    assert list(areas) == ["rear", "left", "front"]

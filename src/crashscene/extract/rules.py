@@ -35,7 +35,7 @@ from crashscene.extract.narrative import Narrative, clip
 from crashscene.extract.nhtsa_xml import nhtsa_facts
 from crashscene.extract.case_input import Report
 from crashscene.extract.rule_sources import known_rule
-from crashscene.extract.rules_behavior import decide_behaviors
+from crashscene.extract.rules_behavior import decide_behaviors, revise_by_contacts
 from crashscene.extract.rules_collisions import decide_collisions
 from crashscene.extract.rules_environment import decide_environment
 from crashscene.extract.rules_oracle import decide_oracle
@@ -68,6 +68,7 @@ def extract_rules(report: Report, facts: list[SketchFact] | None = None, off: It
     decide_behaviors(state)
     actors = decide_actors(state, road)
     collisions = decide_collisions(state, actors)
+    revise_by_contacts(state, actors, collisions)
     oracle = decide_oracle(state, road)
     raw = {
         "scenario_id": f"CIREN-{report.case_id}",

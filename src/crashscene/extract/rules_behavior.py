@@ -318,3 +318,36 @@ def _waiting_to_turn(pre: str, vehicle: Vehicle, stop: re.Match | None, turn: re
     proceeded = re.search(_PROCEED + r"|began to enter|with the intention of turning", pre[turn.end():], re.I)
     went_on = proceeded and label_at(pre, turn.end() + proceeded.start()) == vehicle.label
     return bool(intention) and not went_on
+
+
+
+def revise_by_contacts(state: RulesState, actors: dict, collisions: list[dict]) -> None:
+    """Manoeuvres the crash sequence settles (dsl.md conventions 8 and 11), once the contacts are read: a vehicle
+    struck in the rear that the text has stopped before its turn was stopped in a queue (`stop`), not turning: it
+    never began the turn."""
+    roles = {vehicle.role: vehicle for vehicle in state.vehicles.values()}
+    for contact in collisions:
+        struck = roles[contact["struck"]]
+        if contact["class"] == "rear_end" and contact["struck_area"] == "rear" and \
+                struck.behavior in ("turn_left", "turn_right", "u_turn") and "stop" in struck.flags and \
+                _turn_intended(state, struck) and \
+                state.uses("rules_behavior.struck_from_behind_before_the_turn_is_a_stop"):
+            _revise(state, actors, struck, "stop", struck.behavior_quote)
+
+
+def _turn_intended(state: RulesState, vehicle: Vehicle) -> bool:
+    """The text gives the vehicle a turn only as an intention ("to turn left", "to make a left turn"), never as
+    made ("then turned right"): a turn made after the stop is the manoeuvre (convention 8)."""
+    pre = state.pre_crash
+    turns = [m for m in re.finditer(_any(_TURN_LEFT, _TURN_RIGHT, _U_TURN), pre, re.I)
+             if label_at(pre, m.start()) == vehicle.label]
+    return bool(turns) and all(re.search(r"\bto\s+(?:\w+\s+){0,2}$", pre[max(0, m.start() - 30):m.start()], re.I)
+                               for m in turns)
+
+
+def _revise(state: RulesState, actors: dict, vehicle: Vehicle, behavior: str, quote: str | None) -> None:
+    vehicle.behavior = behavior
+    vehicle.flags.add(behavior)
+    actors[vehicle.role]["behavior"] = behavior
+    state.evidence[f"actors.{vehicle.role}.behavior"] = f"from the crash sequence: {behavior}" + (
+        f"; {quote}" if quote else "")

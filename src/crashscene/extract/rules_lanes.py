@@ -27,7 +27,8 @@ def count_lanes(state: RulesState, road_text: str, ways: int) -> int:
             quote = quote or around(road_text, match)
 
     # "two lanes northbound ... two lanes southbound", "three northbound lanes and four southbound lanes"
-    for match in () if not state.uses("rules_lanes.lanes_per_direction_phrases") else re.finditer(rf"\b{NUM}\s+(?:straight\s+)?(?:through\s+)?(?:travel\s+)?(?:lanes?\s+)?{DIR}bound"
+    for match in () if not state.uses("rules_lanes.lanes_per_direction_phrases") else re.finditer(
+            rf"\b{NUM}\s+(?:straight\s+)?(?:through\s+)?(?:travel\s+)?(?:lanes?\s+)?{DIR}bound"
                              rf"(?:\s+(?:through\s+|travel\s+)?lanes?)?|\b{NUM}\s+(?:travel\s+)?lanes?\s+{DIR}bound",
                              road_text, re.I):
         groups = [g for g in match.groups() if g]
@@ -102,7 +103,10 @@ def count_lanes(state: RulesState, road_text: str, ways: int) -> int:
             quote = around(road_text, match)
             if ways == 2:
                 # an odd count on a two-way road holds a centre turn lane ("five-lane ... middle left-turn lane")
-                odd = total >= 3 and total % 2 and state.uses("rules_lanes.odd_total_holds_a_turn_lane")
+                odd = total >= 3 and total % 2 and (state.uses("rules_lanes.odd_total_holds_a_turn_lane") or (
+                    state.uses("rules_lanes.a_named_centre_turn_lane_is_not_a_through_lane") and re.search(
+                        r"(?:cent(?:er|re)|middle|two-way)\s+(?:two-way\s+)?(?:left[- ])?turn(?:ing)?\s+lane|\bTWLTL\b",
+                        road_text, re.I)))  # convention 3: not turn lanes, two-way left-turn lanes
                 lanes = total - 1 if odd else total
             elif state.divided and total >= 4 and total % 2 == 0 and not re.search(r"one[- ]way", road_text, re.I) \
                     and state.uses("rules_lanes.divided_total_is_halved"):

@@ -133,7 +133,8 @@ def _guess_heading(state: RulesState, ego: Vehicle, npc: Vehicle, at_junction: b
 def _same_direction_relation(state: RulesState, ego: Vehicle, npc: Vehicle, text: str) -> str:
     """Beside (lane sides, lane numbers, where it is parked, the side a lane changer leaves), behind, or ahead."""
     label = npc.label
-    if npc.behavior == "static" and state.uses("rules_positions.parked_on_the_shoulder_side") and re.search(rf"\b{label}\b[^.]{{0,120}}\b(?:parked|stopped|disabled)\b[^.]{{0,40}}"
+    if npc.behavior == "static" and state.uses("rules_positions.parked_on_the_shoulder_side") and re.search(
+            rf"\b{label}\b[^.]{{0,120}}\b(?:parked|stopped|disabled)\b[^.]{{0,40}}"
                                               rf"\b(?:shoulder|curb|roadside|side of the road)", text, re.I):
         side = re.search(rf"\b{label}\b[^.]{{0,160}}\b(left|median|inside)\b[^.]{{0,10}}shoulder", text, re.I)
         return "left" if side else "right"
@@ -145,7 +146,8 @@ def _same_direction_relation(state: RulesState, ego: Vehicle, npc: Vehicle, text
         if not re.search(rf"{label}\b[^.]{{0,60}}\bbehind|behind V1|following V1", text, re.I) or \
                 ego.behavior.startswith("change_lane") or npc.behavior.startswith("change_lane"):
             return npc.lane_side
-    behind = state.uses("rules_positions.behind_words") and re.search(rf"\b{label}\b[^.]{{0,80}}\b(?:behind|following)\b[^.]{{0,20}}V1|"
+    behind = state.uses("rules_positions.behind_words") and re.search(
+        rf"\b{label}\b[^.]{{0,80}}\b(?:behind|following)\b[^.]{{0,20}}V1|"
                        rf"\bfront (?:plane )?of {label}\b[^.]{{0,40}}\b(?:struck|impacted|contacted)\b[^.]{{0,20}}"
                        rf"(?:rear|back)|"
                        rf"(?:rear|back)(?: plane)? of V1\b[^.]{{0,40}}(?:struck|impacted) by[^.]{{0,30}}{label}|"

@@ -12,38 +12,49 @@ import math
 
 import numpy as np
 
-from crashscene.geometry import classify_contact, wrap_angle
+from crashscene.geometry import ANGLE_RANGE, HEAD_ON_MIN, REAR_END_MAX, classify_contact, wrap_angle
 from crashscene.simulate.embedded import impact
 
 DT = 0.05  # [s] integration step of the prediction
 HORIZON = 4.0  # [s] how long after the impact the pushed car is followed
 CORNER = 0.4  # [-] the striker's centre is this fraction of the struck car's width off its centre line
+CORNERS = (0.3, 0.4, 0.5, 0.6)  # [-] the fractions a plan chooses among where it can predict the push well
 
 
 def pushed_path(v_striker: float, v_struck: float, side: float, m_striker: float, m_struck: float,
                 l_striker: float, w_striker: float, l_struck: float, w_struck: float, friction: float,
-                head_on: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                head_on: bool = False, corner: float = CORNER) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(forward, left, yaw) of the struck car every DT after a rear-end (or a head-on), in its own frame at
     the impact ([m], [m], [rad]); the striker comes from behind (from ahead, the other way) at `v_striker`
-    [m/s], its centre `side` * CORNER * width to the struck car's left (side = +1) or right (-1); the struck
+    [m/s], its centre `side` * `corner` * width to the struck car's left (side = +1) or right (-1); the struck
     car moves at `v_struck` [m/s]."""
+    fwd, left, yaw = pushed_paths(v_striker, v_struck, np.array([side * corner]), m_striker, m_struck, l_striker,
+                                  w_striker, l_struck, w_struck, friction, head_on)
+    return fwd[0], left[0], yaw[0]
+
+
+def pushed_paths(v_striker: float, v_struck: float, offsets: np.ndarray, m_striker: float, m_struck: float,
+                 l_striker: float, w_striker: float, l_struck: float, w_struck: float, friction: float,
+                 head_on: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """`pushed_path` for several striker centres at once, `offsets` (N,) times the struck car's width to its
+    left: (forward, left, yaw) (N, steps)."""
+    n = len(offsets)
     reach = (l_striker + l_struck) / 2 - 0.05
-    xa = np.array([reach if head_on else -reach])
-    ya = np.array([side * CORNER * w_struck])
-    one = np.ones(1)
+    xa = np.full(n, reach if head_on else -reach)
+    ya = offsets * w_struck
+    one = np.ones(n)
     yaw_a = (math.pi if head_on else 0.0) * one
     nx, ny, px, py = impact.contact_frame(xa, ya, yaw_a, l_striker * one, w_striker * one,
                                           0 * one, 0 * one, 0 * one, l_struck * one, w_struck * one)
     ma, mb = m_striker * one, m_struck * one
     ia = impact.yaw_inertia(ma, l_striker * one, w_striker * one)
     ib = impact.yaw_inertia(mb, l_struck * one, w_struck * one)
-    va = np.array([[-v_striker if head_on else v_striker], [0.0]])
-    vb = np.array([[v_struck], [0.0]])
+    va = np.stack([(-v_striker if head_on else v_striker) * one, 0 * one])
+    vb = np.stack([v_struck * one, 0 * one])
     _, _, vb, wb, _ = impact.exchange(nx, ny, px, py, xa, ya, va, 0 * one, ma, ia, 0 * one, 0 * one, vb,
                                       0 * one, mb, ib)
-    x, y, yaw = slide_path(np.zeros(1), np.zeros(1), np.zeros(1), vb[0], vb[1], wb, friction, l_struck * one,
-                           w_struck * one, DT, int(HORIZON / DT))
-    return x[0], y[0], yaw[0]
+    return slide_path(0 * one, 0 * one, 0 * one, vb[0], vb[1], wb, friction, l_struck * one, w_struck * one, DT,
+                      int(HORIZON / DT))
 
 
 def slide_path(x, y, yaw, vx, vy, yaw_rate, friction: float, length, width, dt: float, steps: int):
@@ -61,19 +72,35 @@ def slide_path(x, y, yaw, vx, vy, yaw_rate, friction: float, length, width, dt: 
     return out[0], out[1], out[2]
 
 
-def contact_class(relative_yaw: float) -> str:
-    """The class (rules.md, geometry.classify_contact) of an end-on contact at this relative heading [rad]."""
-    return str(classify_contact(abs(wrap_angle(relative_yaw)))[()])
+def class_margin(relative_yaw: np.ndarray, klass: str) -> np.ndarray:
+    """[deg] how far contacts at these relative headings [rad] are inside the heading range of `klass` (rules.md;
+    negative outside): how much a heading may be off before the class changes."""
+    deg = np.degrees(np.abs(wrap_angle(np.asarray(relative_yaw, dtype=float))))
+    if klass == "rear_end":
+        return REAR_END_MAX - deg
+    if klass == "head_on":
+        return deg - HEAD_ON_MIN
+    if klass == "angle":
+        return np.minimum(deg - ANGLE_RANGE[0], ANGLE_RANGE[1] - deg)
+    lo = np.where(deg < 90.0, REAR_END_MAX, ANGLE_RANGE[1])
+    hi = np.where(deg < 90.0, ANGLE_RANGE[0], HEAD_ON_MIN)
+    return np.minimum(deg - lo, hi - deg)
+
+
+def contact_class(relative_yaw: np.ndarray) -> np.ndarray:
+    """The classes (rules.md, geometry.classify_contact) of end-on contacts at these relative headings [rad]."""
+    return classify_contact(np.abs(wrap_angle(np.asarray(relative_yaw, dtype=float))))
 
 
 AREAS = ("front", "left", "rear", "right")  # a body's faces, counter-clockwise from its heading
 
 
-def facing_area(yaw_struck: float, yaw_striker: float) -> str:
-    """The face of the struck body [rad heading] that a striker coming at heading `yaw_striker` [rad] meets:
-    the one whose outward normal points most nearly back at it."""
-    toward = yaw_striker + math.pi
-    return max(zip(AREAS, range(4)), key=lambda f: math.cos(yaw_struck + f[1] * math.pi / 2 - toward))[0]
+def facing_area(yaw_struck: np.ndarray, yaw_striker: np.ndarray) -> np.ndarray:
+    """The faces of struck bodies [rad heading] that strikers coming at headings `yaw_striker` [rad] meet: the
+    one whose outward normal points most nearly back at it."""
+    toward = np.asarray(yaw_striker, dtype=float) + math.pi
+    cos = np.stack([np.cos(np.asarray(yaw_struck) + k * math.pi / 2 - toward) for k in range(4)])
+    return np.asarray(AREAS, dtype=object)[np.argmax(cos, axis=0)]
 
 
 def to_world(x0: float, y0: float, yaw0: float, fwd: np.ndarray, left: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

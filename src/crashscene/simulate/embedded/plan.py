@@ -40,6 +40,7 @@ SPEEDING_RUN = 2.0  # [s] a striker charged with speeding drives this long befor
 CASCADE_SETTLE = 1.5  # [s] a striker steering to the corner it is to hit is there this long before the impact
 CASCADE_LAG = 0.7  # [-] a steering driver follows its lateral reference this much slower than the reference moves
 CASCADE_ACROSS = 0.9  # [-] at most this part of the way across is done before the scene starts
+NEAR_ROUTE = 8.0  # [m] a pushed car further than this from a route's centre line cannot meet a car on it
 CASCADE_WINDOW = 0.8  # [s] a later contact's striker arrives up to this long after the pushed car is in its path
 STOP_DECEL = 4.0  # [m/s2] a stopping driver's braking (drivers.behaviors.DECELERATE_RATE)
 STOP_NEAR_JUNCTION = 40.0  # [m] a stopping driver this close to a junction stops at its line
@@ -650,18 +651,27 @@ class VariationPlan:
         x_actor = self.scene.actors[xi]
         _, lat_x = _relative(arrays, self.route[ti], self.s0[ti], x_actor.x, x_actor.y)
         preferred = -1.0 if lat_x - self.d0[ti] >= 0 else 1.0
-        best, best_score = None, -1
-        for side in (preferred, -preferred):
-            meeting = self._pushed_meeting(si, ti, xi, side, head_on, v_t, (px, py, pyaw), later)
+        # a car standing still is pushed as predicted: the plan chooses how far off its centre line to hit it; one
+        # that is moving (and braking for what it sees coming) is hit at the usual corner
+        corners = cascade.CORNERS if v_t == 0.0 else (cascade.CORNER,)
+        offsets = np.array([side * c for side in (preferred, -preferred) for c in corners])
+        fwd, left, yaw = cascade.pushed_paths(self.speeds[si], v_t, offsets, cols[si].limits.mass,
+                                              cols[ti].limits.mass, float(self.length[si]), float(self.width[si]),
+                                              float(self.length[ti]), float(self.width[ti]), self.ctx.friction,
+                                              head_on=head_on)
+        best, best_score = None, (-1, -math.inf)
+        for j, offset in enumerate(offsets):
+            meeting = self._pushed_meeting(ti, xi, (fwd[j], left[j], yaw[j]), (px, py, pyaw), later)
             if meeting is None:
                 continue
-            # the written class first, then the side of the struck car it names
-            score = 2 * (meeting[2] == later[0]) + (meeting[3] == later[1])
+            # the written class first, then the side of the struck car it names, then the heading furthest inside
+            # the class's range (the least sensitive to what the plan does not foresee)
+            score = (2 * (meeting[2] == later[0]) + (meeting[3] == later[1]), meeting[5])
             if score > best_score:
-                best, best_score = (side, *meeting), score
+                best, best_score = (float(offset), *meeting), score
         if best is None:
             return
-        side, k, gap_k, _, _, extent = best
+        side, k, gap_k, _, _, extent, _ = best
         arrive = t1 + (k + 1) * cascade.DT
         # a striker drifting out of the lane ahead of it is no obstacle to a start behind it
         passing = (si,) if self.ctx.columns[si].behavior in LATERAL_BEHAVIORS else ()
@@ -675,7 +685,7 @@ class VariationPlan:
             return
         # the striker holds its centre off the struck car's centre line, toward the corner it hits (its own
         # left is the struck car's right when it comes the other way)
-        offset = side * cascade.CORNER * self.width[ti] * (-1.0 if head_on else 1.0)
+        offset = side * self.width[ti] * (-1.0 if head_on else 1.0)
         if cols[si].behavior in LATERAL_BEHAVIORS:
             self.lateral_target[si] += offset
             self._settle_before(si, t1)
@@ -742,34 +752,47 @@ class VariationPlan:
                 self.moved[si] = True
         return (t1, impact_s, 0.0) if t1 > 0 else None
 
-    def _pushed_meeting(self, si: int, ti: int, xi: int, side: float, head_on: bool, v_t: float,
+    def _pushed_meeting(self, ti: int, xi: int, path: tuple[np.ndarray, np.ndarray, np.ndarray],
                         pose: tuple[float, float, float], later: tuple[str, str]
-                        ) -> tuple[int, float, str, str, float] | None:
-        """Where the third actor xi meets the pushed struck actor ti when the striker hits it on `side`: (step
-        of the pushed path, station ahead on xi's route [m], the class of that contact, the struck car's area
-        facing xi, its half extent across xi's path [m]): the step where that contact has the `later` (class,
-        area) written, else the one nearest a drawn moment in the window after the struck car enters xi's
-        path."""
-        arrays, cols = self.ctx.arrays, self.ctx.columns
+                        ) -> tuple[int, float, str, str, float, float] | None:
+        """Where the third actor xi meets the struck actor ti pushed along `path` (cascade.pushed_paths: forward,
+        left, yaw in the frame of its `pose` at the impact): (step of the path, station ahead on xi's route [m],
+        the class of that contact, the struck car's area facing xi, its half extent across xi's path [m], how far
+        [deg] its heading is inside the written class's range): the step where that contact has the `later`
+        (class, area) written, else the one nearest a drawn moment in the window after the struck car enters
+        xi's path."""
+        arrays = self.ctx.arrays
         px, py, pyaw = pose
-        fwd, left, yaw = cascade.pushed_path(self.speeds[si], v_t, side, cols[si].limits.mass,
-                                             cols[ti].limits.mass, float(self.length[si]), float(self.width[si]),
-                                             float(self.length[ti]), float(self.width[ti]), self.ctx.friction,
-                                             head_on=head_on)
+        fwd, left, yaw = path
         wx, wy = cascade.to_world(px, py, pyaw, fwd, left)
-        hits = []
-        for k in range(len(wx)):
-            gap_k, lat_k = _relative(arrays, self.route[xi], self.s0[xi], float(wx[k]), float(wy[k]))
-            yaw_x = float(arrays.point(np.array(self.route[xi]), np.array(self.s0[xi] + gap_k))[2])
-            rel = pyaw + yaw[k] - yaw_x
-            extent = self.length[ti] / 2 * abs(math.sin(rel)) + self.width[ti] / 2 * abs(math.cos(rel))
-            if abs(lat_k - self.d0[xi]) < self.width[xi] / 2 + extent - 0.3 and gap_k > 0:
-                hits.append((k, gap_k, cascade.contact_class(rel), cascade.facing_area(pyaw + yaw[k], yaw_x),
-                             extent))
-        if not hits:
+        r = self.route[xi]
+        xy = arrays.xy[r]
+        # the nearest route point of each path point, among those near the impact: a path point further than
+        # NEAR_ROUTE from them is too far from xi's path to meet it, and any nearer one has its nearest among them
+        reach = float(np.max(np.hypot(wx - px, wy - py))) + 2 * NEAR_ROUTE
+        near = np.nonzero(np.hypot(xy[:, 0] - px, xy[:, 1] - py) <= reach)[0]
+        if len(near) == 0:
             return None
-        want = hits[0][0] + self.draws.cascade[xi] * CASCADE_WINDOW / cascade.DT
-        return min(hits, key=lambda h: (h[2] != later[0], h[3] != later[1], abs(h[0] - want)))
+        dist = np.hypot(xy[None, near, 0] - wx[:, None], xy[None, near, 1] - wy[:, None])
+        nearest = np.argmin(dist, axis=1)
+        k_route = near[nearest]
+        ryaw = arrays.yaw[r, k_route]
+        lat = -np.sin(ryaw) * (wx - xy[k_route, 0]) + np.cos(ryaw) * (wy - xy[k_route, 1])
+        lat = np.where(dist[np.arange(len(wx)), nearest] <= NEAR_ROUTE, lat, np.inf)
+        gap = k_route * ROUTE_DS - self.s0[xi]
+        yaw_x = arrays.point(np.full(len(gap), r), self.s0[xi] + gap)[2]
+        rel = pyaw + yaw - yaw_x
+        extent = self.length[ti] / 2 * np.abs(np.sin(rel)) + self.width[ti] / 2 * np.abs(np.cos(rel))
+        hit = np.nonzero((np.abs(lat - self.d0[xi]) < self.width[xi] / 2 + extent - 0.3) & (gap > 0))[0]
+        if len(hit) == 0:
+            return None
+        klass = cascade.contact_class(rel[hit])
+        area = cascade.facing_area(pyaw + yaw[hit], yaw_x[hit])
+        margin = cascade.class_margin(rel[hit], later[0])
+        want = hit[0] + self.draws.cascade[xi] * CASCADE_WINDOW / cascade.DT
+        i = min(range(len(hit)), key=lambda h: (klass[h] != later[0], area[h] != later[1], abs(hit[h] - want)))
+        k = int(hit[i])
+        return k, float(gap[k]), str(klass[i]), str(area[i]), float(extent[k]), float(margin[i])
 
     def _cascade_actors(self) -> tuple[int, int, int, str, tuple[str, str]] | None:
         """(striker, struck, third actor, first class, (later class, the struck actor's area in it)) of a
