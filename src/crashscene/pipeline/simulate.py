@@ -230,6 +230,7 @@ def simulate_blocks(backend: str, settings: SimulationSettings, request: Simulat
     blocks = min(BLOCKS_PER_WORKER * workers, max(1, len(scenes) // MIN_BLOCK))
     bounds = [len(scenes) * k // blocks for k in range(blocks + 1)]
     _INHERITED.update(backend=backend, settings=settings, request=request, judge=judge)
+    _import_before_fork(judge is not None)
     try:
         context = multiprocessing.get_context("fork")  # children inherit the imports and the parsed map
         with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
@@ -251,6 +252,17 @@ def simulate_blocks(backend: str, settings: SimulationSettings, request: Simulat
     judged = [part[1] for part in parts]
     return result, Judged(combine([j.result for j in judged]), pa.concat_tables([j.criticality for j in judged]),
                           sum(j.seconds for j in judged) / workers)
+
+
+def _import_before_fork(judging: bool) -> None:
+    """Load once in the parent what every forked worker would otherwise load for itself: pyarrow's pandas
+    integration (pyarrow imports pandas on its first conversion, 0.2-0.5 s a process; the parent converts anyway
+    when it writes the tables) and the monitor's modules."""
+    pa.array([0.0])
+    if judging:
+        import crashscene.monitor.arrays
+        import crashscene.monitor.check_traces
+        import crashscene.monitor.criticality  # noqa: F401
 
 
 def _simulate_block(lo: int, hi: int) -> tuple[BatchResult, Judged | None, int]:

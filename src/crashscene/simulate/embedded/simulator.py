@@ -17,7 +17,7 @@ import time
 
 import numpy as np
 
-from crashscene.geometry import LANE_WIDTH, footprints_overlap, wrap_angle
+from crashscene.geometry import LANE_WIDTH, footprints_overlap, pair_indices, wrap_angle
 from crashscene.simulate.backend import (
     BatchResult,
     SimulationRequest,
@@ -37,12 +37,12 @@ from crashscene.simulate.drivers.base import (
 from crashscene.simulate.drivers.behaviors import BehaviorDriver
 from crashscene.simulate.embedded import setup as batch_setup
 from crashscene.simulate.embedded import impact, signals
+from crashscene.simulate.embedded.swerve import lookahead as pursuit_lookahead
+from crashscene.simulate.embedded.swerve import steer_step
 from crashscene.simulate.embedded.record import Recorder
 from crashscene.simulate.roads import STOP_LINE_SETBACK, RoadMap
 
 CHUNK = 500  # variations simulated together (bounds memory; results do not depend on it)
-LOOKAHEAD = (4.0, 25.0)  # [m] pure-pursuit lookahead range
-LOOKAHEAD_TIME = 0.9  # [s]
 DEFAULT_DRIFT = 0.15  # [rad] veer of a skidding car's velocity when no plan sets it
 
 
@@ -137,8 +137,9 @@ def run_batch(batch: batch_setup.BatchSetup, recorder: Recorder) -> None:
         if len(idx):
             batch.cruise[idx, meeting.follower[idx]] = cruise  # the drivers hold views of these columns
         accel_cmd = np.zeros((n_v, n_a))
+        observations = _observe_all(batch, state, geo, t, ranges)
         for a, driver in enumerate(drivers):
-            obs = _observe(batch, state, geo, a, t, ranges[a]).read_only()
+            obs = observations[a].read_only()
             if batch.columns[a].is_ads:
                 action: Action = ads_step(driver, obs, batch.columns[a].role, step, variations)
             else:
@@ -265,117 +266,106 @@ def _geometry(batch: batch_setup.BatchSetup, state: State, t: float) -> Geometry
     return g
 
 
-def _relative_on_route(batch: batch_setup.BatchSetup, state: State, a: int, b: int,
-                       here: tuple[np.ndarray, np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Station of b's centre on a's route minus a's station, b's lateral offset from a's route [m],
-    and the route's heading there [rad]; `here` is a's route point (x, y, yaw) at its station."""
+def _observe_all(batch: batch_setup.BatchSetup, state: State, geo: Geometry, t: float,
+                 ranges: np.ndarray) -> list[Observation]:
+    """Every actor's `Observation` this step (`ranges` [m]: each driver's perception range).
+
+    What actor a sees of each other actor is computed for all of them at once, as arrays (A, A - 1, V):
+    observer a, its k-th other actor `others[a, k]` (in actor order), variations last (contiguous). The nearest
+    vehicle of each kind is then kept by a loop over k, as each actor's own loop over the others would keep it.
+    """
+    n_a = batch.n_actors
     routes = batch.routes
-    r = batch.route[:, a]
-    px, py, pyaw = here
-    dx, dy = state.x[:, b] - px, state.y[:, b] - py
-    g0 = dx * np.cos(pyaw) + dy * np.sin(pyaw)
-    qx, qy, qyaw = routes.point(r, state.s[:, a] + g0)
-    ex, ey = state.x[:, b] - qx, state.y[:, b] - qy
+    x, y, yaw, v, s, d, acc = (np.ascontiguousarray(arr.T) for arr in (state.x, state.y, state.yaw, state.v,
+                                                                         state.s, state.d, state.a))
+    r, la, wa = (np.ascontiguousarray(arr.T) for arr in (batch.route, batch.length, batch.width))
+    front, lane_w, target = (np.ascontiguousarray(arr.T) for arr in (geo.front, geo.lane_width,
+                                                                      batch.lateral_target))
+    others = np.array([[b for b in range(n_a) if b != a] for a in range(n_a)], dtype=np.intp).reshape(n_a, -1)
+    observer = np.arange(n_a)[:, None]
+    x_b, y_b, v_b, s_b, lb, wb, r_b = x[others], y[others], v[others], s[others], la[others], wa[others], r[others]
+    dist_all = np.hypot(x_b - x[:, None], y_b - y[:, None])  # (A, A - 1, V)
+    hidden = (dist_all > ranges[:, None, None]) | state.gone.T[others]
+    visible = ~hidden
+    # b's station on a's route minus a's, b's lateral offset from a's route, the route's heading there
+    px, py, pyaw = (q[:, None] for q in routes.point(r, s))
+    g0 = (x_b - px) * np.cos(pyaw) + (y_b - py) * np.sin(pyaw)
+    qx, qy, qyaw = routes.point(r[:, None], s[:, None] + g0)
+    ex, ey = x_b - qx, y_b - qy
     cq, sq = np.cos(qyaw), np.sin(qyaw)
-    return g0 + ex * cq + ey * sq, -ex * sq + ey * cq, qyaw
+    ds, lat = g0 + ex * cq + ey * sq, -ex * sq + ey * cq
+    near_route = np.abs(ds) < 150.0
+    rel_yaw = wrap_angle(yaw[others] - qyaw)
+    speed_along = v_b * np.cos(rel_yaw)
+    # an inattentive striker (setup.unseen_partners) does not see what it strikes in its path
+    in_path = visible & near_route & (np.abs(lat - d[:, None]) < (wa[:, None] + wb) / 2 + 0.3) & (ds > 0) \
+        & ~batch.unseen[observer, others][..., None]
+    gap = ds - (la[:, None] + lb) / 2
+    in_target = visible & near_route & (np.abs(lat - target[:, None]) < lane_w[:, None] / 2 + wb / 4)
+    ahead = in_target & (gap > -lb) & (ds >= 0)
+    behind = in_target & (ds < 0)
+    rear_gap = -ds - (la[:, None] + lb) / 2
+    # every vehicle whose path crosses ours ahead (for defensive drivers), and gap acceptance
+    # against those with priority
+    cs_a = routes.conflict_s[r[:, None], r_b]
+    cs_b = routes.conflict_s[r_b, r[:, None]]
+    crossing = visible & ~np.isnan(cs_a)
+    mine = cs_a - front[:, None]
+    theirs = cs_b - 1.0 - (s_b + lb / 2)
+    ahead_both = crossing & (mine > 0) & (theirs > 0)
+    tta_b = theirs / np.maximum(v_b, 0.1)
+    prio = batch.priority.transpose(1, 2, 0)[observer, others] & visible
+    sb_front = s_b + lb / 2
+    sb_rear = s_b - lb / 2
+    clear_zone = wa[:, None] / 2 + 1.0
+    occupied = prio & (sb_front > cs_b - clear_zone) & (sb_rear < cs_b + clear_zone)
+    approaching = prio & (sb_front <= cs_b - clear_zone)
+    tta = (cs_b - clear_zone - sb_front) / np.maximum(v_b, 0.1)
+    relevant = prio & (mine > -wb / 2)
+    accel_b = acc[others]
 
-
-def _observe(batch: batch_setup.BatchSetup, state: State, geo: Geometry, a: int, t: float,
-             perception_range: float) -> Observation:
-    n_v, n_a = batch.n_variations, batch.n_actors
-    routes = batch.routes
-    r = batch.route[:, a]
-    v = state.v[:, a]
-    la, wa = batch.length[:, a], batch.width[:, a]
-    lead_gap = np.full(n_v, np.inf)
-    lead_speed = np.full(n_v, np.nan)
-    lead_rel_yaw = np.full(n_v, np.nan)
-    tgt_front = np.full(n_v, np.inf)
-    tgt_rear = np.full(n_v, np.inf)
-    tgt_rear_speed = np.full(n_v, np.nan)
-    yield_tta = np.full(n_v, np.inf)
-    yield_occ = np.zeros(n_v, dtype=bool)
-    conflict_dist = np.full(n_v, np.nan)
-    cross_tta = np.full(n_v, np.inf)
-    cross_accel = np.full(n_v, np.nan)
-    cross_dist = np.full(n_v, np.nan)
-    target = batch.lateral_target[:, a]
-    others_x = state.x.copy()
-    others_y = state.y.copy()
-    dist_all = np.hypot(state.x - state.x[:, a:a + 1], state.y - state.y[:, a:a + 1])
-    hidden = (dist_all > perception_range) | state.gone
-    hidden[:, a] = False
-    others_x[hidden] = np.nan
-    others_y[hidden] = np.nan
-    here = routes.point(r, state.s[:, a])
-    for b in range(n_a):
-        if b == a:
-            continue
-        visible = ~hidden[:, b]
-        lb, wb = batch.length[:, b], batch.width[:, b]
-        ds, lat, qyaw = _relative_on_route(batch, state, a, b, here)
-        near_route = np.abs(ds) < 150.0
-        rel_yaw = wrap_angle(state.yaw[:, b] - qyaw)
-        speed_along = state.v[:, b] * np.cos(rel_yaw)
-        # an inattentive striker (setup.unseen_partners) does not see what it strikes in its path
-        in_path = visible & near_route & (np.abs(lat - state.d[:, a]) < (wa + wb) / 2 + 0.3) & (ds > 0) \
-            & ~batch.unseen[a, b]
-        gap = ds - (la + lb) / 2
-        closer = in_path & (gap < lead_gap)
-        lead_gap = np.where(closer, gap, lead_gap)
-        lead_speed = np.where(closer, speed_along, lead_speed)
-        lead_rel_yaw = np.where(closer, rel_yaw, lead_rel_yaw)
-        lane_w = geo.lane_width[:, a]
-        in_target = visible & near_route & (np.abs(lat - target) < lane_w / 2 + wb / 4)
-        ahead = in_target & (gap > -lb) & (ds >= 0)
-        behind = in_target & (ds < 0)
-        tgt_front = np.where(ahead & (gap < tgt_front), np.maximum(gap, 0.0), tgt_front)
-        rear_gap = -ds - (la + lb) / 2
-        closer_rear = behind & (rear_gap < tgt_rear)
-        tgt_rear = np.where(closer_rear, np.maximum(rear_gap, 0.0), tgt_rear)
-        tgt_rear_speed = np.where(closer_rear, speed_along, tgt_rear_speed)
-        # every vehicle whose path crosses ours ahead (for defensive drivers), and gap acceptance
-        # against those with priority
-        cs_a = routes.conflict_s[r, batch.route[:, b]]
-        crossing = visible & ~np.isnan(cs_a)
-        if crossing.any():
-            cs_b = routes.conflict_s[batch.route[:, b], r]
-            mine = cs_a - geo.front[:, a]
-            theirs = cs_b - 1.0 - (state.s[:, b] + lb / 2)
-            ahead_both = crossing & (mine > 0) & (theirs > 0)
-            tta_b = theirs / np.maximum(state.v[:, b], 0.1)
-            sooner = ahead_both & (tta_b < cross_tta)
-            cross_tta = np.where(sooner, tta_b, cross_tta)
-            cross_accel = np.where(sooner, state.a[:, b], cross_accel)
-            cross_dist = np.where(sooner, mine, cross_dist)
-        prio = batch.priority[:, a, b] & visible
-        if prio.any():
-            cs_b = routes.conflict_s[batch.route[:, b], r]
-            sb_front = state.s[:, b] + lb / 2
-            sb_rear = state.s[:, b] - lb / 2
-            clear_zone = wa / 2 + 1.0
-            occupied = prio & (sb_front > cs_b - clear_zone) & (sb_rear < cs_b + clear_zone)
-            approaching = prio & (sb_front <= cs_b - clear_zone)
-            tta = (cs_b - clear_zone - sb_front) / np.maximum(state.v[:, b], 0.1)
-            yield_tta = np.where(approaching & (tta < yield_tta), tta, yield_tta)
-            yield_occ |= occupied
-            mine = cs_a - geo.front[:, a]
-            relevant = prio & (mine > -wb / 2)
-            conflict_dist = np.where(relevant & ~(conflict_dist < mine), mine, conflict_dist)
-    curvature, curve_speed = routes.curve_lookahead(r, state.s[:, a], v)
-    return Observation(
-        t=t, dt=batch.settings.dt, x=state.x[:, a], y=state.y[:, a], yaw=state.yaw[:, a], speed=v,
-        accel=state.a[:, a], s=state.s[:, a], d=state.d[:, a], route_remaining=routes.length[r] - state.s[:, a],
-        lane_width=geo.lane_width[:, a], speed_limit=geo.speed_limit[:, a], curvature_ahead=curvature,
-        curve_speed=curve_speed,
-        lead_gap=lead_gap, lead_speed=lead_speed, lead_rel_yaw=lead_rel_yaw, control=geo.control[:, a], signal=geo.signal[:, a],
+    shape = x.shape  # (A, V)
+    lead_gap, lead_speed, lead_rel_yaw = np.full(shape, np.inf), np.full(shape, np.nan), np.full(shape, np.nan)
+    tgt_front, tgt_rear, tgt_rear_speed = np.full(shape, np.inf), np.full(shape, np.inf), np.full(shape, np.nan)
+    yield_tta, conflict_dist = np.full(shape, np.inf), np.full(shape, np.nan)
+    cross_tta, cross_accel, cross_dist = np.full(shape, np.inf), np.full(shape, np.nan), np.full(shape, np.nan)
+    for k in range(n_a - 1):  # the loop each actor ran over the others, in actor order
+        closer = in_path[:, k] & (gap[:, k] < lead_gap)
+        lead_gap = np.where(closer, gap[:, k], lead_gap)
+        lead_speed = np.where(closer, speed_along[:, k], lead_speed)
+        lead_rel_yaw = np.where(closer, rel_yaw[:, k], lead_rel_yaw)
+        tgt_front = np.where(ahead[:, k] & (gap[:, k] < tgt_front), np.maximum(gap[:, k], 0.0), tgt_front)
+        closer_rear = behind[:, k] & (rear_gap[:, k] < tgt_rear)
+        tgt_rear = np.where(closer_rear, np.maximum(rear_gap[:, k], 0.0), tgt_rear)
+        tgt_rear_speed = np.where(closer_rear, speed_along[:, k], tgt_rear_speed)
+        sooner = ahead_both[:, k] & (tta_b[:, k] < cross_tta)
+        cross_tta = np.where(sooner, tta_b[:, k], cross_tta)
+        cross_accel = np.where(sooner, accel_b[:, k], cross_accel)
+        cross_dist = np.where(sooner, mine[:, k], cross_dist)
+        yield_tta = np.where(approaching[:, k] & (tta[:, k] < yield_tta), tta[:, k], yield_tta)
+        conflict_dist = np.where(relevant[:, k] & ~(conflict_dist < mine[:, k]), mine[:, k], conflict_dist)
+    yield_occ = occupied.any(axis=1)
+    curvature, curve_speed = routes.curve_lookahead(r, s, v)
+    seen = np.ones((n_a, n_a) + shape[1:], dtype=bool)  # (A, B, V): an actor always sees itself
+    seen[observer, others] = visible
+    others_x = np.where(seen, x[None], np.nan).transpose(0, 2, 1)
+    others_y = np.where(seen, y[None], np.nan).transpose(0, 2, 1)
+    route_remaining = routes.length[r] - s
+    dt = batch.settings.dt
+    return [Observation(
+        t=t, dt=dt, x=x[a], y=y[a], yaw=yaw[a], speed=v[a],
+        accel=acc[a], s=s[a], d=d[a], route_remaining=route_remaining[a],
+        lane_width=lane_w[a], speed_limit=geo.speed_limit[:, a], curvature_ahead=curvature[a],
+        curve_speed=curve_speed[a],
+        lead_gap=lead_gap[a], lead_speed=lead_speed[a], lead_rel_yaw=lead_rel_yaw[a],
+        control=geo.control[:, a], signal=geo.signal[:, a],
         stop_line_dist=geo.stop_line_dist[:, a], junction_dist=geo.junction_dist[:, a],
-        in_junction=geo.in_junction_route[:, a], maneuver=geo.maneuver[:, a], yield_tta=yield_tta,
-        yield_occupied=yield_occ, conflict_dist=conflict_dist, cross_tta=cross_tta, cross_accel=cross_accel,
-        cross_dist=cross_dist, target_gap_front=tgt_front,
-        target_gap_rear=tgt_rear, target_rear_speed=tgt_rear_speed, others_x=others_x, others_y=others_y,
-        others_yaw=state.yaw, others_speed=state.v, collided=state.collided[:, a],
-    )
+        in_junction=geo.in_junction_route[:, a], maneuver=geo.maneuver[:, a], yield_tta=yield_tta[a],
+        yield_occupied=yield_occ[a], conflict_dist=conflict_dist[a], cross_tta=cross_tta[a],
+        cross_accel=cross_accel[a], cross_dist=cross_dist[a], target_gap_front=tgt_front[a],
+        target_gap_rear=tgt_rear[a], target_rear_speed=tgt_rear_speed[a], others_x=others_x[a],
+        others_y=others_y[a], others_yaw=state.yaw, others_speed=state.v, collided=state.collided[:, a],
+    ) for a in range(n_a)]
 
 
 def _move(batch: batch_setup.BatchSetup, state: State, accel_cmd: np.ndarray, lat_cmd: np.ndarray, dt: float,
@@ -386,15 +376,13 @@ def _move(batch: batch_setup.BatchSetup, state: State, accel_cmd: np.ndarray, la
     # lateral reference moves toward the command at a bounded rate
     rate = batch.lateral_rate[None, :] * dt
     state.d_ref += np.clip(lat_cmd - state.d_ref, -rate, rate)
-    lookahead = np.clip(LOOKAHEAD_TIME * state.v + 3.0, *LOOKAHEAD)
+    lookahead = pursuit_lookahead(state.v)
     tx, ty, tyaw = routes.point(r, state.s + lookahead)
     px = tx - np.sin(tyaw) * state.d_ref
     py = ty + np.cos(tyaw) * state.d_ref
     alpha = np.arctan2(py - state.y, px - state.x) - state.yaw
     alpha = wrap_angle(alpha)
-    steer_cmd = np.arctan2(2.0 * wheelbase * np.sin(alpha), lookahead)
-    state.steer += np.clip(steer_cmd - state.steer, -steer_rate * dt, steer_rate * dt)
-    state.steer = np.clip(state.steer, -steer_max, steer_max)
+    state.steer = steer_step(state.steer, alpha, lookahead, wheelbase, steer_rate, steer_max, dt)
 
     accel = np.clip(accel_cmd, -brake_max, accel_max)
     v_new = np.clip(state.v + accel * dt, 0.0, speed_max)
@@ -442,23 +430,38 @@ def _move(batch: batch_setup.BatchSetup, state: State, accel_cmd: np.ndarray, la
 def _check_collisions(batch: batch_setup.BatchSetup, state: State, recorder: Recorder, t: float,
                       initial: bool = False) -> None:
     """Overlap of every pair; an onset (not touching at the last check) is a contact, recorded; every pair
-    that touches and still approaches exchanges an impulse (impact.exchange)."""
-    n_a = batch.n_actors
-    for a in range(n_a):
-        for b in range(a + 1, n_a):
+    that touches and still approaches exchanges an impulse (impact.exchange).
+
+    Pairs are taken in order (a, b), a < b: an exchange moves its two vehicles, so the pairs after it are
+    tested on the moved state. Until the first pair that touches, all pairs are tested at once."""
+    ia, ib = pair_indices(batch.n_actors)
+    if not len(ia):
+        return
+    x, y, yaw, gone = state.x, state.y, state.yaw, state.gone
+    L, W = batch.length, batch.width
+    together = len(ia) > 1  # one pair: tested on its own
+    if together:
+        overlap_all = ~(gone[:, ia] | gone[:, ib]) & footprints_overlap(x[:, ia], y[:, ia], yaw[:, ia], L[:, ia],
+                                                                        W[:, ia], x[:, ib], y[:, ib], yaw[:, ib],
+                                                                        L[:, ib], W[:, ib])
+    moved = False  # an exchange moved vehicles: test the remaining pairs on the new state
+    for p, (a, b) in enumerate(zip(ia.tolist(), ib.tolist())):
+        if moved or not together:
             active = ~(state.gone[:, a] | state.gone[:, b])
-            overlap = active & footprints_overlap(state.x[:, a], state.y[:, a], state.yaw[:, a], batch.length[:, a],
-                                                  batch.width[:, a], state.x[:, b], state.y[:, b], state.yaw[:, b],
-                                                  batch.length[:, b], batch.width[:, b])
-            onset = overlap & ~state.touching[:, a, b]
-            state.touching[:, a, b] = overlap
-            if not overlap.any():
-                continue
-            if initial:
-                recorder.collision(onset, a, b, t, state, initial)
-                continue  # a spawn overlap invalidates the variation; the vehicles are not stopped
-            frac = _back_to_contact(batch, state, onset, a, b)
-            _exchange(batch, state, recorder, overlap, onset, a, b, t - (1.0 - frac) * batch.settings.dt)
+            overlap = active & footprints_overlap(state.x[:, a], state.y[:, a], state.yaw[:, a], L[:, a], W[:, a],
+                                                  state.x[:, b], state.y[:, b], state.yaw[:, b], L[:, b], W[:, b])
+        else:
+            overlap = overlap_all[:, p]
+        onset = overlap & ~state.touching[:, a, b]
+        state.touching[:, a, b] = overlap
+        if not overlap.any():
+            continue
+        if initial:
+            recorder.collision(onset, a, b, t, state, initial)
+            continue  # a spawn overlap invalidates the variation; the vehicles are not stopped
+        frac = _back_to_contact(batch, state, onset, a, b)
+        _exchange(batch, state, recorder, overlap, onset, a, b, t - (1.0 - frac) * batch.settings.dt)
+        moved = True
 
 
 def _exchange(batch: batch_setup.BatchSetup, state: State, recorder: Recorder, overlap: np.ndarray,
