@@ -237,9 +237,10 @@ def _best(full, lo, hi, offsets, me: Body, partner: Body, rotation: float, wante
           ) -> tuple[int, int, int] | None:
     """(candidate, offset index, step) of the best first contact over the partner's offsets (O,) at the loss
     of control: the written class; ranked by the miss of the rotation, my centre in the partner's lane
-    (`crossed` of my offset across from the partner, CROSS_COST), the written areas (AREA_COST) and the placement's cost. full: my poses
-    (along the road from the partner's centre less its offset, across from it, yaw) (C, K + 1) from the loss
-    of control on."""
+    (`crossed` of my offset across from the partner, CROSS_COST), the written areas (AREA_COST) and the
+    placement's cost; with `central`, the middle of the run of offsets about as good as the best. full: my
+    poses (along the road from the partner's centre less its offset, across from it, yaw) (C, K + 1) from
+    the loss of control on."""
     found = _first_steps(full[0][:, 1:], lo, hi, offsets)
     if found is None:
         return None
