@@ -877,9 +877,12 @@ def struck_offset(arrays: RouteArrays, r_t: int, cs_t: float, r_s: int, cs_s: fl
 def prepare_skids(ctx: PlanContext, route: np.ndarray, s0: np.ndarray, speed: np.ndarray) -> None:
     """Integrates at once the candidate skids of every actor of a batch that may lose control
     (`VariationPlan._plan_skid`), at the cruise speed it plans; route, s0, speed (V, A) start rows."""
-    angle_roles = {role for pair, klass in ctx.classes.items() if klass == "angle" for role in pair}
+    behavior = {col.role: col.behavior for col in ctx.columns}
+    # a sudden veer ends in an angle contact with a partner not losing control (VariationPlan.as_skid)
+    veers = {role for pair, klass in ctx.classes.items() if klass == "angle" for role in pair
+             if all(behavior.get(other) != "lose_control" for other in pair - {role})}
     skidding = [a for a, col in enumerate(ctx.columns) if not col.is_ads and (
-        col.behavior == "lose_control" or (col.behavior in VEER_BEHAVIORS and col.role in angle_roles))]
+        col.behavior == "lose_control" or (col.behavior in VEER_BEHAVIORS and col.role in veers))]
     ctx.skid_paths.prepare([_planned_speed(ctx.arrays, route[v, a], s0[v, a], speed[v, a], ctx.columns[a], ctx.cond,
                                            ctx.default_limit) for v in range(route.shape[0]) for a in skidding])
 
