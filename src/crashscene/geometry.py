@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import shapely
 
 LANE_WIDTH = 3.5  # [m] lane width of generated maps, and the fallback where a map gives none
 TAU = 2.0 * math.pi  # [rad] one turn
@@ -119,6 +120,35 @@ def classify_contact(rel_heading, lon=None, lat=None, half_len=None, half_wid=No
     out[(deg > HEAD_ON_MIN) & end_on] = "head_on"
     out[(deg >= ANGLE_RANGE[0]) & (deg <= ANGLE_RANGE[1])] = "angle"
     return out
+
+
+def footprint_area(lon, lat, length, width) -> np.ndarray:
+    """The area (front, rear, left, right: the quarter of a footprint split by its diagonals) holding the point
+    (lon, lat) of the footprint's own frame [m]."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        u, w = lon / (length / 2), lat / (width / 2)
+    return np.where(np.abs(u) >= np.abs(w), np.where(u >= 0, "front", "rear"),
+                    np.where(w >= 0, "left", "right")).astype(object)
+
+
+def overlap_centre(xa, ya, yawa, la, wa, xb, yb, yawb, lb, wb) -> tuple[np.ndarray, np.ndarray]:
+    """Centroid [m] of the overlap of footprints a and b (1-D arrays); NaN where they do not overlap."""
+    boxes = [shapely.polygons(footprint_corners(x, y, yaw, length, width))
+             for x, y, yaw, length, width in ((xa, ya, yawa, la, wa), (xb, yb, yawb, lb, wb))]
+    centre = shapely.centroid(shapely.intersection(*boxes))
+    coords = np.full((len(centre), 2), np.nan)
+    found = ~shapely.is_empty(centre) & ~shapely.is_missing(centre)
+    coords[found] = shapely.get_coordinates(centre[found])
+    return coords[:, 0], coords[:, 1]
+
+
+def contact_areas(xa, ya, yawa, la, wa, xb, yb, yawb, lb, wb, cx=None, cy=None) -> tuple[np.ndarray, np.ndarray]:
+    """The area of each footprint that touched (`footprint_area`) at the contact point (cx, cy) [m], by default
+    the centre of their overlap (1-D arrays)."""
+    if cx is None:
+        cx, cy = overlap_centre(xa, ya, yawa, la, wa, xb, yb, yawb, lb, wb)
+    return (footprint_area(*relative_position(xa, ya, yawa, cx, cy), la, wa),
+            footprint_area(*relative_position(xb, yb, yawb, cx, cy), lb, wb))
 
 
 def pair_indices(n_actors: int) -> tuple[np.ndarray, np.ndarray]:

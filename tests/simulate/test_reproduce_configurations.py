@@ -86,6 +86,11 @@ CONFIGURATIONS = {
         actor("ego", "change_lane_left", "reference: road, relation: behind")
         + actor("npc1", "go_forward", "reference: ego, relation: front, heading: same_direction"),
         oracle("CVC_21703", "following_too_closely", "ego"), contact("ego", "npc1", "front", "rear", "rear_end")),
+    "sideswipe_clipping_the_car_ahead": scenario(
+        "two_way", "speed_limit_sign", 55,
+        actor("ego", "cross_centerline", "reference: road, relation: behind")
+        + actor("npc1", "go_forward", "reference: ego, relation: front, heading: same_direction"),
+        oracle("CVC_21703", "following_too_closely", "ego"), contact("ego", "npc1", "right", "rear", "sideswipe")),
     "head_on_drift": scenario(
         "two_way", "speed_limit_sign", 45,
         actor("ego", "go_forward", "reference: road, relation: behind")

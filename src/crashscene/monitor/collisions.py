@@ -19,13 +19,13 @@ from __future__ import annotations
 
 import numpy as np
 import pyarrow as pa
-import shapely
 
 from crashscene.geometry import (
     classify_contact,
-    footprint_corners,
+    contact_areas,
     footprints_overlap,
     heading_difference,
+    overlap_centre,
     pair_indices,
     relative_position,
 )
@@ -48,14 +48,6 @@ CLASSIFIED_SCHEMA = pa.schema(list(COLLISION_SCHEMA) + [
     ("area_a", pa.string()),            # front | rear | left | right: the quarter of actor_a that touched
     ("area_b", pa.string()),
 ])
-
-
-def area_of(lon: np.ndarray, lat: np.ndarray, length: np.ndarray, width: np.ndarray) -> np.ndarray:
-    """The quarter of a footprint (split by its diagonals) that holds the point (lon, lat) of its own frame [m]."""
-    with np.errstate(invalid="ignore", divide="ignore"):
-        u, w = lon / (length / 2), lat / (width / 2)
-    return np.where(np.abs(u) >= np.abs(w), np.where(u >= 0, "front", "rear"),
-                    np.where(w >= 0, "left", "right")).astype(object)
 
 
 def pair_overlaps(arrays: TraceArrays) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -186,11 +178,10 @@ def classify_collisions(arrays: TraceArrays, contacts: pa.Table | None, ads: np.
     striking[cls == "sideswipe"] = None
     sim_x = np.array([r[5].get("x", np.nan) for r in rows])
     sim_y = np.array([r[5].get("y", np.nan) for r in rows])
-    cx, cy = _overlap_centre(np.stack([xa, ya, yawa, la, wa]), np.stack([xb, yb, yawb, lb, wb]))
+    cx, cy = overlap_centre(xa, ya, yawa, la, wa, xb, yb, yawb, lb, wb)
     cx = np.where(np.isfinite(cx), cx, np.where(np.isfinite(sim_x), sim_x, (xa + xb) / 2))
     cy = np.where(np.isfinite(cy), cy, np.where(np.isfinite(sim_y), sim_y, (ya + yb) / 2))
-    area_a = area_of(*relative_position(xa, ya, yawa, cx, cy), la, wa)
-    area_b = area_of(*relative_position(xb, yb, yawb, cx, cy), lb, wb)
+    area_a, area_b = contact_areas(xa, ya, yawa, la, wa, xb, yb, yawb, lb, wb, cx, cy)
     index = np.zeros(len(rows), dtype=np.int32)
     for k in range(1, len(rows)):
         index[k] = index[k - 1] + 1 if vv[k] == vv[k - 1] else 0
@@ -215,17 +206,6 @@ def classify_collisions(arrays: TraceArrays, contacts: pa.Table | None, ads: np.
     return pa.table({k: pa.array(list(v) if v.dtype == object else v,
                                  type=CLASSIFIED_SCHEMA.field(k).type, from_pandas=True)
                      for k, v in columns.items()}, schema=CLASSIFIED_SCHEMA)
-
-
-def _overlap_centre(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Centroid of the overlap of two footprints, each given as rows (x, y, yaw, length, width); NaN when they
-    do not overlap (a simulator-only contact)."""
-    boxes = [shapely.polygons(footprint_corners(*row[:3], row[3], row[4])) for row in (a, b)]
-    centre = shapely.centroid(shapely.intersection(*boxes))
-    coords = np.full((len(centre), 2), np.nan)
-    found = ~shapely.is_empty(centre) & ~shapely.is_missing(centre)
-    coords[found] = shapely.get_coordinates(centre[found])
-    return coords[:, 0], coords[:, 1]
 
 
 def first_contact_steps(arrays: TraceArrays, collisions: pa.Table) -> np.ndarray:

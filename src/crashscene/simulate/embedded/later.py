@@ -16,8 +16,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from crashscene.geometry import classify_contact, footprints_overlap, heading_difference, relative_position
-from crashscene.monitor.collisions import area_of
+from crashscene.geometry import (
+    classify_contact,
+    footprint_area,
+    footprints_overlap,
+    heading_difference,
+    relative_position,
+)
 from crashscene.simulate.embedded import cascade, impact
 
 HORIZON = 6.0  # [s] how far ahead a sliding vehicle's motion is predicted (it rests sooner, mostly)
@@ -134,8 +139,8 @@ class LaterMeetings:
         klass = classify_contact(rel, lon, lat, (Lq + Lf) / 2, (Wq + Wf) / 2)
         flat = [np.ravel(a) for a in (xq, yq, yq_yaw, Lq, Wq, xf, yf, yf_yaw, Lf, Wf)]
         _, _, cx, cy = (a.reshape(xq.shape) for a in impact.contact_frame(*flat))
-        area_q = area_of(*relative_position(xq, yq, yq_yaw, cx, cy), Lq, Wq)
-        area_f = area_of(*relative_position(xf, yf, yf_yaw, cx, cy), Lf, Wf)
+        area_q = footprint_area(*relative_position(xq, yq, yq_yaw, cx, cy), Lq, Wq)
+        area_f = footprint_area(*relative_position(xf, yf, yf_yaw, cx, cy), Lf, Wf)
         good = hit & (klass == c.klass)
         both = good & (area_q == c.area_driven) & (area_f == c.area_free)
         good = np.where(both.any(axis=1, keepdims=True), both, good)

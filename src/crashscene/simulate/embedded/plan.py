@@ -20,7 +20,7 @@ from crashscene.monitor.rules import Disposition
 from crashscene.render.plan import LATERAL_BEHAVIORS, LEAD_TIME, SIGNAL_GREEN
 from crashscene.scene import SampledScene
 from crashscene.simulate.drivers.behaviors import OVER_LIMIT, SPEEDING_CODES, speed_factor
-from crashscene.simulate.embedded import cascade, signals, timing
+from crashscene.simulate.embedded import cascade, signals, swerve, timing
 from crashscene.simulate.embedded import skid as skid_plan
 from crashscene.simulate.embedded.control import entry_before
 from crashscene.simulate.embedded.world import RouteArrays
@@ -34,6 +34,7 @@ VEER_BEHAVIORS = ("change_lane_left", "change_lane_right", "cross_centerline", "
 SYNC_SLACK = 0.8  # [s] an actor moved back to meet later is placed this much early (sync.Meeting slows it)
 START_MARGIN = 5.0  # [m] an actor moved back along its route stays this far from the route's start
 CLIP_CLOSING = 3.0  # [m/s] a vehicle pulling out around the one ahead and clipping it comes up at least this fast
+CLIP_PARTS = 8  # [-] a clip's partner may start within a step's closing further ahead, in this many parts
 CHAIN_GAP = 4.0  # [m] at least this between the bumpers of actors reordered along their lane
 SPEEDING_RUN = 2.0  # [s] a striker charged with speeding drives this long before its impact (rules: 1 s over)
 CASCADE_SETTLE = 1.5  # [s] a striker steering to the corner it is to hit is there this long before the impact
@@ -62,6 +63,7 @@ class PlanContext:
     cond: float  # [-] condition factor on the posted limit
     default_limit: float  # [m/s] the DSL's posted limit, NaN if none
     friction: float  # [-] tyre-road friction coefficient
+    skid_paths: skid_plan.SkidPaths  # candidate skids (at this friction and the simulator's step), by speed
     contacts: tuple[tuple[str, str, str, str, str], ...] = ()  # the written sequence, in order: (striking,
     # struck, class, striking area, struck area)
 
@@ -201,9 +203,10 @@ class VariationPlan:
         """A lane change, centre-line crossing, overtake, loss of control or leaving the road, aimed at the
         partner's path: a sideswipe placed alongside, a sudden veer planned as a skid, else a trigger time."""
         ctx, col = self.ctx, self.ctx.columns[a]
-        partner = self.written_partner(a) if a == ctx.anchor else None
-        if partner is None:
-            partner = _partner(a, ctx.anchor, ctx.columns, self.scene)
+        partner = self.lateral_partner(a)
+        if partner is not None and not self.as_skid(a, partner) and self.as_skid(partner, a) \
+                and self.lateral_partner(partner) == a:
+            return  # the partner's loss of control is planned to meet it on its way: it holds its lane till then
         if partner is None:
             self.trigger[a] = self.param(a, ("TRIGGER_TIME", "MANEUVER_TIME"), self.draws.trigger[a])
             if col.behavior == "lose_control":
@@ -223,7 +226,7 @@ class VariationPlan:
         contact = ctx.classes.get(frozenset((col.role, p_col.role)))
         if not opposite and contact in ("rear_end", "sideswipe") and col.behavior in VEER_BEHAVIORS \
                 and self.contact_area(a, partner) in ("front", "left", "right") \
-                and self._clip(a, partner, gap, contact, rate):
+                and self._clip(a, partner, gap, lateral, contact, rate):
             return
         if contact == "sideswipe" and not opposite and col.behavior in ("change_lane_left", "change_lane_right") \
                 and self._place_alongside(a, partner, gap, dist):
@@ -244,6 +247,22 @@ class VariationPlan:
             self.drifted[a] = shift
         self.trigger[a] = max(0.0, t_trig)
 
+    def lateral_partner(self, a: int) -> int | None:
+        """The actor whose path actor a's lateral manoeuvre is aimed at: the anchor's written partner, else
+        `_partner`."""
+        partner = self.written_partner(a) if a == self.ctx.anchor else None
+        return _partner(a, self.ctx.anchor, self.ctx.columns, self.scene) if partner is None else partner
+
+    def as_skid(self, a: int, partner: int) -> bool:
+        """Whether actor a's lateral manoeuvre toward `partner` is planned as a skid: a loss of control, or a
+        sudden veer (a lateral manoeuvre ending in an angle contact) toward a partner not losing control."""
+        col, p_col = self.ctx.columns[a], self.ctx.columns[partner]
+        if col.is_ads or col.behavior not in LATERAL_BEHAVIORS:
+            return False
+        contact = self.ctx.classes.get(frozenset((col.role, p_col.role)))
+        return col.behavior == "lose_control" or (contact == "angle" and col.behavior in VEER_BEHAVIORS
+                                                  and p_col.behavior != "lose_control")
+
     def written_partner(self, a: int) -> int | None:
         """The other actor of actor a's first written contact, None when it has none."""
         roles = [c.role for c in self.ctx.columns]
@@ -261,10 +280,12 @@ class VariationPlan:
                 return striking_area if striking == ra else struck_area
         return None
 
-    def _clip(self, a: int, partner: int, gap: float, contact: str, rate: float) -> bool:
+    def _clip(self, a: int, partner: int, gap: float, lateral: float, contact: str, rate: float) -> bool:
         """Pulling out around the vehicle ahead and clipping it (a written rear-end or sideswipe with it): the
-        manoeuvre is only partly done when it reaches the partner's rear, across by a drawn part of the overlap
-        (a rear-end: still well behind it; a sideswipe: nearly clear). False when it does not close in."""
+        manoeuvre is only partly done when it reaches the partner's rear, timed on its path (swerve.path) so that
+        where they first touch the contact has the written class (skid.first_contact); when no start does,
+        across by a drawn part of the overlap (a rear-end: still well behind it; a sideswipe: nearly clear).
+        False when it does not close in."""
         reach = gap - (self.length[a] + self.length[partner]) / 2
         p_col = self.ctx.columns[partner]
         if reach <= 0 or p_col.is_ads:
@@ -276,11 +297,44 @@ class VariationPlan:
         closing = self.speeds[a] - self.speeds[partner]
         if closing < 0.5:
             return False
+        timed = self._clip_on_path(a, partner, gap, lateral, contact, rate, reach / closing)
+        if timed is not None:
+            self.trigger[a] = timed
+            return True
         half = (self.width[a] + self.width[partner]) / 2
         u = (self.lead_time(a) - 0.8) / 1.2  # [0, 1)
         across = half * (0.15 + 0.35 * u) if contact == "rear_end" else half - 0.2 - 0.4 * u
         self.trigger[a] = max(0.0, reach / closing - across / rate)
         return True
+
+    def _clip_on_path(self, a: int, partner: int, gap: float, lateral: float, contact: str, rate: float,
+                      t_reach: float) -> float | None:
+        """[s] the trigger of actor a's pull-out whose path first touches the partner ahead (both at their
+        planned speeds) with the written class, before a reaches it straight on (`t_reach` [s]); None if none."""
+        limits = self.ctx.columns[a].limits
+        other = self.scene.actors[partner]
+        gap, lateral = _relative(self.ctx.arrays, self.route[a], self.s0[a], other.x, other.y, exact=True)
+        offset = float(self.lateral_target[a] - self.d0[a])
+        dt = self.ctx.skid_paths.dt
+        path = swerve.path(float(self.speeds[a]), abs(offset), rate, float(self.length[a]) * limits.wheelbase_ratio,
+                           limits.steer_rate, limits.steer_max, dt)
+        wanted = skid_plan.Wanted(contact, self.contact_area(a, partner), self.contact_area(partner, a),
+                                  skidder_first=a < partner)
+        found = skid_plan.first_contact(path, 1.0 if offset >= 0 else -1.0, float(self.speeds[a]), gap,
+                                        float(self.speeds[partner]), False, lateral - float(self.d0[a]),
+                                        skid_plan.Body(float(self.length[a]), float(self.width[a])),
+                                        skid_plan.Body(float(self.length[partner]), float(self.width[partner])),
+                                        skid_plan.CLASS_HEADING[contact], wanted, dt, latest=t_reach - dt,
+                                        place=False, fine=CLIP_PARTS)
+        if found is None:
+            return None
+        if found[3]:
+            placed = self.shift_start(partner, found[3])
+            if placed is None:
+                return None
+            self.s0[partner] = placed
+            self.moved[partner] = True
+        return found[1]
 
     def _lateral_distance(self, a: int, lateral: float, opposite: bool) -> float:
         """[m] how far actor a steers sideways to reach its partner's path (sets a skid's side)."""
@@ -321,21 +375,16 @@ class VariationPlan:
                    opposite: bool) -> bool:
         """A loss of control, or a lateral manoeuvre ending in an angle contact (a sudden veer), planned as a
         skid (skid.plan) into the partner; False when none fits."""
-        col, p_col = self.ctx.columns[a], self.ctx.columns[partner]
-        if not (col.behavior == "lose_control" or (contact == "angle" and col.behavior in VEER_BEHAVIORS)):
+        if not self.as_skid(a, partner):
             return False
-        moves_in = p_col.behavior in ("change_lane_left", "change_lane_right") and not opposite
-        length, width = self.length, self.width
-        # the partner's front meets the skidding car's side (its front, end-on) before the centres align
-        reach = {"angle": length[partner] / 2 + width[a] / 2,
-                 "head_on": (length[partner] + length[a]) / 2,
-                 "rear_end": (length[partner] + length[a]) / 2}.get(contact or "", 0.0)
-        ahead = 1.0 if (opposite or gap > 0) else -1.0
-        skid = skid_plan.plan(self.speeds[a], gap - ahead * reach, self.speeds[partner], opposite,
-                              (0.0 if moves_in else lateral) - self.d0[a],
-                              self.lane_width, self.ctx.friction, float(length[a]), float(width[a]),
-                              skid_plan.rotation_for(contact, opposite, float(self.draws.rotation[a])),
-                              contact)
+        wanted = skid_plan.Wanted(contact, self.contact_area(a, partner), self.contact_area(partner, a),
+                                  skidder_first=a < partner)
+        skid = skid_plan.plan(self.ctx.skid_paths.get(self.speeds[a]), self.speeds[a], gap, self.speeds[partner],
+                              opposite, lateral - self.d0[a],
+                              skid_plan.Body(float(self.length[a]), float(self.width[a])),
+                              skid_plan.Body(float(self.length[partner]), float(self.width[partner])),
+                              skid_plan.rotation_for(contact, opposite, float(self.draws.rotation[a])), wanted,
+                              self.ctx.skid_paths.dt, self._centre_line(a) if opposite else None)
         if skid is not None and skid.partner_shift:
             placed = self.shift_start(partner, skid.partner_shift)
             if placed is None:
@@ -348,6 +397,12 @@ class VariationPlan:
         self.skids[a] = (skid.spin_rate, skid.drift, skid.hold)
         self.trigger[a] = skid.trigger
         return True
+
+    def _centre_line(self, a: int) -> float:
+        """[m] the road's centre line from actor a's start, left positive (NaN on a one-way road)."""
+        arrays = self.ctx.arrays
+        return float(arrays.sample(arrays.centerline_offset, np.array(self.route[a]), np.array(self.s0[a]))) \
+            - float(self.d0[a])
 
     def enter_wrong_way(self, a: int) -> None:
         """A vehicle going straight that meets its written head-on partner coming the other way in another
@@ -818,6 +873,16 @@ def struck_offset(arrays: RouteArrays, r_t: int, cs_t: float, r_s: int, cs_s: fl
     return float(u[int(np.argmin(miss))])
 
 
+def prepare_skids(ctx: PlanContext, route: np.ndarray, s0: np.ndarray, speed: np.ndarray) -> None:
+    """Integrates at once the candidate skids of every actor of a batch that may lose control
+    (`VariationPlan._plan_skid`), at the cruise speed it plans; route, s0, speed (V, A) start rows."""
+    angle_roles = {role for pair, klass in ctx.classes.items() if klass == "angle" for role in pair}
+    skidding = [a for a, col in enumerate(ctx.columns) if not col.is_ads and (
+        col.behavior == "lose_control" or (col.behavior in VEER_BEHAVIORS and col.role in angle_roles))]
+    ctx.skid_paths.prepare([_planned_speed(ctx.arrays, route[v, a], s0[v, a], speed[v, a], ctx.columns[a], ctx.cond,
+                                           ctx.default_limit) for v in range(route.shape[0]) for a in skidding])
+
+
 def _same_lane(route: np.ndarray, d0: np.ndarray | None, a: int, b: int) -> bool:
     """Whether actors a and b start in the same lane (same route, lateral offsets within a lane); (A,) rows."""
     return b != a and route[b] == route[a] and (d0 is None or abs(d0[b] - d0[a]) < 2.0)
@@ -929,11 +994,14 @@ def _partner(a: int, anchor: int, columns: list[ActorColumn], scene: SampledScen
     return best
 
 
-def _relative(arrays: RouteArrays, r: int, s: float, x: float, y: float) -> tuple[float, float]:
-    """(gap along route r from station s to the point, lateral offset of the point) [m]."""
+def _relative(arrays: RouteArrays, r: int, s: float, x: float, y: float, exact: bool = False
+              ) -> tuple[float, float]:
+    """(gap along route r from station s to the point, lateral offset of the point) [m]; the gap to the nearest
+    route sample (ROUTE_DS), or with `exact` to the point's own projection on the route."""
     xy = arrays.xy[r]
     k = int(np.argmin(np.hypot(xy[:, 0] - x, xy[:, 1] - y)))
     yaw = arrays.yaw[r, k]
     dx, dy = x - xy[k, 0], y - xy[k, 1]
     lateral = -math.sin(yaw) * dx + math.cos(yaw) * dy
-    return k * ROUTE_DS - s, lateral
+    along = math.cos(yaw) * dx + math.sin(yaw) * dy if exact else 0.0
+    return k * ROUTE_DS + along - s, lateral

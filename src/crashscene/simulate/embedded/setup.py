@@ -19,13 +19,14 @@ from crashscene.geometry import LANE_WIDTH
 from crashscene.scene import SampledActor, SampledScene
 from crashscene.simulate.backend import SimulationError, SimulationSettings
 from crashscene.simulate.drivers.behaviors import NO_YIELD_CODES
-from crashscene.simulate.embedded import timing
+from crashscene.simulate.embedded import skid, timing
 from crashscene.simulate.embedded.control import control_tables, entry_before, priorities
 from crashscene.simulate.embedded.later import DRIVEN, LaterMeetings, later_contacts
 from crashscene.simulate.embedded.plan import (
     PlanContext,
     VariationPlan,
     mph,
+    prepare_skids,
     scene_param,
     stop_dist,
     struck_offset,
@@ -338,12 +339,14 @@ def _timing_plans(scenario: Scenario, scenes: list[SampledScene], columns: list[
                   settings: SimulationSettings) -> _TimingPlans:
     """Timing plans and signal phases, per variation from its own generator; the plans' starts (s0, d0) and
     lateral targets are written back into `start` and `layout`."""
+    mu = friction(scenario, settings.conditions)
     ctx = PlanContext(columns=columns, anchor=anchor, arrays=layout.arrays, classes=contact_classes(scenario),
                       strikers=contact_strikers(scenario), first_pair=first_contact_pair(scenario),
                       reproduce=settings.mode == "reproduce",
                       runs_red=Disposition.RUNS_RED in columns[anchor].traits, cond=factor,
-                      default_limit=mph(scenario.road_network.speed_limit_mph),
-                      friction=friction(scenario, settings.conditions), contacts=contact_sequence(scenario))
+                      default_limit=mph(scenario.road_network.speed_limit_mph), friction=mu,
+                      skid_paths=skid.SkidPaths(mu, settings.dt), contacts=contact_sequence(scenario))
+    prepare_skids(ctx, layout.route, start.s0, start.speed)
     plans = _TimingPlans.empty(*start.x.shape)
     for v, scene in enumerate(scenes):
         plan = VariationPlan.build(ctx, scene, variation_rng(scene.seed, scene.index), layout.route[v], start.s0[v],

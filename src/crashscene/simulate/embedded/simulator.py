@@ -37,12 +37,12 @@ from crashscene.simulate.drivers.base import (
 from crashscene.simulate.drivers.behaviors import BehaviorDriver
 from crashscene.simulate.embedded import setup as batch_setup
 from crashscene.simulate.embedded import impact, signals
+from crashscene.simulate.embedded.swerve import lookahead as pursuit_lookahead
+from crashscene.simulate.embedded.swerve import steer_step
 from crashscene.simulate.embedded.record import Recorder
 from crashscene.simulate.roads import STOP_LINE_SETBACK, RoadMap
 
 CHUNK = 500  # variations simulated together (bounds memory; results do not depend on it)
-LOOKAHEAD = (4.0, 25.0)  # [m] pure-pursuit lookahead range
-LOOKAHEAD_TIME = 0.9  # [s]
 DEFAULT_DRIFT = 0.15  # [rad] veer of a skidding car's velocity when no plan sets it
 
 
@@ -377,15 +377,13 @@ def _move(batch: batch_setup.BatchSetup, state: State, accel_cmd: np.ndarray, la
     # lateral reference moves toward the command at a bounded rate
     rate = batch.lateral_rate[None, :] * dt
     state.d_ref += np.clip(lat_cmd - state.d_ref, -rate, rate)
-    lookahead = np.clip(LOOKAHEAD_TIME * state.v + 3.0, *LOOKAHEAD)
+    lookahead = pursuit_lookahead(state.v)
     tx, ty, tyaw = routes.point(r, state.s + lookahead)
     px = tx - np.sin(tyaw) * state.d_ref
     py = ty + np.cos(tyaw) * state.d_ref
     alpha = np.arctan2(py - state.y, px - state.x) - state.yaw
     alpha = wrap_angle(alpha)
-    steer_cmd = np.arctan2(2.0 * wheelbase * np.sin(alpha), lookahead)
-    state.steer += np.clip(steer_cmd - state.steer, -steer_rate * dt, steer_rate * dt)
-    state.steer = np.clip(state.steer, -steer_max, steer_max)
+    state.steer = steer_step(state.steer, alpha, lookahead, wheelbase, steer_rate, steer_max, dt)
 
     accel = np.clip(accel_cmd, -brake_max, accel_max)
     v_new = np.clip(state.v + accel * dt, 0.0, speed_max)

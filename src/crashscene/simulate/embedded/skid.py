@@ -1,25 +1,35 @@
-"""A loss of control planned from its impact: how fast the car spins and how far its path veers, so that it
-reaches its partner's lane turned the way the contact says (the side of a car rotated ~90 deg for an
-`angle` contact, its front for a `head_on`), and after how long / how far along the road.
+"""A loss of control planned from its impact: how fast the car spins, how far its path veers and when it loses
+control, so that where its footprint first touches its partner's the contact has the written class and areas
+(the side of a car rotated ~90 deg for an `angle` contact, its front for a `head_on`).
 
-The skid is the sliding motion of `impact.slide` (one model for the plan and the simulator): the body
-yaws at the planned rate (held while out of control), the velocity keeps its direction but decays, the part
-across the body at the tyre friction, so the path bends toward where the car points.
+The skid is the sliding motion of `impact.slide` (one model for the plan and the simulator), integrated at the
+simulator's step: the body yaws at the planned rate (held while out of control), the velocity keeps its
+direction but decays, the part across the body at the tyre friction, so the path bends toward where the car
+points. The partner drives straight on at its planned speed. The first contact is the first simulator step at
+which the two footprints overlap (as the monitor finds it), classified by `geometry` as the monitor does.
 """
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
+from crashscene.geometry import classify_contact, contact_areas, footprints_overlap, heading_difference
 from crashscene.simulate.embedded import impact
 
 SPIN_RATES = np.array([0.05, 0.15, 0.25, 0.35, 0.5, 0.7, 0.9, 1.2])  # [rad/s] candidate yaw rates of a car out of control
 DRIFT_ANGLES = np.array([0.08, 0.15, 0.25, 0.35])  # [rad] candidate veer of the velocity at the loss of control
-DT = 0.05  # [s] plan integration step
 PLACED_TRIGGER = 1.0  # [s] when the partner is placed to meet the skid, the skid starts this late
-HORIZON = 6.0  # [s] a skid that has not reached the partner's lane by then does not count
+HORIZON = 6.0  # [s] a skid that has not reached the partner by then does not count
+LATEST = 12.0  # [s] the latest loss of control the plan considers
+PLACE_RANGE = 60.0  # [m] how far along its road the partner may be placed to meet the skid
+PLACE_STEP = 0.25  # [m] the grid of such placements
+PLACE_COST = 0.5  # [rad] a placed partner counts as this much rotation off the drawn one
+CROSS_COST = 2.0  # [rad] a contact before my centre is in the partner's lane counts as this much rotation off
+CROSS_MARGIN = 0.5  # [m] my centre this far past the boundary counts as in the partner's lane
+CENTRAL_TOLERANCE = 0.05  # [rad] offsets whose miss is this close to the best one's count as about as good
+AREA_COST = 1.0  # [rad] a contact with other areas than written counts as this much rotation off the drawn one
 # relative heading [rad] between the two vehicles at contact that each class needs (rules.md bands, mid)
 CLASS_HEADING = {"rear_end": 0.1, "head_on": math.pi - 0.2, "angle": math.pi / 2, "sideswipe": 0.4}
 
@@ -37,6 +47,78 @@ class Skid:
     partner_shift: float = 0.0  # [m] the partner must start this much further along its road to meet
 
 
+@dataclass(frozen=True)
+class Body:
+    """A footprint [m]."""
+
+    length: float
+    width: float
+
+
+@dataclass(frozen=True)
+class Wanted:
+    """The written contact as the skid plan needs it: its class (None: not written) and the area of the
+    skidding car and of its partner (None: not written), and whether the skidding car is the monitor's
+    `actor_a` (the first of the two in role order)."""
+
+    contact_class: str | None
+    area: str | None = None
+    partner_area: str | None = None
+    skidder_first: bool = True
+
+
+def candidates() -> tuple[np.ndarray, np.ndarray]:
+    """(spin, drift) of every candidate skid, (n_cand,) each: the car drifts left, spinning either way."""
+    spin, drift = np.meshgrid(np.concatenate([SPIN_RATES, -SPIN_RATES]), DRIFT_ANGLES)
+    return spin.ravel(), drift.ravel()
+
+
+def trajectories(speeds: np.ndarray, friction: float, dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Left-turning skids of every candidate (spin, drift) from each speed [m/s] (N,): X, Y, YAW (N, n_cand,
+    n_steps), along/across the road [m] and the body's turn [rad] every dt [s] after losing control.
+    Elementwise on the speeds, so one speed's rows are the same whichever others are integrated with it."""
+    spin, drift = candidates()
+    speeds = np.maximum(np.asarray(speeds, dtype=float), 0.5)[:, None]
+    vx = speeds * np.cos(drift)
+    vy = speeds * np.sin(drift)
+    shape = vx.shape
+    spin = np.broadcast_to(spin, shape)
+    yaw, x, y = np.zeros(shape), np.zeros(shape), np.zeros(shape)
+    size = np.ones(shape)  # the body's size changes nothing in the velocity (only in a free yaw rate)
+    steps = int(round(HORIZON / dt))
+    out = np.zeros((3, *shape, steps))
+    for k in range(steps):
+        vx1, vy1, _ = impact.slide(vx, vy, yaw, spin, friction, size, size, dt)
+        x = x + 0.5 * (vx + vx1) * dt
+        y = y + 0.5 * (vy + vy1) * dt
+        yaw = yaw + np.where(np.hypot(vx1, vy1) > impact.REST_SPEED, spin, 0.0) * dt
+        vx, vy = vx1, vy1
+        out[:, :, :, k] = x, y, yaw
+    return out[0], out[1], out[2]
+
+
+@dataclass
+class SkidPaths:
+    """The candidate skids by speed at the loss of control, for one friction and simulator step; a batch's are
+    integrated at once (`prepare`), any other speed when first asked."""
+
+    friction: float
+    dt: float
+    _rows: dict[float, tuple[np.ndarray, np.ndarray, np.ndarray]] = field(default_factory=dict)
+
+    def prepare(self, speeds) -> None:
+        new = sorted({float(s) for s in np.ravel(speeds) if np.isfinite(s)} - set(self._rows))
+        if not new:
+            return
+        x, y, yaw = trajectories(np.array(new), self.friction, self.dt)
+        for i, s in enumerate(new):
+            self._rows[s] = (x[i], y[i], yaw[i])
+
+    def get(self, speed: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        self.prepare([speed])
+        return self._rows[float(speed)]
+
+
 def rotation_for(contact_class: str | None, opposite: bool, rng_value: float) -> float:
     """How far [rad] the spinning car should have turned at contact; `rng_value` in [0, 1) varies it."""
     if contact_class is None:
@@ -47,74 +129,178 @@ def rotation_for(contact_class: str | None, opposite: bool, rng_value: float) ->
     return max(turned + math.radians(10.0 * (rng_value - 0.5)), 0.0)
 
 
-def lateral_band(contact_class: str | None, lane_width: float) -> tuple[float, float]:
-    """Offset [m] between the two centres, across the road, at which the contact has its class: end-on
-    contacts (head_on, rear_end) nearly in line, a sideswipe half across, an angle anywhere in the lane."""
-    if contact_class in ("head_on", "rear_end"):
-        return 0.0, 0.6
-    if contact_class == "sideswipe":
-        return 1.2, 2.2
-    return 0.0, lane_width / 2 + (0.0 if contact_class == "angle" else 0.5)
+def overlap_interval(dy: np.ndarray, yaw: np.ndarray, me: Body, other: Body) -> tuple[np.ndarray, np.ndarray]:
+    """[lo, hi] [m] of the offset along the road of my centre from the other's (which lies along the road) at
+    which the footprints overlap, given my lateral offset dy [m] and my yaw [rad] (arrays); lo > hi: never."""
+    c, s = np.cos(yaw), np.sin(yaw)
+    ac, as_ = np.abs(c), np.abs(s)
+    hl, hw, ol, ow = me.length / 2, me.width / 2, other.length / 2, other.width / 2
+    reach = hl * ac + hw * as_ + ol  # along the road
+    lo, hi = np.full(dy.shape, -reach), np.full(dy.shape, reach)
+    apart = np.abs(dy) > hl * as_ + hw * ac + ow  # across the road
+    tiny = 1e-9
+    # my long axis: |dx c + dy s| <= hl + ol |c| + ow |s|
+    r1 = hl + ol * ac + ow * as_
+    with np.errstate(divide="ignore", invalid="ignore"):
+        a1, b1 = (-r1 - dy * s) / c, (r1 - dy * s) / c
+        along = ac > tiny
+        lo = np.where(along, np.maximum(lo, np.minimum(a1, b1)), lo)
+        hi = np.where(along, np.minimum(hi, np.maximum(a1, b1)), hi)
+        apart |= ~along & (np.abs(dy * s) > r1)
+        # my lateral axis: |-dx s + dy c| <= hw + ol |s| + ow |c|
+        r2 = hw + ol * as_ + ow * ac
+        a2, b2 = (dy * c - r2) / s, (dy * c + r2) / s
+        across = as_ > tiny
+        lo = np.where(across, np.maximum(lo, np.minimum(a2, b2)), lo)
+        hi = np.where(across, np.minimum(hi, np.maximum(a2, b2)), hi)
+        apart |= ~across & (np.abs(dy * c) > r2)
+    return np.where(apart, np.inf, lo), np.where(apart, -np.inf, hi)
 
 
-def trajectories(speed: float, friction: float, length: float, width: float) -> tuple[np.ndarray, ...]:
-    """Skids of every candidate (spin, drift), left-turning: (spin, drift, X, Y, YAW), X/Y/YAW (n_cand, n_steps)
-    along/across the road [m] and the body's turn [rad] every DT after losing control."""
-    spin, drift = np.meshgrid(SPIN_RATES, DRIFT_ANGLES)
-    spin, drift = spin.ravel(), drift.ravel()
-    n = len(spin)
-    vx = np.full(n, max(speed, 0.5)) * np.cos(drift)
-    vy = np.full(n, max(speed, 0.5)) * np.sin(drift)
-    yaw, x, y = np.zeros(n), np.zeros(n), np.zeros(n)
-    lengths, widths = np.full(n, length), np.full(n, width)
-    steps = int(HORIZON / DT)
-    out = np.zeros((3, n, steps))
-    for k in range(steps):
-        vx1, vy1, _ = impact.slide(vx, vy, yaw, spin, friction, lengths, widths, DT)
-        x += 0.5 * (vx + vx1) * DT
-        y += 0.5 * (vy + vy1) * DT
-        yaw = yaw + np.where(np.hypot(vx1, vy1) > impact.REST_SPEED, spin, 0.0) * DT
-        vx, vy = vx1, vy1
-        out[:, :, k] = x, y, yaw
-    return spin, drift, out[0], out[1], out[2]
-
-
-def plan(speed: float, gap: float, partner_speed: float, opposite: bool, partner_lateral: float,
-         lane_width: float, friction: float, length: float, width: float, rotation: float,
-         contact_class: str | None = None, latest: float = 12.0, dwell: float = 0.0) -> Skid | None:
-    """The loss of control that puts the car in its partner's lane, turned closest to `rotation` [rad], just
-    as the partner gets there. gap: partner's station ahead along the road [m] (negative: behind);
-    partner_lateral: its lane's offset [m] (left positive). None when no candidate meets the partner."""
-    spin, drift, x, y, yaw = trajectories(speed, friction, length, width)
+def plan(paths: tuple[np.ndarray, np.ndarray, np.ndarray], speed: float, gap: float, partner_speed: float,
+         opposite: bool, partner_lateral: float, me: Body, partner: Body, rotation: float, wanted: Wanted,
+         dt: float, boundary: float | None = None) -> Skid | None:
+    """The loss of control whose first contact with the partner has the wanted class (and areas, where one
+    does), turned closest to `rotation` [rad], early rather than late. paths: `SkidPaths.get(speed)`; gap: the
+    partner's centre ahead of mine along the road [m] (negative: behind); partner_lateral: its offset [m] (left
+    positive); boundary: how far across [m] my centre is in the partner's lane (or across the centre line),
+    by default halfway to the partner, and as far beyond its lane centre at most. The partner is met where it
+    is when a start time within LATEST fits, else placed (partner_shift). None when no candidate gives the
+    written class."""
     sign = 1.0 if partner_lateral >= 0 else -1.0
-    tau = DT * np.arange(1, x.shape[1] + 1)[None, :]
+    found = first_contact(paths, sign, speed, gap, partner_speed, opposite, partner_lateral, me, partner, rotation,
+                          wanted, dt, boundary)
+    if found is None:
+        return None
+    c, trigger, t_meet, shift = found
+    spin, drift = candidates()
+    return Skid(sign * float(spin[c]), sign * float(drift[c]), trigger, t_meet, t_meet + 0.5, shift)
+
+
+def first_contact(paths: tuple[np.ndarray, np.ndarray, np.ndarray], sign: float, speed: float, gap: float,
+                  partner_speed: float, opposite: bool, partner_lateral: float, me: Body, partner: Body,
+                  rotation: float, wanted: Wanted, dt: float, boundary: float | None = None,
+                  latest: float = LATEST, place: bool = True, fine: int = 1) -> tuple[int, float, float, float] | None:
+    """(path, trigger [s], time from the trigger to the contact [s], the partner's shift [m]) of the best of
+    `paths` (x, y, yaw (C, K) every dt after the trigger, turning left; mirrored when `sign` is -1) started on
+    a simulator step by `latest` [s], or (when `place`) a second after the start with the partner placed:
+    its first contact with the partner has the wanted class (`plan` for the rest). With `fine` > 1 the partner
+    may also start up to a step's closing further ahead, in `fine` parts, and the middle of the best run of
+    such starts is taken (a narrow window: a glancing contact)."""
+    x, y, yaw = paths
+    n_cand, n_steps = x.shape
+    tau = dt * np.arange(1, n_steps + 1)
     sigma = -1.0 if opposite else 1.0
     closing = speed - sigma * partner_speed
-    lo, hi = lateral_band(contact_class, lane_width)
-    off = np.abs(sign * y - partner_lateral)
-    in_lane = (off >= lo) & (off <= hi)
-    if abs(closing) > 0.5:
-        t_trig = (gap + sigma * partner_speed * tau - x) / closing
-        ok = in_lane & (t_trig >= 0.0) & (t_trig <= latest)
-    else:
-        t_trig = np.full(x.shape, 1.0)
-        ok = in_lane & (np.abs(gap + sigma * partner_speed * tau - x) < 1.5)
-    if dwell > 0:
-        # it is in the partner's lane for `dwell` [s] before they meet (a wrong-side driver is seen there)
-        k = int(round(dwell / DT))
-        ok[:, k:] &= in_lane[:, :-k]
-        ok[:, :k] = False
-    if ok.any():
-        miss = np.where(ok, np.abs(yaw - rotation) + 0.02 * tau, np.inf)
-        c, k = np.unravel_index(int(np.argmin(miss)), miss.shape)
-        return Skid(sign * float(spin[c]), sign * float(drift[c]), float(t_trig[c, k]), float(tau[0, k]),
-                    float(tau[0, k]) + 0.5)
-    # no start time meets the partner where it is: keep the best skid and place the partner to meet it
-    miss = np.where(in_lane, np.abs(yaw - rotation) + 0.02 * tau, np.inf)
-    if not np.isfinite(miss).any():
+    along = x - sigma * partner_speed * tau[None, :]  # my centre along the road from the partner's, + its start
+    dy = sign * y - partner_lateral
+    lo, hi = overlap_interval(dy, sign * yaw, me, partner)
+    # the poses from the trigger on (its first column: at the trigger)
+    full = [np.concatenate([np.full((n_cand, 1), first), q], axis=1)
+            for first, q in ((0.0, along), (-partner_lateral, dy), (0.0, sign * yaw))]
+    n_trig = int(latest / dt + 1e-9) + 1
+    parts = closing * dt * np.arange(fine) / fine  # [m] finer starts of the partner within a step's closing
+    starts = ((gap - closing * dt * np.arange(n_trig))[:, None] + parts[None, :]).ravel()  # its offset at each trigger
+    t0 = round(PLACED_TRIGGER / dt) * dt
+    shifts = np.arange(-PLACE_RANGE, PLACE_RANGE + PLACE_STEP / 2, PLACE_STEP)
+    cross = abs(partner_lateral) / 2 if boundary is None or not np.isfinite(boundary) else abs(boundary)
+
+    def crossed(py: np.ndarray) -> np.ndarray:  # past the boundary, not past the partner's lane
+        return (sign * (py + partner_lateral) >= cross + CROSS_MARGIN) \
+            & (np.abs(py) <= abs(partner_lateral) - cross - CROSS_MARGIN)
+
+    passes = ((starts, False), (gap - closing * t0 + shifts, True)) if place else ((starts, False),)
+    for offsets, placed in passes:
+        best = _best(full, lo, hi, offsets, me, partner, rotation, wanted, sigma, tau, crossed,
+                     np.abs(shifts) if placed else None, central=fine > 1)
+        if best is None:
+            continue
+        c, j, k = best
+        trigger = t0 if placed else (j // fine) * dt
+        shift = float(shifts[j]) if placed else float(parts[j % fine])
+        # triggered half a step before the simulator step it is planned on
+        return c, max(trigger - dt / 2, 0.0), float(tau[k]), shift
+    return None
+
+
+def _best(full, lo, hi, offsets, me: Body, partner: Body, rotation: float, wanted: Wanted,
+          sigma: float, tau: np.ndarray, crossed, shift_cost: np.ndarray | None, central: bool = False
+          ) -> tuple[int, int, int] | None:
+    """(candidate, offset index, step) of the best first contact over the partner's offsets (O,) at the loss
+    of control: the written class; ranked by the miss of the rotation, my centre in the partner's lane
+    (`crossed` of my offset across from the partner, CROSS_COST), the written areas (AREA_COST) and the placement's cost. full: my poses
+    (along the road from the partner's centre less its offset, across from it, yaw) (C, K + 1) from the loss
+    of control on."""
+    along = full[0]
+    rel = along[:, None, 1:] - offsets[None, :, None]  # (C, O, K) my centre from the partner's
+    touch = (rel >= lo[:, None, :]) & (rel <= hi[:, None, :])
+    hit = touch.any(axis=2)
+    if not hit.any():
         return None
-    c, k = np.unravel_index(int(np.argmin(miss)), miss.shape)
-    t0 = PLACED_TRIGGER
-    needed = speed * t0 + x[c, k] - sigma * partner_speed * (t0 + tau[0, k])
-    return Skid(sign * float(spin[c]), sign * float(drift[c]), t0, float(tau[0, k]), float(tau[0, k]) + 0.5,
-                float(needed - gap))
+    cc, jj = np.nonzero(hit)
+    kk = touch[cc, jj].argmax(axis=1)
+    other_yaw = 0.0 if sigma > 0 else math.pi
+    px, py, pyaw = _touch(full, offsets[jj], cc, kk, me, partner, other_yaw)
+    klass = _classify(px, py, pyaw, other_yaw, me, partner, wanted.skidder_first)
+    ok = klass == wanted.contact_class if wanted.contact_class is not None else np.ones(len(cc), dtype=bool)
+    if not ok.any():
+        return None
+    cc, jj, kk, px, py, pyaw = cc[ok], jj[ok], kk[ok], px[ok], py[ok], pyaw[ok]
+    # in the partner's lane a step before they touch (a recorded step before the contact)
+    miss = np.abs(np.abs(pyaw) - rotation) + 0.02 * tau[kk] + np.where(crossed(full[1][cc, kk]), 0.0, CROSS_COST)
+    if shift_cost is not None:
+        miss = miss + PLACE_COST + 0.005 * shift_cost[jj]
+    if wanted.area is not None or wanted.partner_area is not None:
+        # the areas at the point the simulator's impact takes (the corners inside the other body, close to
+        # the centre of the overlap the monitor takes at a first contact)
+        n = len(cc)
+        zero, oyaw = np.zeros(n), np.full(n, other_yaw)
+        ml, mw, pl, pw = (np.full(n, v) for v in (me.length, me.width, partner.length, partner.width))
+        _, _, qx, qy = impact.contact_frame(px, py, pyaw, ml, mw, zero, zero, oyaw, pl, pw)
+        mine, theirs = contact_areas(px, py, pyaw, ml, mw, zero, zero, oyaw, pl, pw, qx, qy)
+        fits = ((mine == wanted.area) | (wanted.area is None)) & ((theirs == wanted.partner_area)
+                                                                  | (wanted.partner_area is None))
+        miss = miss + np.where(fits, 0.0, AREA_COST)
+    order = np.argsort(miss, kind="stable")
+    i = int(order[0])
+    if central:  # the middle of the run of offsets about as good as the best
+        run = np.nonzero((cc == cc[i]) & (miss <= miss[i] + CENTRAL_TOLERANCE))[0]
+        run = run[np.argsort(jj[run], kind="stable")]
+        i = int(run[len(run) // 2])
+    return int(cc[i]), int(jj[i]), int(kk[i])
+
+
+def _touch(full, offset, cc, kk, me: Body, partner: Body, other_yaw: float) -> tuple[np.ndarray, ...]:
+    """My pose (along, across, yaw) where candidates cc first touch the partner during step kk, moved back
+    along the step as the simulator does (`simulator._back_to_contact`: 8 halvings, linear poses)."""
+    before = [q[cc, kk] for q in full]
+    after = [q[cc, kk + 1] for q in full]
+    before[0], after[0] = before[0] - offset, after[0] - offset
+    n = len(cc)
+    zero, oyaw = np.zeros(n), np.full(n, other_yaw)
+    lo, hi = np.zeros(n), np.ones(n)
+
+    def pose(f):
+        return [b + f * (a - b) for b, a in zip(before, after)]
+
+    for _ in range(8):
+        mid = (lo + hi) / 2
+        x, y, yaw = pose(mid)
+        touching = footprints_overlap(x, y, yaw, me.length, me.width, zero, zero, oyaw, partner.length,
+                                      partner.width)
+        hi = np.where(touching, mid, hi)
+        lo = np.where(touching, lo, mid)
+    return tuple(pose(hi))
+
+
+def _classify(px, py, pyaw, other_yaw: float, me: Body, partner: Body, skidder_first: bool) -> np.ndarray:
+    """The monitor's class (geometry.classify_contact) of contacts with me at (px, py, pyaw) and the partner at
+    the origin heading `other_yaw`, in the monitor's actor order."""
+    rel = heading_difference(pyaw, np.full(len(px), other_yaw))
+    if skidder_first:
+        c, s = np.cos(pyaw), np.sin(pyaw)
+        lon, lat = -px * c - py * s, px * s - py * c
+    else:
+        c, s = math.cos(other_yaw), math.sin(other_yaw)
+        lon, lat = px * c + py * s, -px * s + py * c
+    return classify_contact(rel, lon, lat, (me.length + partner.length) / 2, (me.width + partner.width) / 2)

@@ -1,0 +1,48 @@
+"""A driver steering to a new lateral offset: the embedded simulator's pure pursuit (`simulator._move`: a
+lookahead point on the lane at the reference offset, which moves toward the command at the manoeuvre's
+lateral rate; a front wheel angle with a bounded rate; a kinematic bicycle), and the path it gives on a
+straight road, from which the plan times a manoeuvre whose contact depends on how far across and how turned
+the car is when it gets there (a pull-out clipping the car ahead).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+LOOKAHEAD = (4.0, 25.0)  # [m] pure-pursuit lookahead range
+LOOKAHEAD_TIME = 0.9  # [s]
+HORIZON = 6.0  # [s] how long a planned path runs after its trigger
+
+
+def lookahead(speed: np.ndarray) -> np.ndarray:
+    """[m] the pure-pursuit lookahead distance at a speed [m/s]."""
+    return np.clip(LOOKAHEAD_TIME * speed + 3.0, *LOOKAHEAD)
+
+
+def steer_step(steer: np.ndarray, alpha: np.ndarray, look: np.ndarray, wheelbase, steer_rate, steer_max,
+               dt: float) -> np.ndarray:
+    """[rad] the front wheel angle after one step, turned at most `steer_rate` [rad/s] toward the pure-pursuit
+    angle for the lookahead point `alpha` [rad] off the heading, `look` [m] ahead."""
+    steer_cmd = np.arctan2(2.0 * wheelbase * np.sin(alpha), look)
+    steer = steer + np.clip(steer_cmd - steer, -steer_rate * dt, steer_rate * dt)
+    return np.clip(steer, -steer_max, steer_max)
+
+
+def path(speed: float, offset: float, rate: float, wheelbase: float, steer_rate: float, steer_max: float,
+         dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(x, y, yaw) (1, n_steps) [m, m, rad] every dt [s] after a car driving straight along x at `speed` [m/s]
+    is commanded to the lateral `offset` [m] (left positive), its reference moving there at `rate` [m/s]."""
+    steps = int(round(HORIZON / dt))
+    x = y = yaw = steer = d_ref = 0.0
+    look = float(lookahead(np.array(speed)))
+    out = np.zeros((3, 1, steps))
+    for k in range(steps):
+        d_ref += float(np.clip(offset - d_ref, -rate * dt, rate * dt))
+        alpha = np.remainder(np.arctan2(d_ref - y, look) - yaw + np.pi, 2 * np.pi) - np.pi
+        steer = float(steer_step(np.array(steer), alpha, look, wheelbase, steer_rate, steer_max, dt))
+        yaw_rate = speed / wheelbase * np.tan(steer)
+        heading = yaw + 0.5 * yaw_rate * dt
+        x += speed * np.cos(heading) * dt
+        y += speed * np.sin(heading) * dt
+        yaw += yaw_rate * dt
+        out[:, 0, k] = x, y, yaw
+    return out[0], out[1], out[2]

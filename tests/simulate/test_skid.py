@@ -1,0 +1,97 @@
+"""The skid plan (embedded.skid): candidate skids batched over speeds, the overlap interval of two footprints
+along the road, and a planned loss of control whose first footprint contact has the written class."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from crashscene.geometry import classify_contact, footprints_overlap, heading_difference
+from crashscene.simulate.embedded import skid
+
+DT = 0.1  # [s] the simulator's step
+CAR = skid.Body(4.6, 1.9)
+TRUCK = skid.Body(8.0, 2.5)
+
+
+def test_a_batch_of_speeds_gives_each_speed_the_bytes_it_gets_alone():
+    speeds = np.array([12.0, 27.5, 33.25])
+    batch = skid.trajectories(speeds, 0.7, DT)
+    for i, v in enumerate(speeds):
+        alone = skid.trajectories(np.array([v]), 0.7, DT)
+        for got, want in zip(batch, alone):
+            assert got[i].tobytes() == want[0].tobytes()
+    paths = skid.SkidPaths(0.7, DT)
+    paths.prepare(speeds)
+    assert all(a.tobytes() == b[1].tobytes() for a, b in zip(paths.get(27.5), batch))
+
+
+@pytest.mark.parametrize("yaw", [0.0, 0.3, 1.2, math.pi / 2, 2.6, math.pi])
+@pytest.mark.parametrize("dy", [0.0, 1.5, -2.1, 3.1, 6.0])
+def test_the_overlap_interval_is_where_the_footprints_overlap(yaw, dy):
+    lo, hi = skid.overlap_interval(np.array([dy]), np.array([yaw]), CAR, TRUCK)
+    xs = np.linspace(-12.0, 12.0, 2401)
+    inside = footprints_overlap(xs, np.full_like(xs, dy), np.full_like(xs, yaw), CAR.length, CAR.width,
+                                0.0 * xs, 0.0 * xs, 0.0 * xs, TRUCK.length, TRUCK.width)
+    predicted = (xs >= lo[0]) & (xs <= hi[0])
+    clear = (np.abs(xs - lo[0]) > 1e-6) & (np.abs(xs - hi[0]) > 1e-6)  # touching exactly: either, in floats
+    assert np.array_equal(inside[clear], predicted[clear])
+
+
+def first_contact(plan: skid.Skid, speed: float, gap: float, partner_speed: float, lateral: float,
+                  opposite: bool) -> tuple[str, float]:
+    """Steps the planned skid and the partner (straight on) at the simulator's step from t = 0 and returns the
+    class and the time of their first footprint overlap (geometry, not the plan's own interval)."""
+    paths = skid.trajectories(np.array([speed]), 0.8, DT)
+    spin, drift = skid.candidates()
+    sign = 1.0 if lateral >= 0 else -1.0
+    c = int(np.nonzero(np.isclose(sign * spin, plan.spin_rate) & np.isclose(sign * drift, plan.drift))[0][0])
+    x, y, yaw = (q[0, c] for q in paths)
+    v_p = -partner_speed if opposite else partner_speed
+    yaw_p = math.pi if opposite else 0.0
+    n_before = int(round((plan.trigger + DT / 2) / DT))
+    start = gap + plan.partner_shift
+    for k in range(n_before + len(x)):
+        t = (k + 1) * DT
+        if k < n_before:
+            me = (speed * t, 0.0, 0.0)
+        else:
+            j = k - n_before
+            me = (speed * n_before * DT + x[j], sign * y[j], sign * yaw[j])
+        other = (start + v_p * t, lateral, yaw_p)
+        if footprints_overlap(me[0], me[1], me[2], CAR.length, CAR.width, other[0], other[1], other[2],
+                              TRUCK.length, TRUCK.width):
+            dx, dy = other[0] - me[0], other[1] - me[1]
+            lon = dx * math.cos(me[2]) + dy * math.sin(me[2])
+            lat = -dx * math.sin(me[2]) + dy * math.cos(me[2])
+            klass = classify_contact(heading_difference(np.array(me[2]), np.array(yaw_p)), np.array(lon),
+                                     np.array(lat), (CAR.length + TRUCK.length) / 2, (CAR.width + TRUCK.width) / 2)
+            return str(klass[()]), t
+    return "none", math.inf
+
+
+@pytest.mark.parametrize("gap", [-6.0, -2.0, 0.0, 3.0])
+@pytest.mark.parametrize("lateral", [3.5, -3.5])
+def test_a_veer_into_a_truck_alongside_turns_far_enough_before_it_touches(gap, lateral):
+    """A car alongside a truck in the next lane veers into it: side to side, it would touch long before it has
+    turned; the plan lets it touch first where the truck's front meets its side at an angle."""
+    speed, partner_speed = 28.0, 27.0
+    rotation = skid.rotation_for("angle", False, 0.5)
+    paths = skid.SkidPaths(0.8, DT).get(speed)
+    plan = skid.plan(paths, speed, gap, partner_speed, False, lateral, CAR, TRUCK, rotation,
+                     skid.Wanted("angle", "left" if lateral > 0 else "right", "front"), DT)
+    assert plan is not None
+    klass, _ = first_contact(plan, speed, gap, partner_speed, lateral, False)
+    assert klass == "angle"
+
+
+@pytest.mark.parametrize("klass", ["head_on", "angle"])
+def test_a_loss_of_control_into_oncoming_traffic_meets_it_as_written(klass):
+    speed, partner_speed, gap, lateral = 25.0, 20.0, 90.0, 3.5
+    rotation = skid.rotation_for(klass, True, 0.3)
+    plan = skid.plan(skid.SkidPaths(0.8, DT).get(speed), speed, gap, partner_speed, True, lateral, CAR, TRUCK,
+                     rotation, skid.Wanted(klass), DT)
+    assert plan is not None and plan.partner_shift == 0.0
+    got, t = first_contact(plan, speed, gap, partner_speed, lateral, True)
+    assert got == klass and t == pytest.approx(plan.trigger + DT / 2 + plan.t_meet, abs=DT + 1e-9)
