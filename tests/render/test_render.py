@@ -95,6 +95,7 @@ def _declared(text: str) -> dict[str, str]:
     ("3-C4-2017-007", "ego", {"SIGNAL_GREEN_REMAINING": "VerifaiRange(3.0, 15.0)"}),
     ("103378", "npc1", {"EGO_LEAD_TIME": "VerifaiRange(0.8, 2.0)"}),     # V1 drifts over, the ADS drives V2
     ("103378", "ego", {}),                                                 # the ADS's own manoeuvre: none
+    ("119897", "npc1", {"EGO_LEAD_TIME": "VerifaiRange(0.8, 2.0)", "EGO_SKID_ROTATION": "VerifaiRange(0.0, 1.0)"}),
 ])
 def test_a_search_program_declares_the_timings_the_simulator_would_draw(case, ads, wanted, tmp_path):
     scenario = load_file(EXAMPLES / case / "golden.yaml")

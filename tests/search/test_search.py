@@ -154,3 +154,32 @@ def test_ttc_objective_orders_every_outcome():
     assert values[2] == pytest.approx(1.5)
     assert values[0] < values[1] < values[2] < TTC_CAP < values[3] < values[4] <= worst_value("ttc")
     assert np.isnan(values[5])
+
+
+@pytest.mark.slow
+def test_a_searched_skid_rotation_reaches_the_plan(tmp_path):
+    """119897 with the ADS in V2's seat: V1 loses control into it. Two scenes equal but for the sampled
+    `EGO_SKID_ROTATION` give V1 different skids (its heading at the end differs)."""
+    from crashscene.dsl import load_file
+    from crashscene.render import render
+    from crashscene.render.sample import compile_program
+    from crashscene.search.space import parameter_space, pinned_scenes
+    from crashscene.simulate.backend import SimulationRequest, SimulationSettings, create_simulator
+
+    scenario = load_file(CASES / "119897" / "golden.yaml")
+    rendered = render(scenario, tmp_path, search_ads="npc1")
+    compiled = compile_program(rendered.program)
+    space = parameter_space(compiled, rendered.program)
+    column = space.names.index("EGO_SKID_ROTATION")
+    settings = SimulationSettings(mode="test", ego_role="npc1")
+    final_yaw = []
+    for rotation in (0.0, 1.0):
+        unit = np.full((1, space.dimension), 0.5)
+        unit[0, column] = rotation
+        scenes = pinned_scenes(compiled, rendered.program, space.values(unit), 0, 0)
+        assert scenes[0].params["EGO_SKID_ROTATION"] == rotation
+        request = SimulationRequest(scenario=scenario, scenes=scenes, map_file=rendered.map, settings=settings)
+        traces = create_simulator("embedded", settings).simulate(request).tables["traces"].to_pandas()
+        yaw = traces[traces.actor == "ego"].yaw.to_numpy()
+        final_yaw.append(float(np.unwrap(yaw)[-1] - yaw[0]))
+    assert abs(final_yaw[0] - final_yaw[1]) > 0.1

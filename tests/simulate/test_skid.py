@@ -95,3 +95,17 @@ def test_a_loss_of_control_into_oncoming_traffic_meets_it_as_written(klass):
     assert plan is not None and plan.partner_shift == 0.0
     got, t = first_contact(plan, speed, gap, partner_speed, lateral, True)
     assert got == klass and t == pytest.approx(plan.trigger + DT / 2 + plan.t_meet, abs=DT + 1e-9)
+
+
+def test_the_first_overlaps_are_those_found_step_by_step_for_every_offset():
+    rng = np.random.default_rng(3)
+    along = np.cumsum(rng.uniform(-0.5, 1.5, (5, 40)), axis=1) - 10.0
+    lo = rng.uniform(-6.0, -1.0, (5, 40))
+    hi = lo + rng.uniform(-1.0, 8.0, (5, 40))  # some steps overlap for no offset (lo > hi)
+    offsets = rng.uniform(-20.0, 40.0, 50)
+    rel = along[:, None, :] - offsets[None, :, None]
+    touch = (rel >= lo[:, None, :]) & (rel <= hi[:, None, :])
+    cc, jj = np.nonzero(touch.any(axis=2))
+    want = (cc, jj, touch[cc, jj].argmax(axis=1))
+    got = skid._first_steps(along, lo, hi, offsets)
+    assert all(np.array_equal(g, w) for g, w in zip(got, want))

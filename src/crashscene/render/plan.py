@@ -52,6 +52,7 @@ STOP_DURATION = (2.0, 4.0)  # [s] how long a stopping actor stays stopped before
 # declares them as sampled parameters instead, over the same ranges, so that it can steer them.
 LEAD_TIME = (0.8, 2.0)  # [s] a lateral manoeuvre aimed at another vehicle is under way this long before they meet
 SIGNAL_GREEN = (3.0, 15.0)  # [s] green left for the anchor's axis (test mode: the ADS's) at its junction
+SKID_ROTATION = (0.0, 1.0)  # [-] where in its range a planned skid's rotation at contact falls
 PULL_OUT_TTA = (1.5, 4.0)  # [s] test mode: the ADS's time to the conflict point when a stop- or yield-controlled
 # NPC that does not yield pulls out (never below the ADS's reaction plus braking time: simulate.embedded.pullout)
 LATERAL_BEHAVIORS = frozenset({Behavior.CHANGE_LANE_LEFT, Behavior.CHANGE_LANE_RIGHT, Behavior.CROSS_CENTERLINE,
@@ -399,7 +400,8 @@ def search_parameters(plan: RenderPlan, actor: ActorPlan, prefix: str,
                       is_ads: bool) -> list[tuple[str, Range, str]]:
     """(name, range, unit note) of the timing choices the embedded simulator would draw for `actor` (its
     parameters' prefix: EGO, npc1, ...), declared as sampled parameters for a search: unless the ADS drives it,
-    a lateral manoeuvre's `<prefix>_LEAD_TIME` and a pull-out's `<prefix>_PULL_OUT_TTA` (a stop- or
+    a lateral manoeuvre's `<prefix>_LEAD_TIME`, a loss of control's `<prefix>_SKID_ROTATION` and a pull-out's
+    `<prefix>_PULL_OUT_TTA` (a stop- or
     yield-controlled actor charged with not yielding); on the ADS, the green its axis has left when it reaches
     a signalised junction (`SIGNAL_GREEN_REMAINING`)."""
     out: list[tuple[str, Range, str]] = []
@@ -407,6 +409,9 @@ def search_parameters(plan: RenderPlan, actor: ActorPlan, prefix: str,
     if behavior in LATERAL_BEHAVIORS and not is_ads:
         out.append((f"{prefix}_LEAD_TIME", Range(low=LEAD_TIME[0], high=LEAD_TIME[1]),
                     "[s] the manoeuvre is under way this long before meeting its partner"))
+    if behavior is Behavior.LOSE_CONTROL and not is_ads:
+        out.append((f"{prefix}_SKID_ROTATION", Range(low=SKID_ROTATION[0], high=SKID_ROTATION[1]),
+                    "[-] where in its range the skid's rotation at contact falls"))
     if actor.controlled_by in (Sign.STOP_SIGN.value, Sign.YIELD_SIGN.value) and behavior in PULL_OUT_BEHAVIORS \
             and Disposition.NO_YIELD in dispositions_of(actor.dispositions) and not is_ads:
         out.append((f"{prefix}_PULL_OUT_TTA", Range(low=PULL_OUT_TTA[0], high=PULL_OUT_TTA[1]),

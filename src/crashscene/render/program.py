@@ -11,7 +11,7 @@ What a program offers its readers (backends, `crashscene.render.sample`):
 - global parameters: `EGO_SPEED` [m/s], `EGO_INIT_DIST` [m], `EGO_MANEUVER_TIME` [s], the same per NPC as
   `npc1_SPEED`, `npc1_INIT_DIST`, ..., `npcN_ARRIVAL_OFFSET` [s] for junction approaches, `*_SIDE_OFFSET` [m],
   `*_STOP_DURATION` [s], `*_PROCEED_SPEED` [m/s], `*_LOSS_STEER` [-]; for a search also `*_LEAD_TIME`,
-  `*_PULL_OUT_TTA` [s] and `SIGNAL_GREEN_REMAINING` [s]; `weather` (CARLA preset),
+  `*_PULL_OUT_TTA` [s], `*_SKID_ROTATION` [-] and `SIGNAL_GREEN_REMAINING` [s]; `weather` (CARLA preset),
   `time_of_day_hour` [h], `cs_topology`, `cs_speed_limit` [m/s], `cs_horizon` [s], `cs_weather`, ...
 - on every object: `cs_role`, `cs_label`, `cs_type`, `cs_behavior`, `cs_route_intent`, `cs_reference`,
   `cs_relation`, `cs_heading_relation`, `cs_dispositions` (comma-joined codes), `cs_placement`,

@@ -4,7 +4,7 @@ A rear-end can push the struck car out of its lane when it strikes one rear corn
 (`impact.exchange`, the simulator's own model) turns the struck car and it slides (`impact.slide`) the
 way its nose points. `pushed_path` integrates that motion from the moment of contact, so that the plan
 can place the third vehicle of the written sequence where the pushed car will be, when it is there.
-`slide_path` is that slide for any vehicle already sliding (later.LaterMeetings times later contacts with it).
+`slide_path` is that slide for any vehicle already sliding.
 """
 from __future__ import annotations
 

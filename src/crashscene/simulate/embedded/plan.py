@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from crashscene.monitor.rules import Disposition
-from crashscene.render.plan import LATERAL_BEHAVIORS, LEAD_TIME, SIGNAL_GREEN
+from crashscene.render.plan import LATERAL_BEHAVIORS, LEAD_TIME, SIGNAL_GREEN, SKID_ROTATION
 from crashscene.scene import SampledScene
 from crashscene.simulate.drivers.behaviors import OVER_LIMIT, SPEEDING_CODES, speed_factor
 from crashscene.simulate.embedded import cascade, signals, swerve, timing
@@ -85,7 +85,7 @@ class Draws:
         return cls(offset=rng.normal(timing.ARRIVAL_OFFSET_MEAN, timing.ARRIVAL_OFFSET_SD, n_a),
                    lead=rng.uniform(*LEAD_TIME, n_a), trigger=rng.uniform(1.0, 4.0, n_a),
                    green=rng.uniform(*SIGNAL_GREEN), spin=rng.choice([-1.0, 1.0], n_a),
-                   rotation=rng.uniform(0.0, 1.0, n_a), cascade=rng.uniform(0.0, 1.0, n_a))
+                   rotation=rng.uniform(*SKID_ROTATION, n_a), cascade=rng.uniform(0.0, 1.0, n_a))
 
 
 @dataclass
@@ -377,13 +377,14 @@ class VariationPlan:
         skid (skid.plan) into the partner; False when none fits."""
         if not self.as_skid(a, partner):
             return False
+        rotation = self.param(a, ("SKID_ROTATION",), self.draws.rotation[a])  # sampled in a search, else drawn
         wanted = skid_plan.Wanted(contact, self.contact_area(a, partner), self.contact_area(partner, a),
                                   skidder_first=a < partner)
         skid = skid_plan.plan(self.ctx.skid_paths.get(self.speeds[a]), self.speeds[a], gap, self.speeds[partner],
                               opposite, lateral - self.d0[a],
                               skid_plan.Body(float(self.length[a]), float(self.width[a])),
                               skid_plan.Body(float(self.length[partner]), float(self.width[partner])),
-                              skid_plan.rotation_for(contact, opposite, float(self.draws.rotation[a])), wanted,
+                              skid_plan.rotation_for(contact, opposite, rotation), wanted,
                               self.ctx.skid_paths.dt, self._centre_line(a) if opposite else None)
         if skid is not None and skid.partner_shift:
             placed = self.shift_start(partner, skid.partner_shift)
@@ -876,9 +877,12 @@ def struck_offset(arrays: RouteArrays, r_t: int, cs_t: float, r_s: int, cs_s: fl
 def prepare_skids(ctx: PlanContext, route: np.ndarray, s0: np.ndarray, speed: np.ndarray) -> None:
     """Integrates at once the candidate skids of every actor of a batch that may lose control
     (`VariationPlan._plan_skid`), at the cruise speed it plans; route, s0, speed (V, A) start rows."""
-    angle_roles = {role for pair, klass in ctx.classes.items() if klass == "angle" for role in pair}
+    behavior = {col.role: col.behavior for col in ctx.columns}
+    # a sudden veer ends in an angle contact with a partner not losing control (VariationPlan.as_skid)
+    veers = {role for pair, klass in ctx.classes.items() if klass == "angle" for role in pair
+             if all(behavior.get(other) != "lose_control" for other in pair - {role})}
     skidding = [a for a, col in enumerate(ctx.columns) if not col.is_ads and (
-        col.behavior == "lose_control" or (col.behavior in VEER_BEHAVIORS and col.role in angle_roles))]
+        col.behavior == "lose_control" or (col.behavior in VEER_BEHAVIORS and col.role in veers))]
     ctx.skid_paths.prepare([_planned_speed(ctx.arrays, route[v, a], s0[v, a], speed[v, a], ctx.columns[a], ctx.cond,
                                            ctx.default_limit) for v in range(route.shape[0]) for a in skidding])
 

@@ -21,7 +21,6 @@ from crashscene.simulate.backend import SimulationError, SimulationSettings
 from crashscene.simulate.drivers.behaviors import NO_YIELD_CODES
 from crashscene.simulate.embedded import skid, timing
 from crashscene.simulate.embedded.control import control_tables, entry_before, priorities
-from crashscene.simulate.embedded.later import DRIVEN, LaterMeetings, later_contacts
 from crashscene.simulate.embedded.plan import (
     PlanContext,
     VariationPlan,
@@ -103,7 +102,6 @@ class BatchSetup:
     spin_hold: np.ndarray  # [s] how long the planned spin is held before friction slows it, NaN: until rest
     unseen: np.ndarray  # (A, A) bool: driver a does not perceive actor b (unseen_partners)
     meeting: Meeting  # reproduce mode: who adjusts its speed to meet at the first written contact
-    later: LaterMeetings  # reproduce mode: who adjusts its speed to meet a sliding vehicle at a later contact
     pullout: PullOut  # test mode: the NPC that waits at its line and pulls out in front of the ADS
     condition_factor: float  # [-] safe speed / posted limit for the weather, surface and light
     friction: float  # [-] tyre-road friction coefficient
@@ -171,7 +169,6 @@ def build(scenario: Scenario, scenes: list[SampledScene], roadmap: RoadMap,
         spin_rate=plans.skids[..., 0], drift=plans.skids[..., 1], spin_hold=plans.skids[..., 2],
         unseen=unseen_partners(scenario, columns, settings.mode == "reproduce"),
         meeting=_meeting(scenario, columns, arrays, route, s0, start.length, plans.hold, tables, settings),
-        later=_later(scenario, columns, len(scenes), settings),
         pullout=pullout,
         condition_factor=factor, friction=friction(scenario, settings.conditions),
         invalid=layout.invalid, conflict_time=plans.conflict_time,
@@ -483,14 +480,6 @@ def _pullout(scenes: list[SampledScene], columns: list[ActorColumn], anchor: int
             out.cs_npc[v], out.cs_ads[v] = cs, cs_ads
             hold[v, a] = 0.0
     return out
-
-
-def _later(scenario: Scenario, columns: list[ActorColumn], n_v: int, settings: SimulationSettings) -> LaterMeetings:
-    """Reproduce mode: the written later contacts a driven actor is timed to (later.LaterMeetings)."""
-    if settings.mode != "reproduce":
-        return LaterMeetings.none(n_v)
-    drivable = [not c.is_ads and c.behavior in DRIVEN for c in columns]
-    return LaterMeetings.of(later_contacts(contact_sequence(scenario), [c.role for c in columns], drivable), n_v)
 
 
 FREE_BEHAVIORS = ("go_forward", "accelerate", "turn_left", "turn_right", "u_turn")

@@ -136,7 +136,6 @@ def run_batch(batch: batch_setup.BatchSetup, recorder: Recorder) -> None:
         idx, cruise = meeting.cruise(state.s, state.v, state.a, batch.length, batch.width, planned_cruise, batch.cruise)
         if len(idx):
             batch.cruise[idx, meeting.follower[idx]] = cruise  # the drivers hold views of these columns
-        batch.later.step(t, dt, state, batch)
         accel_cmd = np.zeros((n_v, n_a))
         observations = _observe_all(batch, state, geo, t, ranges)
         for a, driver in enumerate(drivers):

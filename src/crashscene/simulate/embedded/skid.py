@@ -15,7 +15,16 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from crashscene.geometry import classify_contact, contact_areas, footprints_overlap, heading_difference
+from crashscene.geometry import (
+    ANGLE_RANGE,
+    HEAD_ON_MIN,
+    REAR_END_MAX,
+    TAU as TAU_TURN,
+    classify_contact,
+    contact_areas,
+    footprints_overlap,
+    heading_difference,
+)
 from crashscene.simulate.embedded import impact
 
 SPIN_RATES = np.array([0.05, 0.15, 0.25, 0.35, 0.5, 0.7, 0.9, 1.2])  # [rad/s] candidate yaw rates of a car out of control
@@ -228,18 +237,20 @@ def _best(full, lo, hi, offsets, me: Body, partner: Body, rotation: float, wante
           ) -> tuple[int, int, int] | None:
     """(candidate, offset index, step) of the best first contact over the partner's offsets (O,) at the loss
     of control: the written class; ranked by the miss of the rotation, my centre in the partner's lane
-    (`crossed` of my offset across from the partner, CROSS_COST), the written areas (AREA_COST) and the placement's cost. full: my poses
-    (along the road from the partner's centre less its offset, across from it, yaw) (C, K + 1) from the loss
-    of control on."""
-    along = full[0]
-    rel = along[:, None, 1:] - offsets[None, :, None]  # (C, O, K) my centre from the partner's
-    touch = (rel >= lo[:, None, :]) & (rel <= hi[:, None, :])
-    hit = touch.any(axis=2)
-    if not hit.any():
+    (`crossed` of my offset across from the partner, CROSS_COST), the written areas (AREA_COST) and the
+    placement's cost; with `central`, the middle of the run of offsets about as good as the best. full: my
+    poses (along the road from the partner's centre less its offset, across from it, yaw) (C, K + 1) from
+    the loss of control on."""
+    found = _first_steps(full[0][:, 1:], lo, hi, offsets)
+    if found is None:
         return None
-    cc, jj = np.nonzero(hit)
-    kk = touch[cc, jj].argmax(axis=1)
+    cc, jj, kk = found
     other_yaw = 0.0 if sigma > 0 else math.pi
+    # only contacts whose heading within their step admits the written class are moved back to the touch
+    may = _may_be(wanted.contact_class, full[2][cc, kk], full[2][cc, kk + 1], other_yaw)
+    if not may.any():
+        return None
+    cc, jj, kk = cc[may], jj[may], kk[may]
     px, py, pyaw = _touch(full, offsets[jj], cc, kk, me, partner, other_yaw)
     klass = _classify(px, py, pyaw, other_yaw, me, partner, wanted.skidder_first)
     ok = klass == wanted.contact_class if wanted.contact_class is not None else np.ones(len(cc), dtype=bool)
@@ -268,6 +279,49 @@ def _best(full, lo, hi, offsets, me: Body, partner: Body, rotation: float, wante
         run = run[np.argsort(jj[run], kind="stable")]
         i = int(run[len(run) // 2])
     return int(cc[i]), int(jj[i]), int(kk[i])
+
+
+def _first_steps(along: np.ndarray, lo: np.ndarray, hi: np.ndarray, offsets: np.ndarray
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """(candidate, offset index, step) of every first overlap: candidate c with the partner at offsets[o]
+    overlaps it first at step k, when my centre (along (C, K) less the offset) is within [lo, hi] (C, K);
+    sorted by candidate, then offset. None when nothing overlaps. Each step's overlapping offsets are a run of
+    the sorted offsets, so only those runs are listed."""
+    pc, pk = np.nonzero(lo <= hi)
+    if not len(pc):
+        return None
+    order = np.argsort(offsets, kind="stable")
+    ranked = offsets[order]
+    first_at = np.searchsorted(ranked, along[pc, pk] - hi[pc, pk], side="left")
+    n = np.maximum(np.searchsorted(ranked, along[pc, pk] - lo[pc, pk], side="right") - first_at, 0)
+    if not n.any():
+        return None
+    pos = np.repeat(first_at, n) + np.arange(n.sum()) - np.repeat(np.cumsum(n) - n, n)
+    never = np.iinfo(np.int64).max
+    first = np.full((along.shape[0], len(offsets)), never)
+    np.minimum.at(first, (np.repeat(pc, n), order[pos]), np.repeat(pk, n))
+    cc, jj = np.nonzero(first < never)
+    return cc, jj, first[cc, jj]
+
+
+def _may_be(contact_class: str | None, yaw0: np.ndarray, yaw1: np.ndarray, other_yaw: float) -> np.ndarray:
+    """Whether a contact whose yaw lies between yaw0 and yaw1 [rad] can have the class (rules.md heading bands)
+    against a partner heading `other_yaw`; always for a sideswipe or an unwritten class."""
+    if contact_class not in ("angle", "rear_end", "head_on"):
+        return np.ones(len(yaw0), dtype=bool)
+    d0, d1 = yaw0 - other_yaw, yaw1 - other_yaw
+    low, high = np.minimum(d0, d1), np.maximum(d0, d1)
+    r0 = np.degrees(heading_difference(d0, 0.0))
+    r1 = np.degrees(heading_difference(d1, 0.0))
+    lo_deg, hi_deg = np.minimum(r0, r1), np.maximum(r0, r1)
+    # within a step the relative heading may pass 0 or 180 deg between its ends
+    lo_deg = np.where(np.floor(high / TAU_TURN) > np.floor(low / TAU_TURN), 0.0, lo_deg)
+    hi_deg = np.where(np.floor((high - math.pi) / TAU_TURN) > np.floor((low - math.pi) / TAU_TURN), 180.0, hi_deg)
+    if contact_class == "angle":
+        return (hi_deg >= ANGLE_RANGE[0]) & (lo_deg <= ANGLE_RANGE[1])
+    if contact_class == "rear_end":
+        return lo_deg < REAR_END_MAX
+    return hi_deg > HEAD_ON_MIN
 
 
 def _touch(full, offset, cc, kk, me: Body, partner: Body, other_yaw: float) -> tuple[np.ndarray, ...]:
