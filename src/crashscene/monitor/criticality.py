@@ -108,19 +108,41 @@ def _velocity(speed: np.ndarray, yaw: np.ndarray) -> np.ndarray:
     return np.stack([speed * np.cos(yaw), speed * np.sin(yaw)], axis=-1)
 
 
-def _pair_ttc(arrays: TraceArrays, sl: slice, a: int, b: int, contact: np.ndarray):
-    """(min TTC, its time, max DRAC, min gap) for pair (a, b) over variations `sl`; `contact` first contact step."""
-    f = arrays.floats
+class _Columns:
+    """Per actor, over one slice of variations: the trace columns with NaN as 0 and the velocity, computed once
+    for all the pairs the actor is in; and the (V, A, T) time of the whole batch."""
+
+    def __init__(self, arrays: TraceArrays, sl: slice, time: np.ndarray):
+        self.arrays, self.sl, self.time = arrays, sl, time
+        self._cache: dict[tuple[str, int], np.ndarray] = {}
+
+    def get(self, name: str, i: int) -> np.ndarray:
+        key = (name, i)
+        if key not in self._cache:
+            self._cache[key] = np.nan_to_num(self.arrays.floats[name][self.sl, i])
+        return self._cache[key]
+
+    def velocity(self, i: int) -> np.ndarray:
+        key = ("velocity", i)
+        if key not in self._cache:
+            self._cache[key] = _velocity(self.get("speed", i), self.get("yaw", i))
+        return self._cache[key]
+
+
+def _pair_ttc(arrays: TraceArrays, cols: _Columns, a: int, b: int, contact: np.ndarray):
+    """(min TTC, its time, max DRAC, min gap) for pair (a, b) over the variations of `cols`; `contact` first
+    contact step."""
+    sl = cols.sl
     n_steps = arrays.shape[2]
     both = arrays.alive[sl, a] & arrays.alive[sl, b]
     before = np.arange(n_steps)[None, :] < np.where(contact >= 0, contact, n_steps)[:, None]
     use = both & before
-    get = lambda name, i: np.nan_to_num(f[name][sl, i])
+    get = cols.get
     half = lambda i: np.broadcast_to(np.stack([arrays.length[sl, i], arrays.width[sl, i]], axis=-1)[:, None] / 2,
                                      (sl.stop - sl.start, n_steps, 2))
     centre = lambda i: np.stack([get("x", i), get("y", i)], axis=-1)
-    va = _velocity(get("speed", a), get("yaw", a))
-    vb = _velocity(get("speed", b), get("yaw", b))
+    va = cols.velocity(a)
+    vb = cols.velocity(b)
     ttc = time_to_collision(centre(a), centre(b), get("yaw", a), get("yaw", b), half(a), half(b), va, vb)
     ttc = np.where(use, ttc, np.inf)
     rel = np.linalg.norm(vb - va, axis=-1)
@@ -128,7 +150,7 @@ def _pair_ttc(arrays: TraceArrays, sl: slice, a: int, b: int, contact: np.ndarra
         drac = np.where(np.isfinite(ttc) & (ttc > 0), rel / (2 * ttc), np.nan)
     at = np.argmin(ttc, axis=1)
     min_ttc = ttc[np.arange(len(at)), at]
-    t = arrays.time()[sl, a]
+    t = cols.time[sl, a]
     min_t = np.where(np.isfinite(min_ttc), t[np.arange(len(at)), at], np.nan)
     collided = contact >= 0
     min_ttc = np.where(collided, 0.0, np.where(np.isfinite(min_ttc), min_ttc, np.nan))
@@ -189,15 +211,15 @@ def _crossing_point(px_a, py_a, px_b, py_b, yaw_a, yaw_b):
     return np.where(any_hit, x, np.nan), np.where(any_hit, y, np.nan)
 
 
-def _occupancy(arrays: TraceArrays, sl: slice, me: int, px: np.ndarray, py: np.ndarray):
+def _occupancy(arrays: TraceArrays, cols: _Columns, me: int, px: np.ndarray, py: np.ndarray):
     """Times [s] the actor's front reaches and its rear leaves the point (px, py); NaN when never."""
-    f = arrays.floats
+    f, sl = arrays.floats, cols.sl
     lon, lat = relative_position(f["x"][sl, me], f["y"][sl, me], f["yaw"][sl, me], px[:, None], py[:, None])
     half_l = (arrays.length[sl, me] / 2)[:, None]
     half_w = (arrays.width[sl, me] / 2)[:, None]
     with np.errstate(invalid="ignore"):
         inside = (np.abs(lon) <= half_l) & (np.abs(lat) <= half_w)
-    t = arrays.time()[sl, me]
+    t = cols.time[sl, me]
     rows = np.arange(inside.shape[0])
     n = inside.shape[1]
     first, last = first_index(inside), last_index(inside)
@@ -215,9 +237,9 @@ def _occupancy(arrays: TraceArrays, sl: slice, me: int, px: np.ndarray, py: np.n
     return np.where(never, np.nan, t_in), np.where(never, np.nan, t_out)
 
 
-def _pair_pet(arrays: TraceArrays, sl: slice, a: int, b: int) -> np.ndarray:
-    """Post-encroachment time [s] at the pair's first path crossing, over variations `sl`."""
-    f = arrays.floats
+def _pair_pet(arrays: TraceArrays, cols: _Columns, a: int, b: int) -> np.ndarray:
+    """Post-encroachment time [s] at the pair's first path crossing, over the variations of `cols`."""
+    f, sl = arrays.floats, cols.sl
     steps = np.arange(0, arrays.shape[2], PATH_STRIDE)
     if steps[-1] != arrays.shape[2] - 1:
         steps = np.append(steps, arrays.shape[2] - 1)
@@ -226,8 +248,8 @@ def _pair_pet(arrays: TraceArrays, sl: slice, a: int, b: int) -> np.ndarray:
     path = lambda name, i: np.where(arrays.alive[sl, i][:, steps], f[name][sl, i][:, steps], np.nan)
     px, py = _crossing_point(path("x", a), path("y", a), path("x", b), path("y", b), path("yaw", a),
                              path("yaw", b))
-    a_in, a_out = _occupancy(arrays, sl, a, px, py)
-    b_in, b_out = _occupancy(arrays, sl, b, px, py)
+    a_in, a_out = _occupancy(arrays, cols, a, px, py)
+    b_in, b_out = _occupancy(arrays, cols, b, px, py)
     a_first = a_in <= b_in
     with np.errstate(invalid="ignore"):
         pet = np.where(a_first, b_in - a_out, a_in - b_out)
@@ -245,20 +267,24 @@ def criticality_table(arrays: TraceArrays, collisions: pa.Table | None = None) -
     ia, ib, overlap = pair_overlaps(arrays)
     contact = first_index(overlap)   # (V, P) first overlapping step, -1 none
     recorded = _recorded_delta_v(arrays, collisions)
-    parts = []
-    for p, (a, b) in enumerate(zip(ia, ib)):
-        cols: dict[str, list[np.ndarray]] = {m: [] for m in ("min_ttc", "min_ttc_t", "max_drac", "min_gap", "min_thw",
-                                                             "pet")}
-        for lo in range(0, n_var, CHUNK):
-            sl = slice(lo, min(n_var, lo + CHUNK))
-            ttc, ttc_t, drac, gap = _pair_ttc(arrays, sl, a, b, contact[sl, p])
+    time = arrays.time()
+    per_pair: list[dict[str, list[np.ndarray]]] = [
+        {m: [] for m in ("min_ttc", "min_ttc_t", "max_drac", "min_gap", "min_thw", "pet")} for _ in ia]
+    for lo in range(0, n_var, CHUNK):  # chunks outside, pairs inside: each actor's columns once per chunk
+        chunk = _Columns(arrays, slice(lo, min(n_var, lo + CHUNK)), time)
+        sl = chunk.sl
+        for p, (a, b) in enumerate(zip(ia, ib)):
+            cols = per_pair[p]
+            ttc, ttc_t, drac, gap = _pair_ttc(arrays, chunk, a, b, contact[sl, p])
             cols["min_ttc"].append(ttc)
             cols["min_ttc_t"].append(ttc_t)
             cols["max_drac"].append(drac)
             cols["min_gap"].append(gap)
             cols["min_thw"].append(_pair_thw(arrays, sl, a, b))
-            cols["pet"].append(_pair_pet(arrays, sl, a, b))
-        merged = {k: np.concatenate(v) for k, v in cols.items()}
+            cols["pet"].append(_pair_pet(arrays, chunk, a, b))
+    parts = []
+    for p, (a, b) in enumerate(zip(ia, ib)):
+        merged = {k: np.concatenate(v) for k, v in per_pair[p].items()}
         impact, dva, dvb, source = _impact(arrays, a, b, contact[:, p], recorded.get((arrays.roles[a],
                                                                                        arrays.roles[b])))
         present = arrays.present[:, a] & arrays.present[:, b]

@@ -17,7 +17,7 @@ import shutil
 import time
 from collections import Counter
 from collections.abc import Callable
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor, as_completed
 from pathlib import Path
 from typing import Any
 
@@ -142,24 +142,29 @@ def _write_run(scenario: Scenario, out_dir: Path, n: int, seed: int, first: int 
     result, judged = simulate_blocks(backend, settings, request, workers, judge)
     timings["simulate"] = time.perf_counter() - t0 - (judged.seconds if judged is not None else 0.0)
     digest = scenario_digest(scenario)
-    for name, table in result.tables.items():
-        write_table(out_dir, name, table.replace_schema_metadata({SCENARIO_DIGEST_KEY: digest}))
-
-    summary = summarize(result.tables)
-    summary.update({"backend": result.backend, "sampler": sampler, "workers": workers, "mode": mode,
-                    "ego_role": ego_role, "seed": seed, "first": first,
-                    "ads": ads or ("reference" if mode == "test" else None)})
-    if result.notes:
-        summary["notes"] = result.notes
-    if rendered_dir is not None:
-        summary["rendered_from"] = str(rendered_dir)  # a campaign's case render, copied rather than redone
-    if judged is not None:
-        t0 = time.perf_counter()
-        monitored = _write_monitored(judged, out_dir)
-        mc = monitored.pop("monitor_collisions")
-        summary["collisions"].update(by_class=mc["by_class"], by_pair=mc["by_pair"])
-        summary.update(monitored)
-        timings["monitor"] = judged.seconds + time.perf_counter() - t0
+    # the simulator's tables are written in a second thread (pyarrow writes without holding the GIL) while this
+    # one summarises them and writes the monitor's outputs
+    with ThreadPoolExecutor(max_workers=1) as writer:
+        written = [writer.submit(write_table, out_dir, name,
+                                 table.replace_schema_metadata({SCENARIO_DIGEST_KEY: digest}))
+                   for name, table in result.tables.items()]
+        summary = summarize(result.tables)
+        summary.update({"backend": result.backend, "sampler": sampler, "workers": workers, "mode": mode,
+                        "ego_role": ego_role, "seed": seed, "first": first,
+                        "ads": ads or ("reference" if mode == "test" else None)})
+        if result.notes:
+            summary["notes"] = result.notes
+        if rendered_dir is not None:
+            summary["rendered_from"] = str(rendered_dir)  # a campaign's case render, copied rather than redone
+        if judged is not None:
+            t0 = time.perf_counter()
+            monitored = _write_monitored(judged, out_dir)
+            mc = monitored.pop("monitor_collisions")
+            summary["collisions"].update(by_class=mc["by_class"], by_pair=mc["by_pair"])
+            summary.update(monitored)
+            timings["monitor"] = judged.seconds + time.perf_counter() - t0
+    for future in written:
+        future.result()  # a failed write fails the run
     summary["seconds"] = round(time.perf_counter() - start, 3)
     summary["timings"] = {k: round(v, 3) for k, v in timings.items()}
     (out_dir / "summary.json").write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")

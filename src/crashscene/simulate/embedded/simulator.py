@@ -139,11 +139,11 @@ def run_batch(batch: batch_setup.BatchSetup, recorder: Recorder) -> None:
         accel_cmd = np.zeros((n_v, n_a))
         observations = _observe_all(batch, state, geo, t, ranges)
         for a, driver in enumerate(drivers):
-            obs = observations[a].read_only()
-            if batch.columns[a].is_ads:
-                action: Action = ads_step(driver, obs, batch.columns[a].role, step, variations)
-            else:
-                action = driver.step(obs)
+            if batch.columns[a].is_ads:  # the ADS under test gets read-only copies, and its action is checked
+                action: Action = ads_step(driver, observations[a].read_only(), batch.columns[a].role, step,
+                                          variations)
+            else:  # a built-in behaviour driver never writes into its observation: no copies
+                action = driver.step(observations[a])
             accel_cmd[:, a] = np.broadcast_to(np.asarray(action.accel, dtype=float), (n_v,))
             if action.lateral_offset is not None:
                 lat_cmd[:, a] = np.broadcast_to(np.asarray(action.lateral_offset, dtype=float), (n_v,))
