@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from crashscene.geometry import wrap_angle
 from crashscene.monitor.rules import Disposition
 from crashscene.render.plan import LATERAL_BEHAVIORS, LEAD_TIME, SIGNAL_GREEN, SKID_ROTATION
 from crashscene.scene import SampledScene
@@ -254,14 +255,8 @@ class VariationPlan:
         return _partner(a, self.ctx.anchor, self.ctx.columns, self.scene) if partner is None else partner
 
     def as_skid(self, a: int, partner: int) -> bool:
-        """Whether actor a's lateral manoeuvre toward `partner` is planned as a skid: a loss of control, or a
-        sudden veer (a lateral manoeuvre ending in an angle contact) toward a partner not losing control."""
-        col, p_col = self.ctx.columns[a], self.ctx.columns[partner]
-        if col.is_ads or col.behavior not in LATERAL_BEHAVIORS:
-            return False
-        contact = self.ctx.classes.get(frozenset((col.role, p_col.role)))
-        return col.behavior == "lose_control" or (contact == "angle" and col.behavior in VEER_BEHAVIORS
-                                                  and p_col.behavior != "lose_control")
+        """Whether actor a's lateral manoeuvre toward `partner` is planned as a skid (`skids_toward`)."""
+        return skids_toward(self.ctx, a, partner)
 
     def written_partner(self, a: int) -> int | None:
         """The other actor of actor a's first written contact, None when it has none."""
@@ -869,20 +864,27 @@ def struck_offset(arrays: RouteArrays, r_t: int, cs_t: float, r_s: int, cs_s: fl
     n = arrays.yaw.shape[1] - 1
     k = np.clip(((cs_t + u) / ROUTE_DS).astype(int), 0, n)
     yaw_s = arrays.yaw[r_s, min(int(cs_s / ROUTE_DS), n)]
-    rel = np.abs(np.remainder(arrays.yaw[r_t, k] - yaw_s + np.pi, 2 * np.pi) - np.pi)
+    rel = np.abs(wrap_angle(arrays.yaw[r_t, k] - yaw_s))
     miss = np.abs(rel - target) + 0.02 * np.abs(u - default)
     return float(u[int(np.argmin(miss))])
+
+
+def skids_toward(ctx: PlanContext, a: int, partner: int) -> bool:
+    """Whether actor a's lateral manoeuvre toward `partner` is planned as a skid: a loss of control, or a
+    sudden veer (a lateral manoeuvre ending in an angle contact) toward a partner not losing control."""
+    col, p_col = ctx.columns[a], ctx.columns[partner]
+    if col.is_ads or col.behavior not in LATERAL_BEHAVIORS:
+        return False
+    contact = ctx.classes.get(frozenset((col.role, p_col.role)))
+    return col.behavior == "lose_control" or (contact == "angle" and col.behavior in VEER_BEHAVIORS
+                                              and p_col.behavior != "lose_control")
 
 
 def prepare_skids(ctx: PlanContext, route: np.ndarray, s0: np.ndarray, speed: np.ndarray) -> None:
     """Integrates at once the candidate skids of every actor of a batch that may lose control
     (`VariationPlan._plan_skid`), at the cruise speed it plans; route, s0, speed (V, A) start rows."""
-    behavior = {col.role: col.behavior for col in ctx.columns}
-    # a sudden veer ends in an angle contact with a partner not losing control (VariationPlan.as_skid)
-    veers = {role for pair, klass in ctx.classes.items() if klass == "angle" for role in pair
-             if all(behavior.get(other) != "lose_control" for other in pair - {role})}
-    skidding = [a for a, col in enumerate(ctx.columns) if not col.is_ads and (
-        col.behavior == "lose_control" or (col.behavior in VEER_BEHAVIORS and col.role in veers))]
+    n_a = len(ctx.columns)
+    skidding = [a for a in range(n_a) if any(skids_toward(ctx, a, b) for b in range(n_a) if b != a)]
     ctx.skid_paths.prepare([_planned_speed(ctx.arrays, route[v, a], s0[v, a], speed[v, a], ctx.columns[a], ctx.cond,
                                            ctx.default_limit) for v in range(route.shape[0]) for a in skidding])
 

@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from crashscene.geometry import wrap_angle
+
 LOOKAHEAD = (4.0, 25.0)  # [m] pure-pursuit lookahead range
 LOOKAHEAD_TIME = 0.9  # [s]
 HORIZON = 6.0  # [s] how long a planned path runs after its trigger
@@ -37,7 +39,7 @@ def path(speed: float, offset: float, rate: float, wheelbase: float, steer_rate:
     out = np.zeros((3, 1, steps))
     for k in range(steps):
         d_ref += float(np.clip(offset - d_ref, -rate * dt, rate * dt))
-        alpha = np.remainder(np.arctan2(d_ref - y, look) - yaw + np.pi, 2 * np.pi) - np.pi
+        alpha = wrap_angle(np.asarray(np.arctan2(d_ref - y, look) - yaw))  # as the simulator wraps arrays
         steer = float(steer_step(np.array(steer), alpha, look, wheelbase, steer_rate, steer_max, dt))
         yaw_rate = speed / wheelbase * np.tan(steer)
         heading = yaw + 0.5 * yaw_rate * dt
