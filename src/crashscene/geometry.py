@@ -100,6 +100,22 @@ def footprints_overlap(xa, ya, yawa, la, wa, xb, yb, yawb, lb, wb) -> np.ndarray
         return footprint_separation(xa, ya, yawa, la, wa, xb, yb, yawb, lb, wb) <= 0
 
 
+TOUCH_HALVINGS = 8  # [-] bisections of a step to find where two footprints first touch (1/256 of the step)
+
+
+def touch_fraction(pose_a, pose_b, la, wa, lb, wb, n: int) -> np.ndarray:
+    """The fraction (0, 1] of a step at which two footprints first touch, each moving through the step along
+    `pose(f)` -> (x, y, yaw) at fraction f (n,) of it: the end of the last of TOUCH_HALVINGS bisections (they
+    touch there), 1 where they touch only at the step's end."""
+    lo, hi = np.zeros(n), np.ones(n)
+    for _ in range(TOUCH_HALVINGS):
+        mid = (lo + hi) / 2
+        touching = footprints_overlap(*pose_a(mid), la, wa, *pose_b(mid), lb, wb)
+        hi = np.where(touching, mid, hi)
+        lo = np.where(touching, lo, mid)
+    return hi
+
+
 def classify_contact(rel_heading, lon=None, lat=None, half_len=None, half_wid=None) -> np.ndarray:
     """Collision class names (rules.md) for contacts, given their relative heading [rad].
 

@@ -17,7 +17,7 @@ import time
 
 import numpy as np
 
-from crashscene.geometry import LANE_WIDTH, footprints_overlap, pair_indices, wrap_angle
+from crashscene.geometry import LANE_WIDTH, footprints_overlap, pair_indices, touch_fraction, wrap_angle
 from crashscene.simulate.backend import (
     BatchResult,
     SimulationRequest,
@@ -507,7 +507,6 @@ def _back_to_contact(batch: batch_setup.BatchSetup, state: State, hit: np.ndarra
     frac = np.ones(batch.n_variations)
     if len(idx) == 0:
         return frac
-    lo, hi = np.zeros(len(idx)), np.ones(len(idx))
 
     def pose(actor: int, f: np.ndarray):
         yaw0, yaw1 = state.prev_yaw[idx, actor], state.yaw[idx, actor]
@@ -515,14 +514,8 @@ def _back_to_contact(batch: batch_setup.BatchSetup, state: State, hit: np.ndarra
         return (state.prev_x[idx, actor] + f * (state.x[idx, actor] - state.prev_x[idx, actor]),
                 state.prev_y[idx, actor] + f * (state.y[idx, actor] - state.prev_y[idx, actor]), yaw0 + f * dyaw)
 
-    for _ in range(8):
-        mid = (lo + hi) / 2
-        xa, ya, ta = pose(a, mid)
-        xb, yb, tb = pose(b, mid)
-        touching = footprints_overlap(xa, ya, ta, batch.length[idx, a], batch.width[idx, a], xb, yb, tb,
-                                      batch.length[idx, b], batch.width[idx, b])
-        hi = np.where(touching, mid, hi)
-        lo = np.where(touching, lo, mid)
+    hi = touch_fraction(lambda f: pose(a, f), lambda f: pose(b, f), batch.length[idx, a], batch.width[idx, a],
+                        batch.length[idx, b], batch.width[idx, b], len(idx))
     for actor in (a, b):
         x, y, yaw = pose(actor, hi)
         state.x[idx, actor], state.y[idx, actor], state.yaw[idx, actor] = x, y, yaw

@@ -22,8 +22,8 @@ from crashscene.geometry import (
     TAU as TAU_TURN,
     classify_contact,
     contact_areas,
-    footprints_overlap,
     heading_difference,
+    touch_fraction,
 )
 from crashscene.simulate.embedded import impact
 
@@ -326,24 +326,17 @@ def _may_be(contact_class: str | None, yaw0: np.ndarray, yaw1: np.ndarray, other
 
 def _touch(full, offset, cc, kk, me: Body, partner: Body, other_yaw: float) -> tuple[np.ndarray, ...]:
     """My pose (along, across, yaw) where candidates cc first touch the partner during step kk, moved back
-    along the step as the simulator does (`simulator._back_to_contact`: 8 halvings, linear poses)."""
+    along the step as the simulator does (`simulator._back_to_contact`: `geometry.touch_fraction`, linear poses)."""
     before = [q[cc, kk] for q in full]
     after = [q[cc, kk + 1] for q in full]
     before[0], after[0] = before[0] - offset, after[0] - offset
     n = len(cc)
     zero, oyaw = np.zeros(n), np.full(n, other_yaw)
-    lo, hi = np.zeros(n), np.ones(n)
 
     def pose(f):
         return [b + f * (a - b) for b, a in zip(before, after)]
 
-    for _ in range(8):
-        mid = (lo + hi) / 2
-        x, y, yaw = pose(mid)
-        touching = footprints_overlap(x, y, yaw, me.length, me.width, zero, zero, oyaw, partner.length,
-                                      partner.width)
-        hi = np.where(touching, mid, hi)
-        lo = np.where(touching, lo, mid)
+    hi = touch_fraction(pose, lambda f: (zero, zero, oyaw), me.length, me.width, partner.length, partner.width, n)
     return tuple(pose(hi))
 
 
