@@ -401,8 +401,7 @@ def search_parameters(plan: RenderPlan, actor: ActorPlan, prefix: str,
     """(name, range, unit note) of the timing choices the embedded simulator would draw for `actor` (its
     parameters' prefix: EGO, npc1, ...), declared as sampled parameters for a search: unless the ADS drives it,
     a lateral manoeuvre's `<prefix>_LEAD_TIME`, a loss of control's `<prefix>_SKID_ROTATION` and a pull-out's
-    `<prefix>_PULL_OUT_TTA` (a stop- or
-    yield-controlled actor charged with not yielding); on the ADS, the green its axis has left when it reaches
+    `<prefix>_PULL_OUT_TTA` (a stop- or yield-controlled actor charged with not yielding); on the ADS, the green its axis has left when it reaches
     a signalised junction (`SIGNAL_GREEN_REMAINING`)."""
     out: list[tuple[str, Range, str]] = []
     behavior = Behavior(actor.behavior)

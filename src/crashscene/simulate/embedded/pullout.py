@@ -1,7 +1,8 @@
 """Test mode keeps a junction a real test: a stop- or yield-controlled NPC whose oracle says it does not yield
 waits at (or near) its line and pulls out when the ADS is about PULL_OUT_TTA away from their conflict point (a
-search samples that time as `<role>_PULL_OUT_TTA`), never later than the ADS's reaction plus braking distance allows. When the ADS is already inside that distance
-as the NPC reaches its line, the plan cannot give it a fair chance: the variation is invalid (`unavoidable`).
+search samples that time as `<role>_PULL_OUT_TTA`), never later than the ADS's reaction plus braking distance
+allows. When the ADS is already inside that distance as the NPC reaches its line, the plan cannot give it a
+fair chance: the variation is invalid (`unavoidable`).
 """
 from __future__ import annotations
 
