@@ -54,10 +54,11 @@ def heading_difference(yaw_a, yaw_b):
     return np.abs(wrap_angle(np.asarray(yaw_b) - np.asarray(yaw_a)))
 
 
-def relative_position(x_a, y_a, yaw_a, x_b, y_b) -> tuple[np.ndarray, np.ndarray]:
-    """Position of b in a's frame: (longitudinal ahead > 0, lateral left > 0) [m]."""
+def relative_position(x_a, y_a, yaw_a, x_b, y_b, cos_sin=None) -> tuple[np.ndarray, np.ndarray]:
+    """Position of b in a's frame: (longitudinal ahead > 0, lateral left > 0) [m]. `cos_sin`: (cos, sin) of
+    yaw_a when the caller has them (yaw_a is then not read)."""
     dx, dy = x_b - x_a, y_b - y_a
-    c, s = np.cos(yaw_a), np.sin(yaw_a)
+    c, s = (np.cos(yaw_a), np.sin(yaw_a)) if cos_sin is None else cos_sin
     return dx * c + dy * s, -dx * s + dy * c
 
 
@@ -74,14 +75,13 @@ def footprint_corners(x, y, yaw, length, width) -> np.ndarray:
     return np.stack([cx, cy], axis=-1)
 
 
-def footprint_separation(xa, ya, yawa, la, wa, xb, yb, yawb, lb, wb) -> np.ndarray:
+def footprint_separation(xa, ya, yawa, la, wa, xb, yb, yawb, lb, wb, trig=None) -> np.ndarray:
     """[m] the largest gap between footprints a and b (centre, yaw, length, width [m, rad]) along the four
     separating axes (a's and b's long and lateral axes): positive when apart (a lower bound of their
     distance, exact when a face separates them), zero or negative when they overlap or touch; NaN for a
-    NaN pose."""
+    NaN pose. `trig`: (cos yawa, sin yawa, cos yawb, sin yawb) when the caller has them."""
     dx, dy = xb - xa, yb - ya
-    ca, sa = np.cos(yawa), np.sin(yawa)
-    cb, sb = np.cos(yawb), np.sin(yawb)
+    ca, sa, cb, sb = (np.cos(yawa), np.sin(yawa), np.cos(yawb), np.sin(yawb)) if trig is None else trig
     axes = ((ca, sa), (-sa, ca), (cb, sb), (-sb, cb))
     gap = np.full(np.broadcast(dx, dy, ca, cb).shape, -np.inf)
     for ux, uy in axes:

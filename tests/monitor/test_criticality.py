@@ -115,3 +115,51 @@ def test_min_gap_of_a_pair_side_by_side():
                        "npc1": track(steps=30, x0=2.0, y0=3.5, speed=10.0, length=4.5, width=2.0)}))
     assert np.isnan(row["min_ttc"])
     assert row["min_gap"] == pytest.approx(1.5)
+
+
+def _crossing_every_pair(px_a, py_a, px_b, py_b, yaw_a, yaw_b):
+    """The crossing point by intersecting every segment pair (V x N x N): what `_crossing_point` must equal."""
+    from crashscene.geometry import heading_difference
+    from crashscene.monitor.criticality import CROSSING_MIN_ANGLE
+
+    ax0, ay0, ax1, ay1 = px_a[:, :-1, None], py_a[:, :-1, None], px_a[:, 1:, None], py_a[:, 1:, None]
+    bx0, by0, bx1, by1 = px_b[:, None, :-1], py_b[:, None, :-1], px_b[:, None, 1:], py_b[:, None, 1:]
+    rx, ry, sx, sy = ax1 - ax0, ay1 - ay0, bx1 - bx0, by1 - by0
+    denom = rx * sy - ry * sx
+    qx, qy = bx0 - ax0, by0 - ay0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        u = (qx * sy - qy * sx) / denom
+        v = (qx * ry - qy * rx) / denom
+        hit = (u >= 0) & (u <= 1) & (v >= 0) & (v <= 1) & (denom != 0)
+    vi, ii, jj = np.nonzero(hit)
+    angle = heading_difference(yaw_a[vi, ii], yaw_b[vi, jj])
+    hit[vi, ii, jj] = (angle >= CROSSING_MIN_ANGLE) & (angle <= np.pi - CROSSING_MIN_ANGLE)
+    flat = hit.reshape(len(hit), -1)
+    k = np.argmax(flat, axis=1)
+    i, j, rows = k // hit.shape[2], k % hit.shape[2], np.arange(len(hit))
+    with np.errstate(invalid="ignore"):
+        x = ax0[rows, i, 0] + u[rows, i, j] * rx[rows, i, 0]
+        y = ay0[rows, i, 0] + u[rows, i, j] * ry[rows, i, 0]
+    return np.where(flat.any(axis=1), x, np.nan), np.where(flat.any(axis=1), y, np.nan)
+
+
+def test_crossing_point_tests_only_near_segments_and_equals_every_pair():
+    from crashscene.monitor.criticality import _crossing_point
+
+    rng = np.random.default_rng(4)
+    n_var, n = 400, 30
+    # two random walks per variation: crossing, parallel (same line, opposite ways), far apart, not alive (NaN)
+    heading = rng.uniform(-np.pi, np.pi, (2, n_var, 1)) + np.cumsum(rng.normal(0, 0.15, (2, n_var, n)), axis=2)
+    step = rng.uniform(0.0, 2.5, (2, n_var, n))
+    start = rng.uniform(-30, 30, (2, n_var, 2))
+    px = start[..., :1] + np.cumsum(step * np.cos(heading), axis=2)
+    py = start[..., 1:] + np.cumsum(step * np.sin(heading), axis=2)
+    yaw = heading.copy()
+    px[1, :50], py[1, :50], yaw[1, :50] = px[0, :50][:, ::-1], py[0, :50][:, ::-1], yaw[0, :50][:, ::-1] + np.pi
+    px[1, 50:80] += 500.0
+    px[0, 80:90, 10:15] = np.nan
+    got = _crossing_point(px[0], py[0], px[1], py[1], yaw[0], yaw[1])
+    want = _crossing_every_pair(px[0], py[0], px[1], py[1], yaw[0], yaw[1])
+    assert np.isfinite(want[0]).sum() > 50  # the walks do cross
+    for a, b in zip(got, want):
+        assert np.array_equal(a, b, equal_nan=True)

@@ -75,16 +75,18 @@ CRITICALITY_SCHEMA = pa.schema([
 
 
 def time_to_collision(pa_: np.ndarray, pb_: np.ndarray, yaw_a: np.ndarray, yaw_b: np.ndarray,
-                      half_a: np.ndarray, half_b: np.ndarray, va: np.ndarray, vb: np.ndarray) -> np.ndarray:
+                      half_a: np.ndarray, half_b: np.ndarray, va: np.ndarray, vb: np.ndarray,
+                      trig: tuple[np.ndarray, ...] | None = None) -> np.ndarray:
     """First time [s] >= 0 at which two translating oriented rectangles overlap; inf if never.
 
     `pa_`, `pb_` (..., 2) centres [m]; `yaw_*` (...) [rad]; `half_*` (..., 2) half length and half width [m];
-    `va`, `vb` (..., 2) velocities [m/s]. Separating-axis test swept in time: on each of the four axes the
-    projections overlap during an interval; the rectangles overlap while all four intervals do.
+    `va`, `vb` (..., 2) velocities [m/s]; `trig`: (cos yaw_a, sin yaw_a, cos yaw_b, sin yaw_b) when the caller
+    has them. Separating-axis test swept in time: on each of the four axes the projections overlap during an
+    interval; the rectangles overlap while all four intervals do.
     """
     dx, dy = pb_[..., 0] - pa_[..., 0], pb_[..., 1] - pa_[..., 1]
     wx, wy = vb[..., 0] - va[..., 0], vb[..., 1] - va[..., 1]
-    ca, sa, cb, sb = np.cos(yaw_a), np.sin(yaw_a), np.cos(yaw_b), np.sin(yaw_b)
+    ca, sa, cb, sb = (np.cos(yaw_a), np.sin(yaw_a), np.cos(yaw_b), np.sin(yaw_b)) if trig is None else trig
     t_in = np.zeros(dx.shape)
     t_out = np.full(dx.shape, np.inf)
     # component arithmetic, in the order a dot product over a last axis of 2 sums (the same bits, no stacking)
@@ -104,13 +106,14 @@ def time_to_collision(pa_: np.ndarray, pb_: np.ndarray, yaw_a: np.ndarray, yaw_b
     return np.where(hit, t_in, np.inf)
 
 
-def _velocity(speed: np.ndarray, yaw: np.ndarray) -> np.ndarray:
-    return np.stack([speed * np.cos(yaw), speed * np.sin(yaw)], axis=-1)
+def _velocity(speed: np.ndarray, yaw: np.ndarray, cos_sin=None) -> np.ndarray:
+    c, s = (np.cos(yaw), np.sin(yaw)) if cos_sin is None else cos_sin
+    return np.stack([speed * c, speed * s], axis=-1)
 
 
 class _Columns:
-    """Per actor, over one slice of variations: the trace columns with NaN as 0 and the velocity, computed once
-    for all the pairs the actor is in; and the (V, A, T) time of the whole batch."""
+    """Per actor, over one slice of variations: the trace columns with NaN as 0, the velocity and the heading's
+    cosine and sine, computed once for all the pairs the actor is in; and the (V, A, T) time of the whole batch."""
 
     def __init__(self, arrays: TraceArrays, sl: slice, time: np.ndarray):
         self.arrays, self.sl, self.time = arrays, sl, time
@@ -122,10 +125,22 @@ class _Columns:
             self._cache[key] = np.nan_to_num(self.arrays.floats[name][self.sl, i])
         return self._cache[key]
 
+    def raw(self, name: str, i: int) -> np.ndarray:
+        """The column as recorded (NaN kept)."""
+        return self.arrays.floats[name][self.sl, i]
+
+    def cos_sin(self, i: int, raw: bool = False) -> tuple[np.ndarray, np.ndarray]:
+        """(cos, sin) of actor i's heading: with NaN as 0, or as recorded (`raw`)."""
+        key = ("cos_sin_raw" if raw else "cos_sin", i)
+        if key not in self._cache:
+            yaw = self.raw("yaw", i) if raw else self.get("yaw", i)
+            self._cache[key] = (np.cos(yaw), np.sin(yaw))
+        return self._cache[key]
+
     def velocity(self, i: int) -> np.ndarray:
         key = ("velocity", i)
         if key not in self._cache:
-            self._cache[key] = _velocity(self.get("speed", i), self.get("yaw", i))
+            self._cache[key] = _velocity(self.get("speed", i), self.get("yaw", i), self.cos_sin(i))
         return self._cache[key]
 
 
@@ -143,7 +158,8 @@ def _pair_ttc(arrays: TraceArrays, cols: _Columns, a: int, b: int, contact: np.n
     centre = lambda i: np.stack([get("x", i), get("y", i)], axis=-1)
     va = cols.velocity(a)
     vb = cols.velocity(b)
-    ttc = time_to_collision(centre(a), centre(b), get("yaw", a), get("yaw", b), half(a), half(b), va, vb)
+    trig = (*cols.cos_sin(a), *cols.cos_sin(b))
+    ttc = time_to_collision(centre(a), centre(b), get("yaw", a), get("yaw", b), half(a), half(b), va, vb, trig)
     ttc = np.where(use, ttc, np.inf)
     rel = np.linalg.norm(vb - va, axis=-1)
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -160,19 +176,19 @@ def _pair_ttc(arrays: TraceArrays, cols: _Columns, a: int, b: int, contact: np.n
                             np.nan)
     gap = footprint_separation(get("x", a), get("y", a), get("yaw", a), arrays.length[sl, a][:, None],
                                arrays.width[sl, a][:, None], get("x", b), get("y", b), get("yaw", b),
-                               arrays.length[sl, b][:, None], arrays.width[sl, b][:, None])
+                               arrays.length[sl, b][:, None], arrays.width[sl, b][:, None], trig)
     gap = np.where(use, np.maximum(gap, 0.0), np.inf).min(axis=1)
     min_gap = np.where(collided, 0.0, np.where(np.isfinite(gap), gap, np.nan))
     return min_ttc, min_t, max_drac, min_gap
 
 
-def _pair_thw(arrays: TraceArrays, sl: slice, a: int, b: int) -> np.ndarray:
-    """Minimum time headway [s] of either actor following the other, over variations `sl`."""
-    f = arrays.floats
+def _pair_thw(arrays: TraceArrays, cols: _Columns, a: int, b: int) -> np.ndarray:
+    """Minimum time headway [s] of either actor following the other, over the variations of `cols`."""
+    f, sl = arrays.floats, cols.sl
     best = np.full(sl.stop - sl.start, np.inf)
     for me, other in ((a, b), (b, a)):
         lon, lat = relative_position(f["x"][sl, me], f["y"][sl, me], f["yaw"][sl, me], f["x"][sl, other],
-                                     f["y"][sl, other])
+                                     f["y"][sl, other], cols.cos_sin(me, raw=True))
         same_way = heading_difference(f["yaw"][sl, me], f["yaw"][sl, other]) < FOLLOW_MAX_ANGLE
         half_w = ((arrays.width[sl, me] + arrays.width[sl, other]) / 2)[:, None]
         gap = lon - ((arrays.length[sl, me] + arrays.length[sl, other]) / 2)[:, None]
@@ -184,37 +200,48 @@ def _pair_thw(arrays: TraceArrays, sl: slice, a: int, b: int) -> np.ndarray:
     return np.where(np.isfinite(best), best, np.nan)
 
 
+CROSSING_REACH = 1.0  # [m] segments whose bounding boxes are further apart than this are not tested for a crossing
+
+
 def _crossing_point(px_a, py_a, px_b, py_b, yaw_a, yaw_b):
-    """First crossing (along a's path) of two polylines (V, N) with a crossing angle; (x, y) or NaN."""
-    ax0, ay0, ax1, ay1 = px_a[:, :-1, None], py_a[:, :-1, None], px_a[:, 1:, None], py_a[:, 1:, None]
-    bx0, by0, bx1, by1 = px_b[:, None, :-1], py_b[:, None, :-1], px_b[:, None, 1:], py_b[:, None, 1:]
-    rx, ry = ax1 - ax0, ay1 - ay0
-    sx, sy = bx1 - bx0, by1 - by0
+    """First crossing (along a's path) of two polylines (V, N) with a crossing angle; (x, y) or NaN.
+
+    Only segment pairs whose bounding boxes come within CROSSING_REACH of each other are intersected (few of
+    V x N x N): segments further apart cannot cross, their parameters could fall inside [0, 1] only by rounding
+    on segments parallel to 1e-13 rad, which the crossing angle rejects."""
+    ax0, ay0, ax1, ay1 = px_a[:, :-1], py_a[:, :-1], px_a[:, 1:], py_a[:, 1:]
+    bx0, by0, bx1, by1 = px_b[:, :-1], py_b[:, :-1], px_b[:, 1:], py_b[:, 1:]
+    box_a = [np.minimum(ax0, ax1), np.maximum(ax0, ax1), np.minimum(ay0, ay1), np.maximum(ay0, ay1)]
+    box_b = [np.minimum(bx0, bx1), np.maximum(bx0, bx1), np.minimum(by0, by1), np.maximum(by0, by1)]
+    with np.errstate(invalid="ignore"):  # NaN (not alive): never near
+        near = (box_a[0][:, :, None] <= (box_b[1] + CROSSING_REACH)[:, None, :]) \
+            & ((box_b[0] - CROSSING_REACH)[:, None, :] <= box_a[1][:, :, None]) \
+            & (box_a[2][:, :, None] <= (box_b[3] + CROSSING_REACH)[:, None, :]) \
+            & ((box_b[2] - CROSSING_REACH)[:, None, :] <= box_a[3][:, :, None])
+    vi, ii, jj = np.nonzero(near)  # in (variation, i, j) order: a's path first
+    rx, ry = ax1[vi, ii] - ax0[vi, ii], ay1[vi, ii] - ay0[vi, ii]
+    sx, sy = bx1[vi, jj] - bx0[vi, jj], by1[vi, jj] - by0[vi, jj]
     denom = rx * sy - ry * sx
-    qx, qy = bx0 - ax0, by0 - ay0
+    qx, qy = bx0[vi, jj] - ax0[vi, ii], by0[vi, jj] - ay0[vi, ii]
     with np.errstate(divide="ignore", invalid="ignore"):
         u = (qx * sy - qy * sx) / denom
         v = (qx * ry - qy * rx) / denom
         hit = (u >= 0) & (u <= 1) & (v >= 0) & (v <= 1) & (denom != 0)
-    vi, ii, jj = np.nonzero(hit)  # the crossing angle only where the segments cross (few of V x N x N)
-    angle = heading_difference(yaw_a[vi, ii], yaw_b[vi, jj])
-    hit[vi, ii, jj] = (angle >= CROSSING_MIN_ANGLE) & (angle <= np.pi - CROSSING_MIN_ANGLE)
-    n_b = hit.shape[2]
-    flat = hit.reshape(len(hit), -1)
-    any_hit = flat.any(axis=1)
-    k = np.argmax(flat, axis=1)
-    i, j = k // n_b, k % n_b
-    rows = np.arange(len(hit))
-    with np.errstate(invalid="ignore"):
-        x = ax0[rows, i, 0] + u[rows, i, j] * rx[rows, i, 0]
-        y = ay0[rows, i, 0] + u[rows, i, j] * ry[rows, i, 0]
-    return np.where(any_hit, x, np.nan), np.where(any_hit, y, np.nan)
+    angle = heading_difference(yaw_a[vi[hit], ii[hit]], yaw_b[vi[hit], jj[hit]])
+    hit[hit] = (angle >= CROSSING_MIN_ANGLE) & (angle <= np.pi - CROSSING_MIN_ANGLE)
+    rows, first = np.unique(vi[hit], return_index=True)  # each variation's first crossing along a's path
+    k = np.flatnonzero(hit)[first]
+    x, y = np.full(len(px_a), np.nan), np.full(len(px_a), np.nan)
+    x[rows] = ax0[rows, ii[k]] + u[k] * rx[k]
+    y[rows] = ay0[rows, ii[k]] + u[k] * ry[k]
+    return x, y
 
 
 def _occupancy(arrays: TraceArrays, cols: _Columns, me: int, px: np.ndarray, py: np.ndarray):
     """Times [s] the actor's front reaches and its rear leaves the point (px, py); NaN when never."""
     f, sl = arrays.floats, cols.sl
-    lon, lat = relative_position(f["x"][sl, me], f["y"][sl, me], f["yaw"][sl, me], px[:, None], py[:, None])
+    lon, lat = relative_position(f["x"][sl, me], f["y"][sl, me], f["yaw"][sl, me], px[:, None], py[:, None],
+                                 cols.cos_sin(me, raw=True))
     half_l = (arrays.length[sl, me] / 2)[:, None]
     half_w = (arrays.width[sl, me] / 2)[:, None]
     with np.errstate(invalid="ignore"):
@@ -280,7 +307,7 @@ def criticality_table(arrays: TraceArrays, collisions: pa.Table | None = None) -
             cols["min_ttc_t"].append(ttc_t)
             cols["max_drac"].append(drac)
             cols["min_gap"].append(gap)
-            cols["min_thw"].append(_pair_thw(arrays, sl, a, b))
+            cols["min_thw"].append(_pair_thw(arrays, chunk, a, b))
             cols["pet"].append(_pair_pet(arrays, chunk, a, b))
     parts = []
     for p, (a, b) in enumerate(zip(ia, ib)):

@@ -17,7 +17,7 @@ import shutil
 import time
 from collections import Counter
 from collections.abc import Callable
-from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor, as_completed
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
 
@@ -139,15 +139,18 @@ def _write_run(scenario: Scenario, out_dir: Path, n: int, seed: int, first: int 
     request = SimulationRequest(scenario=scenario, scenes=scenes, map_file=Path(rendered.map), settings=settings,
                                 program=Path(rendered.program).read_text(encoding="utf-8"), progress=progress)
     judge = functools.partial(judge_block, scenario=scenario, rulebook=rulebook) if monitor else None
-    result, judged = simulate_blocks(backend, settings, request, workers, judge)
-    timings["simulate"] = time.perf_counter() - t0 - (judged.seconds if judged is not None else 0.0)
     digest = scenario_digest(scenario)
-    # the simulator's tables are written in a second thread (pyarrow writes without holding the GIL) while this
-    # one summarises them and writes the monitor's outputs
+    written: list = []
+    # the simulator's tables are written in a second thread (pyarrow writes without holding the GIL), from when
+    # they are simulated, while the workers judge them and this thread summarises and writes the monitor's outputs
     with ThreadPoolExecutor(max_workers=1) as writer:
-        written = [writer.submit(write_table, out_dir, name,
-                                 table.replace_schema_metadata({SCENARIO_DIGEST_KEY: digest}))
-                   for name, table in result.tables.items()]
+        def write(simulated: BatchResult) -> None:
+            written.extend(writer.submit(write_table, out_dir, name,
+                                         table.replace_schema_metadata({SCENARIO_DIGEST_KEY: digest}))
+                           for name, table in simulated.tables.items())
+
+        result, judged = simulate_blocks(backend, settings, request, workers, judge, simulated=write)
+        timings["simulate"] = time.perf_counter() - t0 - (judged.seconds if judged is not None else 0.0)
         summary = summarize(result.tables)
         summary.update({"backend": result.backend, "sampler": sampler, "workers": workers, "mode": mode,
                         "ego_role": ego_role, "seed": seed, "first": first,
@@ -189,7 +192,7 @@ def _sampler_for(backend: str, sampler: str | None) -> str:
 
 
 MIN_BLOCK = 100  # variations per process below which forking costs more than it saves
-BLOCKS_PER_WORKER = 2  # smaller blocks than workers: a worker whose block ran fast takes the next one
+BLOCKS_PER_WORKER = 1  # one block a worker: the step loop's cost per step is mostly fixed, so larger blocks are cheaper
 _INHERITED: dict[str, Any] = {}  # the request, read by forked children only
 
 
@@ -218,45 +221,117 @@ def judge_block(tables: dict[str, pa.Table], scenario: Scenario, rulebook=None) 
 
 
 def simulate_blocks(backend: str, settings: SimulationSettings, request: SimulationRequest, workers: int,
-                    judge: Callable[[dict[str, pa.Table]], Judged] | None = None) -> tuple[BatchResult, Judged | None]:
-    """`request` simulated in up to `workers` forked processes, in contiguous blocks of scenes (two per worker), each
+                    judge: Callable[[dict[str, pa.Table]], Judged] | None = None,
+                    simulated: Callable[[BatchResult], None] | None = None) -> tuple[BatchResult, Judged | None]:
+    """`request` simulated in up to `workers` forked processes, in contiguous blocks of scenes (one per worker), each
     block judged (`judge`: monitor and metrics) in its process.
 
     Variation i depends only on its scene, so the concatenated tables equal one process's. Only the embedded
-    backend is split (a CARLA server is one shared world; Newtonian runs scene by scene anyway).
+    backend is split (a CARLA server is one shared world; Newtonian runs scene by scene anyway). `simulated` is
+    called with the simulator's tables as soon as every block has sent them, before the blocks are judged: the
+    caller writes them while the workers judge.
     """
     scenes = list(request.scenes)
     workers = min(workers, max(1, len(scenes) // MIN_BLOCK)) if backend == "embedded" else 1
     if workers == 1:
         with create_simulator(backend, settings) as simulator:
             result = simulator.simulate(request)
+        if simulated is not None:
+            simulated(result)
         return result, (judge(result.tables) if judge is not None else None)
     start = time.perf_counter()
     blocks = min(BLOCKS_PER_WORKER * workers, max(1, len(scenes) // MIN_BLOCK))
-    bounds = [len(scenes) * k // blocks for k in range(blocks + 1)]
+    bounds = list(itertools.pairwise([len(scenes) * k // blocks for k in range(blocks + 1)]))
     _INHERITED.update(backend=backend, settings=settings, request=request, judge=judge)
     _import_before_fork(judge is not None)
+    parts: list[BatchResult | None] = [None] * len(bounds)
+    judged: list[Judged | None] = [None] * len(bounds)
+    result = None
     try:
         context = multiprocessing.get_context("fork")  # children inherit the imports and the parsed map
-        with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
-            futures = [pool.submit(_simulate_block, lo, hi) for lo, hi in itertools.pairwise(bounds)]
-            if request.progress is not None:
-                for fut in as_completed(futures):
-                    request.progress(fut.result()[2])
-            parts = [fut.result() for fut in futures]
+        with _Blocks(context, bounds, workers) as running:
+            for k, kind, payload in running.messages(judge is not None):
+                if kind == "tables":
+                    parts[k] = payload
+                    if request.progress is not None:
+                        request.progress(bounds[k][1] - bounds[k][0])
+                    if all(part is not None for part in parts):
+                        result = _concatenated(parts, len(scenes), start)
+                        if simulated is not None:
+                            simulated(result)
+                else:
+                    judged[k] = payload
     finally:
         _INHERITED.clear()
-    tables = {name: pa.concat_tables([part[0].tables[name] for part in parts]) for name in parts[0][0].tables}
-    notes = list(dict.fromkeys(note for part in parts for note in part[0].notes))
-    result = BatchResult(backend=parts[0][0].backend, tables=tables, seconds=time.perf_counter() - start,
-                         notes=notes)
     if judge is None:
         return result, None
     from crashscene.monitor.result import combine
 
-    judged = [part[1] for part in parts]
     return result, Judged(combine([j.result for j in judged]), pa.concat_tables([j.criticality for j in judged]),
                           sum(j.seconds for j in judged) / workers)
+
+
+def _concatenated(parts: list[BatchResult], n_scenes: int, start: float) -> BatchResult:
+    """The blocks' tables in index order, chunked as one process chunks them: Parquet's pages follow the chunks, so
+    the files have the same bytes whatever the number of blocks (traces: `canonical_chunks`, the others: one)."""
+    from crashscene.simulate.embedded.record import canonical_chunks
+
+    tables = {name: pa.concat_tables([part.tables[name] for part in parts]) for name in parts[0].tables}
+    tables = {name: canonical_chunks(table, n_scenes) if name == "traces" else table.combine_chunks()
+              for name, table in tables.items()}
+    notes = list(dict.fromkeys(note for part in parts for note in part.notes))
+    return BatchResult(backend=parts[0].backend, tables=tables, seconds=time.perf_counter() - start, notes=notes)
+
+
+class _Blocks:
+    """Forked processes, one per block of scenes and at most `workers` at a time; each sends its block's tables as
+    soon as they are simulated, then its judgement (`_simulate_block`)."""
+
+    def __init__(self, context, bounds: list[tuple[int, int]], workers: int):
+        self.context, self.bounds, self.workers = context, bounds, workers
+        self.running: dict[Any, tuple[int, Any]] = {}  # connection -> (block, process)
+
+    def __enter__(self) -> _Blocks:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        for conn, (_, process) in self.running.items():  # left over only after an error
+            process.terminate()
+            conn.close()
+        for _, process in self.running.values():
+            process.join()
+
+    def _start(self, k: int) -> None:
+        receive, send = self.context.Pipe(duplex=False)
+        process = self.context.Process(target=_simulate_block, args=(*self.bounds[k], send), daemon=True)
+        process.start()
+        send.close()
+        self.running[receive] = (k, process)
+
+    def messages(self, judging: bool):
+        """(block, "tables" | "judged", payload) as the blocks send them."""
+        from multiprocessing.connection import wait
+
+        queued = list(range(len(self.bounds)))
+        while queued or self.running:
+            while queued and len(self.running) < self.workers:
+                self._start(queued.pop(0))
+            for conn in wait(list(self.running)):
+                k, process = self.running[conn]
+                try:
+                    kind, payload = conn.recv()
+                except EOFError:
+                    process.join()
+                    raise SimulationError(f"the worker simulating variations {self.bounds[k][0]}-"
+                                          f"{self.bounds[k][1] - 1} of the run died (exit code {process.exitcode})"
+                                          ) from None
+                if kind == "error":
+                    raise payload
+                if kind == "judged" or not judging:
+                    del self.running[conn]
+                    conn.close()
+                    process.join()
+                yield k, kind, payload
 
 
 def _import_before_fork(judging: bool) -> None:
@@ -270,13 +345,24 @@ def _import_before_fork(judging: bool) -> None:
         import crashscene.monitor.criticality  # noqa: F401
 
 
-def _simulate_block(lo: int, hi: int) -> tuple[BatchResult, Judged | None, int]:
-    backend, settings, request = _INHERITED["backend"], _INHERITED["settings"], _INHERITED["request"]
-    judge = _INHERITED["judge"]
-    block = dataclasses.replace(request, scenes=list(request.scenes)[lo:hi], progress=None)
-    with create_simulator(backend, settings) as simulator:
-        result = simulator.simulate(block)
-    return result, (judge(result.tables) if judge is not None else None), hi - lo
+def _simulate_block(lo: int, hi: int, send) -> None:
+    """In a forked child: simulate scenes [lo, hi) of the inherited request, send the tables, then judge them."""
+    try:
+        backend, settings, request = _INHERITED["backend"], _INHERITED["settings"], _INHERITED["request"]
+        judge = _INHERITED["judge"]
+        block = dataclasses.replace(request, scenes=list(request.scenes)[lo:hi], progress=None)
+        with create_simulator(backend, settings) as simulator:
+            result = simulator.simulate(block)
+        send.send(("tables", result))
+        if judge is not None:
+            send.send(("judged", judge(result.tables)))
+    except BaseException as exc:  # the parent raises it
+        try:
+            send.send(("error", exc))
+        except Exception:  # not picklable: its text
+            send.send(("error", SimulationError(f"{type(exc).__name__}: {exc}")))
+    finally:
+        send.close()
 
 
 def summarize(tables: dict[str, pa.Table]) -> dict[str, Any]:

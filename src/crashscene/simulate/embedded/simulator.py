@@ -42,7 +42,7 @@ from crashscene.simulate.embedded.swerve import steer_step
 from crashscene.simulate.embedded.record import Recorder
 from crashscene.simulate.roads import STOP_LINE_SETBACK, RoadMap
 
-CHUNK = 500  # variations simulated together (bounds memory; results do not depend on it)
+ACTOR_VARIATIONS = 3000  # (variation, actor) pairs simulated together: bounds memory; results do not depend on it
 DEFAULT_DRIFT = 0.15  # [rad] veer of a skidding car's velocity when no plan sets it
 
 
@@ -58,14 +58,20 @@ class EmbeddedSimulator(Simulator):
         roadmap = RoadMap.load(request.map_file)
         recorder = Recorder(roadmap, settings)
         scenes = list(request.scenes)
-        for first in range(0, len(scenes), CHUNK):
-            chunk = scenes[first:first + CHUNK]
+        size = chunk_size(scenes)
+        for first in range(0, len(scenes), size):
+            chunk = scenes[first:first + size]
             batch = batch_setup.build(request.scenario, chunk, roadmap, settings)
             run_batch(batch, recorder)
             if request.progress is not None:
                 request.progress(len(chunk))
         tables = recorder.tables(scenes)
         return BatchResult(backend=self.name, tables=tables, seconds=time.perf_counter() - start)
+
+
+def chunk_size(scenes) -> int:
+    """Variations simulated together: the step loop's cost per step is mostly fixed, so as many as memory allows."""
+    return max(1, ACTOR_VARIATIONS // max(1, len(scenes[0].actors))) if scenes else 1
 
 
 def make_drivers(batch: batch_setup.BatchSetup, settings: SimulationSettings) -> list:
