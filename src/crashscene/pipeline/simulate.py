@@ -13,6 +13,7 @@ import functools
 import itertools
 import json
 import multiprocessing
+import pickle
 import shutil
 import time
 from collections import Counter
@@ -208,13 +209,18 @@ class Judged:
 
 def judge_block(tables: dict[str, pa.Table], scenario: Scenario, rulebook=None) -> Judged:
     """Monitor and criticality metrics of one block of variations (each variation is judged by itself, so
-    blocks judged apart and concatenated equal the whole batch judged at once)."""
+    blocks judged apart and concatenated equal the whole batch judged at once).
+
+    The traces table is read once into arrays and then dropped from `tables` (its memory is freed unless the
+    caller holds it too): pass a dict of your own."""
     from crashscene.monitor import evaluate
     from crashscene.monitor.arrays import build_arrays
     from crashscene.monitor.criticality import criticality_table
 
     start = time.perf_counter()
     arrays = build_arrays(tables)  # once: the metrics read the whole traces, then the monitor truncates them
+    tables.pop("traces", None)
+    pa.default_memory_pool().release_unused()
     criticality = criticality_table(arrays, tables.get("collisions"))
     result = evaluate(tables, scenario, rulebook, arrays=arrays)
     return Judged(result, criticality, time.perf_counter() - start)
@@ -238,7 +244,7 @@ def simulate_blocks(backend: str, settings: SimulationSettings, request: Simulat
             result = simulator.simulate(request)
         if simulated is not None:
             simulated(result)
-        return result, (judge(result.tables) if judge is not None else None)
+        return result, (judge(dict(result.tables)) if judge is not None else None)
     start = time.perf_counter()
     blocks = min(BLOCKS_PER_WORKER * workers, max(1, len(scenes) // MIN_BLOCK))
     bounds = list(itertools.pairwise([len(scenes) * k // blocks for k in range(blocks + 1)]))
@@ -319,7 +325,7 @@ class _Blocks:
             for conn in wait(list(self.running)):
                 k, process = self.running[conn]
                 try:
-                    kind, payload = conn.recv()
+                    kind, payload = _receive(conn)
                 except EOFError:
                     process.join()
                     raise SimulationError(f"the worker simulating variations {self.bounds[k][0]}-"
@@ -353,16 +359,34 @@ def _simulate_block(lo: int, hi: int, send) -> None:
         block = dataclasses.replace(request, scenes=list(request.scenes)[lo:hi], progress=None)
         with create_simulator(backend, settings) as simulator:
             result = simulator.simulate(block)
-        send.send(("tables", result))
+        _send(send, "tables", result)
         if judge is not None:
-            send.send(("judged", judge(result.tables)))
+            tables = dict(result.tables)
+            del result  # the judge frees the traces once it has read them
+            _send(send, "judged", judge(tables))
     except BaseException as exc:  # the parent raises it
         try:
-            send.send(("error", exc))
+            _send(send, "error", exc)
         except Exception:  # not picklable: its text
-            send.send(("error", SimulationError(f"{type(exc).__name__}: {exc}")))
+            _send(send, "error", SimulationError(f"{type(exc).__name__}: {exc}"))
     finally:
         send.close()
+
+
+def _send(conn, kind: str, payload: Any) -> None:
+    """Pickle `payload` with its Arrow buffers out of band, each sent as it is (no copy of the tables)."""
+    buffers: list = []
+    head = pickle.dumps(payload, protocol=5, buffer_callback=buffers.append)
+    conn.send((kind, len(buffers)))
+    conn.send_bytes(head)
+    for buffer in buffers:
+        conn.send_bytes(buffer.raw())
+
+
+def _receive(conn) -> tuple[str, Any]:
+    kind, n_buffers = conn.recv()
+    head = conn.recv_bytes()
+    return kind, pickle.loads(head, buffers=[conn.recv_bytes() for _ in range(n_buffers)])
 
 
 def summarize(tables: dict[str, pa.Table]) -> dict[str, Any]:

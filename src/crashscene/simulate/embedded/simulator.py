@@ -97,15 +97,13 @@ def _role_params(scenes, role: str) -> dict[str, np.ndarray]:
     """The scenes' numeric parameters of one role (`npc1_SPEED`, `EGO_SPEED` -> "SPEED"), one entry per
     variation (NaN where a scene lacks it): per-variation values, never the first scene's."""
     prefixes = (f"{role}_", f"{role.upper()}_")
-    names = sorted({key.split("_", 1)[1] for scene in scenes for key in scene.params
-                    if key.startswith(prefixes)})
+    keys = set().union(*(scene.params.keys() for scene in scenes))  # the scenes of a program share their keys
+    names = sorted({key.split("_", 1)[1] for key in keys if key.startswith(prefixes)})
     out: dict[str, np.ndarray] = {}
     for name in names:
-        values = []
-        for scene in scenes:
-            raw = scene.params.get(f"{role}_{name}", scene.params.get(f"{role.upper()}_{name}"))
-            values.append(float(raw) if isinstance(raw, (int, float)) else np.nan)
-        out[name] = np.array(values)
+        own, upper = f"{role}_{name}", f"{role.upper()}_{name}"
+        raws = [scene.params.get(own, scene.params.get(upper)) for scene in scenes]
+        out[name] = np.array([float(raw) if isinstance(raw, (int, float)) else np.nan for raw in raws])
     return out
 
 
