@@ -14,10 +14,12 @@ import numpy as np
 
 from crashscene.geometry import ANGLE_RANGE, HEAD_ON_MIN, REAR_END_MAX, classify_contact, wrap_angle
 from crashscene.simulate.embedded import impact
+from crashscene.simulate.embedded.vehicles import limits_for
 
 DT = 0.05  # [s] integration step of the prediction
 HORIZON = 4.0  # [s] how long after the impact the pushed car is followed
 CORNER = 0.4  # [-] the striker's centre is this fraction of the struck car's width off its centre line
+CAR_WHEELBASE_RATIO = limits_for("car").wheelbase_ratio  # [-] the struck vehicle's when not given
 CORNERS = (0.3, 0.4, 0.5, 0.6)  # [-] the fractions a plan chooses among where it can predict the push well
 
 
@@ -35,9 +37,10 @@ def pushed_path(v_striker: float, v_struck: float, side: float, m_striker: float
 
 def pushed_paths(v_striker: float, v_struck: float, offsets: np.ndarray, m_striker: float, m_struck: float,
                  l_striker: float, w_striker: float, l_struck: float, w_struck: float, friction: float,
-                 head_on: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                 head_on: bool = False, wheelbase_ratio: float = CAR_WHEELBASE_RATIO
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """`pushed_path` for several striker centres at once, `offsets` (N,) times the struck car's width to its
-    left: (forward, left, yaw) (N, steps)."""
+    left: (forward, left, yaw) (N, steps); `wheelbase_ratio` [-] the struck car's (vehicles.VehicleLimits)."""
     n = len(offsets)
     reach = (l_striker + l_struck) / 2 - 0.05
     xa = np.full(n, reach if head_on else -reach)
@@ -54,16 +57,17 @@ def pushed_paths(v_striker: float, v_struck: float, offsets: np.ndarray, m_strik
     _, _, vb, wb, _ = impact.exchange(nx, ny, px, py, xa, ya, va, 0 * one, ma, ia, 0 * one, 0 * one, vb,
                                       0 * one, mb, ib)
     return slide_path(0 * one, 0 * one, 0 * one, vb[0], vb[1], wb, friction, l_struck * one, w_struck * one, DT,
-                      int(HORIZON / DT))
+                      int(HORIZON / DT), wheelbase_ratio * l_struck * one)
 
 
-def slide_path(x, y, yaw, vx, vy, yaw_rate, friction: float, length, width, dt: float, steps: int):
+def slide_path(x, y, yaw, vx, vy, yaw_rate, friction: float, length, width, dt: float, steps: int, wheelbase=None):
     """(x, y, yaw) (N, steps) of N sliding vehicles every dt [s] from now ([m], [m/s], [rad/s] (N,)), integrated
-    as the simulator moves a vehicle after an impact (simulator._move: impact.slide, trapezoidal), exact until
-    it touches something else."""
+    as the simulator moves a vehicle after an impact (simulator._move: impact.tyre_slide, trapezoidal), exact
+    until it touches something else; `wheelbase` [m] (N,), a car's share of the length when not given."""
+    wheelbase = CAR_WHEELBASE_RATIO * length if wheelbase is None else wheelbase
     out = np.zeros((3, len(x), steps))
     for k in range(steps):
-        vx1, vy1, w1 = impact.slide(vx, vy, yaw, yaw_rate, friction, length, width, dt)
+        vx1, vy1, w1 = impact.tyre_slide(vx, vy, yaw, yaw_rate, friction, length, width, wheelbase, dt)
         x = x + 0.5 * (vx + vx1) * dt
         y = y + 0.5 * (vy + vy1) * dt
         yaw = yaw + 0.5 * (yaw_rate + w1) * dt

@@ -43,6 +43,7 @@ CASCADE_LAG = 0.7  # [-] a steering driver follows its lateral reference this mu
 CASCADE_ACROSS = 0.9  # [-] at most this part of the way across is done before the scene starts
 NEAR_ROUTE = 8.0  # [m] a pushed car further than this from a route's centre line cannot meet a car on it
 CASCADE_WINDOW = 0.8  # [s] a later contact's striker arrives up to this long after the pushed car is in its path
+MEETING_MARGIN = 10.0  # [deg] a later contact is met where its heading is this far inside its class's range, if it can be
 STOP_DECEL = 4.0  # [m/s2] a stopping driver's braking (drivers.behaviors.DECELERATE_RATE)
 STOP_NEAR_JUNCTION = 40.0  # [m] a stopping driver this close to a junction stops at its line
 WRONG_WAY_LEFT = 0.4  # [lanes] a drift across several lanes starts this far short of the partner's lane
@@ -649,12 +650,12 @@ class VariationPlan:
         preferred = -1.0 if lat_x - self.d0[ti] >= 0 else 1.0
         # a car standing still is pushed as predicted: the plan chooses how far off its centre line to hit it; one
         # that is moving (and braking for what it sees coming) is hit at the usual corner
-        corners = cascade.CORNERS if v_t == 0.0 else (cascade.CORNER,)
+        corners = cascade.CORNERS if v_t == 0.0 or head_on else (cascade.CORNER,)
         offsets = np.array([side * c for side in (preferred, -preferred) for c in corners])
         fwd, left, yaw = cascade.pushed_paths(self.speeds[si], v_t, offsets, cols[si].limits.mass,
                                               cols[ti].limits.mass, float(self.length[si]), float(self.width[si]),
                                               float(self.length[ti]), float(self.width[ti]), self.ctx.friction,
-                                              head_on=head_on)
+                                              head_on=head_on, wheelbase_ratio=cols[ti].limits.wheelbase_ratio)
         best, best_score = None, (-1, -math.inf)
         for j, offset in enumerate(offsets):
             meeting = self._pushed_meeting(ti, xi, (fwd[j], left[j], yaw[j]), (px, py, pyaw), later)
@@ -786,7 +787,8 @@ class VariationPlan:
         area = cascade.facing_area(pyaw + yaw[hit], yaw_x[hit])
         margin = cascade.class_margin(rel[hit], later[0])
         want = hit[0] + self.draws.cascade[xi] * CASCADE_WINDOW / cascade.DT
-        i = min(range(len(hit)), key=lambda h: (klass[h] != later[0], area[h] != later[1], abs(hit[h] - want)))
+        i = min(range(len(hit)), key=lambda h: (klass[h] != later[0], area[h] != later[1],
+                                                margin[h] < MEETING_MARGIN, abs(hit[h] - want)))
         k = int(hit[i])
         return k, float(gap[k]), str(klass[i]), str(area[i]), float(extent[k]), float(margin[i])
 
