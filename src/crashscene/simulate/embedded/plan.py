@@ -43,6 +43,7 @@ CASCADE_LAG = 0.7  # [-] a steering driver follows its lateral reference this mu
 CASCADE_ACROSS = 0.9  # [-] at most this part of the way across is done before the scene starts
 NEAR_ROUTE = 8.0  # [m] a pushed car further than this from a route's centre line cannot meet a car on it
 CASCADE_WINDOW = 0.8  # [s] a later contact's striker arrives up to this long after the pushed car is in its path
+CASCADE_CENTRAL = 10.0  # [deg] a later contact is timed where the predicted heading is this near its most central
 STOP_DECEL = 4.0  # [m/s2] a stopping driver's braking (drivers.behaviors.DECELERATE_RATE)
 STOP_NEAR_JUNCTION = 40.0  # [m] a stopping driver this close to a junction stops at its line
 WRONG_WAY_LEFT = 0.4  # [lanes] a drift across several lanes starts this far short of the partner's lane
@@ -651,18 +652,21 @@ class VariationPlan:
         # that is moving (and braking for what it sees coming) is hit at the usual corner
         corners = cascade.CORNERS if v_t == 0.0 else (cascade.CORNER,)
         offsets = np.array([side * c for side in (preferred, -preferred) for c in corners])
-        fwd, left, yaw = cascade.pushed_paths(self.speeds[si], v_t, offsets, cols[si].limits.mass,
-                                              cols[ti].limits.mass, float(self.length[si]), float(self.width[si]),
-                                              float(self.length[ti]), float(self.width[ti]), self.ctx.friction,
-                                              head_on=head_on)
-        best, best_score = None, (-1, -math.inf)
+        (fwd, left, yaw), striker = cascade.pushed_paths(
+            self.speeds[si], v_t, offsets, cols[si].limits.mass, cols[ti].limits.mass, float(self.length[si]),
+            float(self.width[si]), float(self.length[ti]), float(self.width[ti]), self.ctx.friction, head_on=head_on,
+            striker=True)
+        again = cascade.touch_again((fwd, left, yaw), striker, float(self.length[ti]), float(self.width[ti]),
+                                    float(self.length[si]), float(self.width[si]))
+        best, best_score = None, (-1, False, -math.inf)
         for j, offset in enumerate(offsets):
             meeting = self._pushed_meeting(ti, xi, (fwd[j], left[j], yaw[j]), (px, py, pyaw), later)
             if meeting is None:
                 continue
-            # the written class first, then the side of the struck car it names, then the heading furthest inside
-            # the class's range (the least sensitive to what the plan does not foresee)
-            score = (2 * (meeting[2] == later[0]) + (meeting[3] == later[1]), meeting[5])
+            # the written class first, then the side of the struck car it names, then a push the striker does not
+            # repeat before the meeting (a second push turns the struck car otherwise than predicted), then the
+            # heading furthest inside the class's range (the least sensitive to what the plan does not foresee)
+            score = (2 * (meeting[2] == later[0]) + (meeting[3] == later[1]), not again[j, meeting[0]], meeting[5])
             if score > best_score:
                 best, best_score = (float(offset), *meeting), score
         if best is None:
@@ -785,8 +789,14 @@ class VariationPlan:
         klass = cascade.contact_class(rel[hit])
         area = cascade.facing_area(pyaw + yaw[hit], yaw_x[hit])
         margin = cascade.class_margin(rel[hit], later[0])
+        # the steps with the written class and area (else the nearest to them), and among those the ones whose
+        # heading is near the most central one: a struck car that spins fast is in the class's range only briefly,
+        # and what the prediction does not foresee shifts the moment of contact
+        group = [(klass[h] != later[0], area[h] != later[1]) for h in range(len(hit))]
+        best = min(group)
+        central = max(margin[h] for h in range(len(hit)) if group[h] == best) - CASCADE_CENTRAL
         want = hit[0] + self.draws.cascade[xi] * CASCADE_WINDOW / cascade.DT
-        i = min(range(len(hit)), key=lambda h: (klass[h] != later[0], area[h] != later[1], abs(hit[h] - want)))
+        i = min(range(len(hit)), key=lambda h: (group[h], margin[h] < central, abs(hit[h] - want)))
         k = int(hit[i])
         return k, float(gap[k]), str(klass[i]), str(area[i]), float(extent[k]), float(margin[i])
 
