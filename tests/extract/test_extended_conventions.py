@@ -75,3 +75,106 @@ def test_every_decision_is_recorded_and_the_conventions_rest_on_no_case():
             assert rule in SPEC_QUOTED_CONVENTIONS
     assert all(RULE_SOURCES[rule] == () for rule in SPEC_QUOTED_CONVENTIONS)
     assert set(SPEC_QUOTED_CONVENTIONS) <= FROM_CONVENTIONS and not set(SPEC_QUOTED_CONVENTIONS) & set(CONVENTION_RULES)
+
+
+# ---------------------------------------------------------------- each spec-quoted convention decides its field
+
+EAST_WEST = ("V1 was traveling east in the eastbound lane of a two-lane, two-way road. V2 was traveling west in the "
+             "westbound lane. ")
+EAST_EAST = ("V1 was traveling east in the eastbound lane of a two-lane, two-way road. V2 was traveling east ahead "
+             "of V1. ")
+EAST_NORTH = ("V1 was traveling east in the eastbound lane of a two-lane, two-way road approaching a four-leg "
+              "intersection. V2 was traveling north on the intersecting road. ")
+ANGLE = "The front of V2 struck the left side of V1."
+
+
+def _extract(narrative: str, off: list[str] = ()):
+    return extract_rules(Report(case_id="t", narrative=narrative, source=Path("t.txt")), [], off=list(off))
+
+
+def _oracle(scenario) -> set[tuple[str, str]]:
+    return {(entry.code, entry.actor) for entry in scenario.oracle}
+
+
+CROSSINGS = [  # rules.md's and dsl.md's words for being in the opposing lanes
+    "V2 drifted left of center and struck V1 head-on.",
+    "V2 traveled left of the centre line and struck V1 head-on.",
+    "V2 went beyond the center line and struck V1 head-on.",
+    "V2 entered the opposing lanes and struck V1 head-on.",
+    "V2 was in a lane of the opposite direction when it struck V1 head-on.",
+    "V2 was driving on the wrong side of the road and struck V1 head-on.",
+]
+
+
+@pytest.mark.parametrize("sentence", CROSSINGS)
+def test_rulebook_crossing_words_make_a_centre_line_crossing(sentence):
+    case_written = "rules_behavior.more_crossing_phrases"
+    s = _extract(EAST_WEST + sentence, off=[case_written])
+    assert s.actors["npc1"].behavior.value == "cross_centerline"
+    assert ("CVC_21650", "npc1") in _oracle(s)
+    off = _extract(EAST_WEST + sentence, off=[case_written, "rules_behavior.rulebook_crossing_words"])
+    assert off.actors["npc1"].behavior.value != "cross_centerline" and ("CVC_21650", "npc1") not in _oracle(off)
+
+
+def test_left_of_a_double_solid_centre_line_is_both_codes():
+    s = _extract(EAST_WEST.replace("two-way road.", "two-way road with a double solid center line.") +
+                 "V2 drove left of the double solid center line and struck V1 head-on.",
+                 off=["rules_behavior.more_crossing_phrases"])
+    assert {("CVC_21650", "npc1"), ("CVC_21460", "npc1")} <= _oracle(s)
+
+
+def test_encroaching_is_not_the_rulebook_s_word():
+    s = _extract(EAST_WEST + "V2 encroached into V1's lane and struck V1 head-on.",
+                 off=["rules_behavior.more_crossing_phrases"])
+    assert s.actors["npc1"].behavior.value != "cross_centerline"
+
+
+SIGNS = "rules_road.sign_controls_by_the_spec"
+
+
+def test_an_all_way_stop_controls_every_approach():
+    narrative = EAST_NORTH + "The intersection was controlled by an all-way stop. " + ANGLE
+    s = _extract(narrative, off=["rules_road.attribute_signs"])
+    assert _oracle(s) == {("CVC_21800", "ego")}  # V2 came from V1's right: V1 lacks priority (rules.md CVC_21800)
+    assert ("CVC_21800", "ego") not in _oracle(_extract(narrative, off=["rules_road.attribute_signs", SIGNS]))
+
+
+def test_the_vehicle_stated_as_failing_to_yield_is_the_one_its_sign_controls():
+    narrative = EAST_NORTH + "The intersection was controlled by a stop sign. V2 stopped, then failed to yield and " \
+        "entered the intersection. " + ANGLE
+    s = _extract(narrative, off=["rules_road.attribute_signs"])
+    assert ("CVC_21802", "npc1") in _oracle(s) and s.actors["npc1"].position.reference == "stop_sign"
+    off = _extract(narrative, off=["rules_road.attribute_signs", SIGNS])
+    assert ("CVC_21802", "npc1") not in _oracle(off)
+
+
+def test_a_sign_no_vehicle_is_tied_to_controls_v1():
+    narrative = EAST_NORTH + "The intersection was controlled by a yield sign. " + ANGLE
+    s = _extract(narrative, off=["rules_road.attribute_signs"])
+    assert s.actors["ego"].position.reference == "yield_sign" and ("CVC_21803", "ego") in _oracle(s)
+    off = _extract(narrative, off=["rules_road.attribute_signs", SIGNS])
+    assert ("CVC_21803", "ego") not in _oracle(off)
+
+
+def test_struck_is_the_spec_s_impact_verb():
+    narrative = EAST_EAST + "V2 was slowing. The front of V1 struck the rear of V2."
+    s = _extract(narrative, off=["rules_collisions.impact_formula"])
+    assert [(c.striking, c.struck, c.class_.value) for c in s.collisions] == [("ego", "npc1", "rear_end")]
+    assert _extract(narrative, off=["rules_collisions.impact_formula",
+                                    "rules_collisions.spec_impact_formula"]).collisions == []
+    assert _extract(narrative.replace("struck", "impacted"), off=["rules_collisions.impact_formula"]).collisions == []
+
+
+def test_a_rear_end_contact_in_the_sequence_gives_convention_9_s_code():
+    narrative = EAST_EAST + "V2 was slowing. V2 was struck in the rear by the front of V1."
+    assert _oracle(_extract(narrative)) == {("CVC_21703", "ego")}
+    assert _oracle(_extract(narrative, off=["rules_oracle.sequence_rear_end"])) == set()
+
+
+def test_a_cause_statement_goes_to_the_vehicle_that_committed_it():
+    # the first round's window (a label before the phrase in its sentence) would charge V1 as well
+    narrative = EAST_NORTH + "V1 had a green signal at the traffic light, and the driver of V2 ran the red light. " \
+        + ANGLE
+    assert ("CVC_21453", "npc1") in _oracle(_extract(narrative))
+    assert ("CVC_21453", "ego") not in _oracle(_extract(narrative))
+    assert ("CVC_21453", "ego") in _oracle(_extract(narrative, off=["rules_oracle.cause_statements"]))
