@@ -108,7 +108,7 @@ CROSSINGS = [  # rules.md's and dsl.md's words for being in the opposing lanes
 
 @pytest.mark.parametrize("sentence", CROSSINGS)
 def test_rulebook_crossing_words_make_a_centre_line_crossing(sentence):
-    case_written = "rules_behavior.more_crossing_phrases"
+    case_written = "rules_behavior.veering_into_a_lane"
     s = _extract(EAST_WEST + sentence, off=[case_written])
     assert s.actors["npc1"].behavior.value == "cross_centerline"
     assert ("CVC_21650", "npc1") in _oracle(s)
@@ -119,13 +119,13 @@ def test_rulebook_crossing_words_make_a_centre_line_crossing(sentence):
 def test_left_of_a_double_solid_centre_line_is_both_codes():
     s = _extract(EAST_WEST.replace("two-way road.", "two-way road with a double solid center line.") +
                  "V2 drove left of the double solid center line and struck V1 head-on.",
-                 off=["rules_behavior.more_crossing_phrases"])
+                 off=["rules_behavior.veering_into_a_lane"])
     assert {("CVC_21650", "npc1"), ("CVC_21460", "npc1")} <= _oracle(s)
 
 
 def test_encroaching_is_not_the_rulebook_s_word():
     s = _extract(EAST_WEST + "V2 encroached into V1's lane and struck V1 head-on.",
-                 off=["rules_behavior.more_crossing_phrases"])
+                 off=["rules_behavior.veering_into_a_lane"])
     assert s.actors["npc1"].behavior.value != "cross_centerline"
 
 

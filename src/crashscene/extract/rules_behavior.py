@@ -101,7 +101,7 @@ PHRASES = (
     ("rules_behavior.lose_control_words", _LOSE, "lose_control"),
     ("rules_behavior.centre_line_crossing_words", _CROSS_SPEC, "cross_centerline"),
     ("rules_behavior.rulebook_crossing_words", _CROSS_RULEBOOK, "cross_centerline"),
-    ("rules_behavior.more_crossing_phrases", _CROSS_MORE, "cross_centerline"),
+    ("rules_behavior.veering_into_a_lane", _CROSS_MORE, "cross_centerline"),  # the reports' moves into a lane
     ("rules_behavior.run_off_road_words", _LEAVE_SPEC, "leave_road"),
     ("rules_behavior.shoulder_is_leaving_the_road", _LEAVE_MORE, "leave_road"),
     ("rules_behavior.overtake_words", _OVERTAKE, "overtake"),
