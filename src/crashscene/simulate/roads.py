@@ -228,12 +228,13 @@ class RoadMap:
 
     def lookup(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Lane index (-1 off-road) and junction index (-1 outside junctions) under each point."""
-        i, j = self._cell(np.stack([np.asarray(x), np.asarray(y)], axis=-1))
+        # per axis, as _cell computes it (no (N, 2) stack of the points)
+        i = np.floor((np.asarray(x) - self.origin[0]) / GRID_RES).astype(np.int64)
+        j = np.floor((np.asarray(y) - self.origin[1]) / GRID_RES).astype(np.int64)
         ok = (i >= 0) & (j >= 0) & (i < self.shape[0]) & (j < self.shape[1])
-        i = np.where(ok, i, 0)
-        j = np.where(ok, j, 0)
-        lane = np.where(ok, self.lane_grid[i, j], -1)
-        junction = np.where(ok, self.junction_grid[i, j], -1)
+        flat = np.where(ok, i * self.shape[1] + j, 0)
+        lane = np.where(ok, self.lane_grid.ravel()[flat], -1)
+        junction = np.where(ok, self.junction_grid.ravel()[flat], -1)
         return lane, junction
 
     def lane_at(self, x: float, y: float, yaw: float | None = None) -> Lane | None:

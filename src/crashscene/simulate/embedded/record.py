@@ -155,9 +155,11 @@ class Recorder:
         changer = np.array([c.behavior in LANE_CHANGE_BEHAVIORS or (c.is_ads and c.behavior.startswith("change_lane"))
                             for c in batch.columns])
         changing = np.repeat(np.tile(changer, n_v), n_t) & (np.abs(d - lat_cmd) > 0.4)
-        tx, ty, tyaw = batch.routes.point(route_idx, s_abs)
-        tgt_lane, _ = roadmap.lookup(tx - np.sin(tyaw) * lat_cmd, ty + np.cos(tyaw) * lat_cmd)
-        tgt_lane = np.where(changing, tgt_lane, -1)
+        tgt_lane = np.full(len(changing), -1, dtype=np.int64)
+        rows = np.flatnonzero(changing)  # the target lane is looked up only where a lane change is under way
+        if len(rows):
+            tx, ty, tyaw = batch.routes.point(route_idx[rows], s_abs[rows])
+            tgt_lane[rows] = roadmap.lookup(tx - np.sin(tyaw) * lat_cmd[rows], ty + np.cos(tyaw) * lat_cmd[rows])[0]
 
         junction = flat(i["junction"])
         junction = np.where(in_junction, grid_junction, junction)

@@ -123,6 +123,7 @@ def run_batch(batch: batch_setup.BatchSetup, recorder: Recorder) -> None:
     ranges = np.array([getattr(d, "perception_range", math.inf) for d in drivers])
 
     state = State(batch)
+    fixed = Fixed(batch)
     veers = np.isfinite(batch.spin_rate).any(axis=0)
     recorder.begin(batch)
     _check_collisions(batch, state, recorder, 0.0, initial=True)
@@ -132,7 +133,7 @@ def run_batch(batch: batch_setup.BatchSetup, recorder: Recorder) -> None:
     meeting = batch.meeting
     for step in range(n_steps + 1):
         t = step * dt
-        geo = _geometry(batch, state, t)
+        geo = _geometry(batch, state, t, fixed)
         recorder.record(step, t, state, geo, lat_cmd)
         if step == n_steps:
             break
@@ -141,7 +142,7 @@ def run_batch(batch: batch_setup.BatchSetup, recorder: Recorder) -> None:
         if len(idx):
             batch.cruise[idx, meeting.follower[idx]] = cruise  # the drivers hold views of these columns
         accel_cmd = np.zeros((n_v, n_a))
-        observations = _observe_all(batch, state, geo, t, ranges)
+        observations = _observe_all(batch, state, geo, t, ranges, fixed)
         for a, driver in enumerate(drivers):
             if batch.columns[a].is_ads:  # the ADS under test gets read-only copies, and its action is checked
                 action: Action = ads_step(driver, observations[a].read_only(), batch.columns[a].role, step,
@@ -160,7 +161,7 @@ def run_batch(batch: batch_setup.BatchSetup, recorder: Recorder) -> None:
                 _lose_control(batch, state, a, np.isfinite(batch.spin_rate[:, a]) & (t >= batch.trigger_time[:, a]),
                               None, t)
         _move(batch, state, accel_cmd, lat_cmd, dt, t + dt, accel_max, brake_max, steer_max, steer_rate,
-              speed_max, wheelbase)
+              speed_max, wheelbase, fixed.lateral_rate)
         _check_collisions(batch, state, recorder, t + dt)
     recorder.end(batch, state)
 
@@ -215,6 +216,38 @@ class State:
         self.prev_x, self.prev_y, self.prev_yaw = self.x.copy(), self.y.copy(), self.yaw.copy()
 
 
+class Fixed:
+    """What the step loop reads of the batch that no step changes, gathered once: each actor's junction entries
+    and exits along its route (V, A, J), and for every observer a and its k-th other actor `others[a, k]` (in
+    actor order) the pair's routes, sizes, conflict stations and priority, arrays (A, A - 1, V)."""
+
+    def __init__(self, batch: batch_setup.BatchSetup):
+        routes, n_a = batch.routes, batch.n_actors
+        self.entries = routes.entry_s[batch.route]  # (V, A, J)
+        self.exits = routes.entry_exit[batch.route]
+        self.lateral_rate = batch.lateral_rate
+        self.others = np.array([[b for b in range(n_a) if b != a] for a in range(n_a)],
+                               dtype=np.intp).reshape(n_a, -1)
+        others, observer = self.others, np.arange(n_a)[:, None]
+        self.observer = observer
+        self.r, self.la, self.wa = (np.ascontiguousarray(arr.T) for arr in (batch.route, batch.length, batch.width))
+        r, la, wa = self.r, self.la, self.wa
+        self.r_b, self.lb, self.wb = r[others], la[others], wa[others]
+        lb, wb = self.lb, self.wb
+        self.route_length = routes.length[r]
+        self.unseen = batch.unseen[observer, others][..., None]
+        self.in_path_half = (wa[:, None] + wb) / 2 + 0.3
+        self.half_lengths = (la[:, None] + lb) / 2
+        self.cs_a = routes.conflict_s[r[:, None], self.r_b]
+        self.crosses = ~np.isnan(self.cs_a)
+        cs_b = routes.conflict_s[self.r_b, r[:, None]]
+        self.cs_b_less_1 = cs_b - 1.0
+        clear_zone = wa[:, None] / 2 + 1.0
+        self.zone_start, self.zone_end = cs_b - clear_zone, cs_b + clear_zone
+        self.prio = batch.priority.transpose(1, 2, 0)[observer, others]
+        self.half_lb, self.minus_half_wb = lb / 2, -wb / 2
+
+
 class Geometry:
     """Per-step quantities derived from the state and the routes, shared by observations and the recorder."""
 
@@ -235,15 +268,14 @@ class Geometry:
     )
 
 
-def _geometry(batch: batch_setup.BatchSetup, state: State, t: float) -> Geometry:
+def _geometry(batch: batch_setup.BatchSetup, state: State, t: float, fixed: Fixed) -> Geometry:
     routes, r = batch.routes, batch.route
     g = Geometry()
     k, _ = routes.index(state.s)
     g.route_yaw = routes.yaw[r, k]
     g.route_lane = routes.lane[r, k]
     g.front = state.s + batch.length / 2
-    entries = routes.entry_s[r]  # (V, A, J)
-    exits = routes.entry_exit[r]
+    entries, exits = fixed.entries, fixed.exits  # (V, A, J)
     rear = state.s - batch.length / 2
     g.in_junction_route = routes.junction[r, k] >= 0
     n_j = entries.shape[-1]
@@ -251,8 +283,8 @@ def _geometry(batch: batch_setup.BatchSetup, state: State, t: float) -> Geometry
     current = np.sum(exits <= rear[..., None], axis=-1)
     has = (current < n_j)
     cur = np.minimum(current, n_j - 1)
-    has &= np.isfinite(np.take_along_axis(entries, cur[..., None], axis=-1)[..., 0])
     entry_s = np.take_along_axis(entries, cur[..., None], axis=-1)[..., 0]
+    has &= np.isfinite(entry_s)
     g.entry = np.where(has, cur, -1)
     g.junction_dist = np.where(has, entry_s - g.front, np.nan)
     ctrl = np.take_along_axis(batch.entry_control, cur[..., None], axis=-1)[..., 0]
@@ -271,7 +303,7 @@ def _geometry(batch: batch_setup.BatchSetup, state: State, t: float) -> Geometry
 
 
 def _observe_all(batch: batch_setup.BatchSetup, state: State, geo: Geometry, t: float,
-                 ranges: np.ndarray) -> list[Observation]:
+                 ranges: np.ndarray, fixed: Fixed) -> list[Observation]:
     """Every actor's `Observation` this step (`ranges` [m]: each driver's perception range).
 
     What actor a sees of each other actor is computed for all of them at once, as arrays (A, A - 1, V):
@@ -282,12 +314,11 @@ def _observe_all(batch: batch_setup.BatchSetup, state: State, geo: Geometry, t: 
     routes = batch.routes
     x, y, yaw, v, s, d, acc = (np.ascontiguousarray(arr.T) for arr in (state.x, state.y, state.yaw, state.v,
                                                                          state.s, state.d, state.a))
-    r, la, wa = (np.ascontiguousarray(arr.T) for arr in (batch.route, batch.length, batch.width))
+    r, wa = fixed.r, fixed.wa
     front, lane_w, target = (np.ascontiguousarray(arr.T) for arr in (geo.front, geo.lane_width,
                                                                       batch.lateral_target))
-    others = np.array([[b for b in range(n_a) if b != a] for a in range(n_a)], dtype=np.intp).reshape(n_a, -1)
-    observer = np.arange(n_a)[:, None]
-    x_b, y_b, v_b, s_b, lb, wb, r_b = x[others], y[others], v[others], s[others], la[others], wa[others], r[others]
+    others = fixed.others
+    x_b, y_b, v_b, s_b, lb, wb = x[others], y[others], v[others], s[others], fixed.lb, fixed.wb
     dist_all = np.hypot(x_b - x[:, None], y_b - y[:, None])  # (A, A - 1, V)
     hidden = (dist_all > ranges[:, None, None]) | state.gone.T[others]
     visible = ~hidden
@@ -302,30 +333,27 @@ def _observe_all(batch: batch_setup.BatchSetup, state: State, geo: Geometry, t: 
     rel_yaw = wrap_angle(yaw[others] - qyaw)
     speed_along = v_b * np.cos(rel_yaw)
     # an inattentive striker (setup.unseen_partners) does not see what it strikes in its path
-    in_path = visible & near_route & (np.abs(lat - d[:, None]) < (wa[:, None] + wb) / 2 + 0.3) & (ds > 0) \
-        & ~batch.unseen[observer, others][..., None]
-    gap = ds - (la[:, None] + lb) / 2
+    in_path = visible & near_route & (np.abs(lat - d[:, None]) < fixed.in_path_half) & (ds > 0) & ~fixed.unseen
+    gap = ds - fixed.half_lengths
     in_target = visible & near_route & (np.abs(lat - target[:, None]) < lane_w[:, None] / 2 + wb / 4)
     ahead = in_target & (gap > -lb) & (ds >= 0)
     behind = in_target & (ds < 0)
-    rear_gap = -ds - (la[:, None] + lb) / 2
+    rear_gap = -ds - fixed.half_lengths
     # every vehicle whose path crosses ours ahead (for defensive drivers), and gap acceptance
     # against those with priority
-    cs_a = routes.conflict_s[r[:, None], r_b]
-    cs_b = routes.conflict_s[r_b, r[:, None]]
-    crossing = visible & ~np.isnan(cs_a)
-    mine = cs_a - front[:, None]
-    theirs = cs_b - 1.0 - (s_b + lb / 2)
+    crossing = visible & fixed.crosses
+    mine = fixed.cs_a - front[:, None]
+    sb_front = s_b + fixed.half_lb
+    sb_rear = s_b - fixed.half_lb
+    theirs = fixed.cs_b_less_1 - sb_front
     ahead_both = crossing & (mine > 0) & (theirs > 0)
-    tta_b = theirs / np.maximum(v_b, 0.1)
-    prio = batch.priority.transpose(1, 2, 0)[observer, others] & visible
-    sb_front = s_b + lb / 2
-    sb_rear = s_b - lb / 2
-    clear_zone = wa[:, None] / 2 + 1.0
-    occupied = prio & (sb_front > cs_b - clear_zone) & (sb_rear < cs_b + clear_zone)
-    approaching = prio & (sb_front <= cs_b - clear_zone)
-    tta = (cs_b - clear_zone - sb_front) / np.maximum(v_b, 0.1)
-    relevant = prio & (mine > -wb / 2)
+    v_b_min = np.maximum(v_b, 0.1)
+    tta_b = theirs / v_b_min
+    prio = fixed.prio & visible
+    occupied = prio & (sb_front > fixed.zone_start) & (sb_rear < fixed.zone_end)
+    approaching = prio & (sb_front <= fixed.zone_start)
+    tta = (fixed.zone_start - sb_front) / v_b_min
+    relevant = prio & (mine > fixed.minus_half_wb)
     accel_b = acc[others]
 
     shape = x.shape  # (A, V)
@@ -351,10 +379,10 @@ def _observe_all(batch: batch_setup.BatchSetup, state: State, geo: Geometry, t: 
     yield_occ = occupied.any(axis=1)
     curvature, curve_speed = routes.curve_lookahead(r, s, v)
     seen = np.ones((n_a, n_a) + shape[1:], dtype=bool)  # (A, B, V): an actor always sees itself
-    seen[observer, others] = visible
+    seen[fixed.observer, others] = visible
     others_x = np.where(seen, x[None], np.nan).transpose(0, 2, 1)
     others_y = np.where(seen, y[None], np.nan).transpose(0, 2, 1)
-    route_remaining = routes.length[r] - s
+    route_remaining = fixed.route_length - s
     dt = batch.settings.dt
     return [Observation(
         t=t, dt=dt, x=x[a], y=y[a], yaw=yaw[a], speed=v[a],
@@ -373,12 +401,12 @@ def _observe_all(batch: batch_setup.BatchSetup, state: State, geo: Geometry, t: 
 
 
 def _move(batch: batch_setup.BatchSetup, state: State, accel_cmd: np.ndarray, lat_cmd: np.ndarray, dt: float,
-          t_next: float, accel_max, brake_max, steer_max, steer_rate, speed_max, wheelbase) -> None:
+          t_next: float, accel_max, brake_max, steer_max, steer_rate, speed_max, wheelbase, lateral_rate) -> None:
     routes, r = batch.routes, batch.route
     frozen = state.gone | state.free
     state.prev_x, state.prev_y, state.prev_yaw = state.x.copy(), state.y.copy(), state.yaw.copy()
     # lateral reference moves toward the command at a bounded rate
-    rate = batch.lateral_rate[None, :] * dt
+    rate = lateral_rate[None, :] * dt
     state.d_ref += np.clip(lat_cmd - state.d_ref, -rate, rate)
     lookahead = pursuit_lookahead(state.v)
     tx, ty, tyaw = routes.point(r, state.s + lookahead)

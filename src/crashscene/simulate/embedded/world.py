@@ -16,6 +16,7 @@ from crashscene.geometry import wrap_angle
 from crashscene.simulate.roads import MANEUVER_CODES, ROUTE_DS, Route
 
 CONTROL_CODES = {"none": 0, "signal": 1, "stop": 2, "yield": 3}
+LOOKAHEAD_FRACTIONS = np.linspace(0.0, 1.0, 12)  # [-] where curve_lookahead samples the road ahead (every step)
 
 
 @dataclass
@@ -171,7 +172,7 @@ class RouteArrays:
         2.5 m/s2 lateral and 2 m/s2 braking over that distance plus the braking distance), one gather."""
         near = np.maximum(20.0, 3.0 * v)
         reach = near + v * v / 4.0
-        dist = reach[..., None] * np.linspace(0.0, 1.0, n)
+        dist = reach[..., None] * (LOOKAHEAD_FRACTIONS if n == len(LOOKAHEAD_FRACTIONS) else np.linspace(0.0, 1.0, n))
         f = np.clip((s[..., None] + dist) * (1.0 / ROUTE_DS), 0.0, self.curvature.shape[1] - 1)
         flat = np.asarray(r)[..., None] * self.curvature.shape[1] + f.astype(np.int64)
         if not hasattr(self, "_flat_kappa"):
