@@ -193,7 +193,7 @@ def test_a_searched_skid_rotation_reaches_the_plan(tmp_path):
 
 @pytest.mark.slow
 def test_a_searched_model_index_picks_the_vehicle_model(tmp_path):
-    """In a search's program V2's model is `npc1_MODEL_INDEX`'s integer part in the pool, shortest first: in Scenic's
+    """In a search's program V2's model is `npc1_MODEL_INDEX`'s integer part in the pool, smallest first: in Scenic's
     own sampler (the reference), in the compiled one, and in the pinned scenes of a search."""
     from crashscene.dsl import load_file
     from crashscene.render import render
@@ -214,4 +214,5 @@ def test_a_searched_model_index_picks_the_vehicle_model(tmp_path):
     unit[:, space.names.index("npc1_MODEL_INDEX")] = (np.arange(len(pool)) + 0.5) / len(pool)
     scenes = PinnedScenes(rendered.program, space)(space.values(unit), 0, 0)
     assert [s.actors[1].blueprint for s in scenes] == pool
-    assert [s.actors[1].length for s in scenes] == sorted(s.actors[1].length for s in scenes)
+    areas = [s.actors[1].length * s.actors[1].width for s in scenes]
+    assert areas == sorted(areas)

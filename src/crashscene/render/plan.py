@@ -419,7 +419,7 @@ def search_parameters(plan: RenderPlan, actor: ActorPlan, prefix: str,
                     "[s] test mode: pulls out when the ADS is this far in time from the conflict point"))
     if len(actor.blueprints) > 1:
         out.append((f"{prefix}_MODEL_INDEX", Range(low=0.0, high=float(len(actor.blueprints))),
-                    "[-] vehicle model: the pool, shortest first, at the integer part of the value"))
+                    "[-] vehicle model: the pool, smallest first, at the integer part of the value"))
     if is_ads and Sign.TRAFFIC_LIGHT.value in plan.traffic_signs \
             and plan.topology in (RoadType.INTERSECTION.value, RoadType.T_INTERSECTION.value):
         out.append(("SIGNAL_GREEN_REMAINING", Range(low=SIGNAL_GREEN[0], high=SIGNAL_GREEN[1]),
@@ -428,9 +428,10 @@ def search_parameters(plan: RenderPlan, actor: ActorPlan, prefix: str,
 
 
 def model_pool(blueprints: list[str]) -> list[str]:
-    """A blueprint pool ordered by size (length, then width [m]) as a search's `<prefix>_MODEL_INDEX` indexes it,
-    so that neighbouring values are similar vehicles."""
-    return sorted(blueprints, key=lambda bp: (BLUEPRINT_DIMS[bp], bp))
+    """A blueprint pool ordered by footprint area [m2] (its size lengthwise and crosswise at once: a longer or a
+    wider body meets another vehicle's path earlier), as a search's `<prefix>_MODEL_INDEX` indexes it, so that
+    neighbouring values are vehicles of similar size."""
+    return sorted(blueprints, key=lambda bp: (BLUEPRINT_DIMS[bp][0] * BLUEPRINT_DIMS[bp][1], bp))
 
 
 def placement_order(actors: list[ActorPlan]) -> list[ActorPlan]:
