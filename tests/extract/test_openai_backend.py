@@ -206,3 +206,17 @@ def test_price_table() -> None:
     inp, cached, out = price_for("gpt-4o-mini")
     usage = Usage(prompt_tokens=1000, cached_tokens=600, completion_tokens=100)
     assert ChatBackend().cost(usage) == pytest.approx((400 * inp + 600 * cached + 100 * out) / 1e6)
+
+
+def test_review_checks_the_oracle_by_convention_9_and_revision_restores_it(tmp_path: Path) -> None:
+    folder = tmp_path / "121520"  # V1 turned left across the oncoming V2 (CVC_21801)
+    folder.mkdir()
+    (folder / "narrative.txt").write_text((EXAMPLES / "121520" / "narrative.txt").read_text())
+    Image.new("RGB", (64, 48), "white").save(folder / "sketch.png")
+    draft = golden_reply("121520")
+    draft["oracle"] = [entry for entry in draft["oracle"] if entry["code"] != "CVC_21801"]
+    with FakeOpenAI([reply(draft), reply(golden_reply("121520"))]) as server:
+        result = extract_case(folder, options=options(server, revise=True))
+        remarks = server.requests[1]["messages"][-1]["content"]
+    assert "CVC_21801 left_turn_yield is missing" in remarks
+    assert "CVC_21801" in {entry.code for entry in result.scenario.oracle}

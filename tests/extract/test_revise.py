@@ -123,3 +123,52 @@ def test_crash_sequence_is_checked_against_the_impact_sentences() -> None:
     assert any(f.path == "collisions[0]" and "front of V2 struck the right side of V1" in f.message for f in found)
     found = review(scenario.model_copy(update={"collisions": []}), narrative)
     assert any(f.path == "collisions" and "describe 1" in f.message for f in found)
+
+
+# ---------------------------------------------------------------- convention 9 beyond behaviours and rear ends
+
+def _drop_oracle(scenario):
+    evidence = {key: quote for key, quote in scenario.evidence.items() if not key.startswith("oracle")}
+    return scenario.model_copy(update={"oracle": [], "evidence": evidence})
+
+
+def _synthetic(narrative: str):
+    from crashscene.extract.case_input import Report
+    from crashscene.extract.rules import extract_rules
+
+    return extract_rules(Report(case_id="t", narrative=narrative, source=Path("t.txt")), [])
+
+
+def test_an_overtake_into_a_contact_needs_the_wrong_side_code() -> None:
+    scenario, narrative = golden("3-C2-2017-004")  # V1 passed through the opposing lane
+    found = [f.message for f in review(_drop_oracle(scenario), narrative) if f.path == "oracle"]
+    assert any("overtakes" in m and "CVC_21650" in m for m in found), found
+
+
+def test_a_left_turn_into_an_oncoming_actor_needs_the_left_turn_code() -> None:
+    scenario, narrative = golden("121520")
+    assert any("turns left across the oncoming" in f.message and "CVC_21801" in f.message
+               for f in review(_drop_oracle(scenario), narrative))
+    assert not any("CVC_21801" in f.message for f in review(scenario, narrative))
+
+
+UNCONTROLLED = ("V1 was traveling east on a two-lane, two-way road approaching a four-leg intersection without "
+                "traffic controls. V2 was traveling north on the intersecting road. V2 failed to yield and entered "
+                "the intersection. The front of V2 struck the left side of V1.")
+
+
+def test_crossing_at_a_junction_without_devices_needs_the_right_of_way_code() -> None:
+    scenario = _synthetic(UNCONTROLLED)
+    assert {(e.code, e.actor) for e in scenario.oracle} == {("CVC_21800", "npc1")}
+    assert not any("CVC_21800" in f.message for f in review(scenario, UNCONTROLLED))
+    found = review(_drop_oracle(scenario), UNCONTROLLED)
+    assert any(f.path == "oracle" and "CVC_21800" in f.message and "without devices" in f.message for f in found)
+
+
+def test_a_stated_red_light_needs_its_code_for_the_actor_it_is_about() -> None:
+    narrative = UNCONTROLLED.replace("without traffic controls", "controlled by traffic signals").replace(
+        "V2 failed to yield and entered the intersection", "The driver of V2 ran the red light")
+    scenario = _synthetic(narrative)
+    assert ("CVC_21453", "npc1") in {(e.code, e.actor) for e in scenario.oracle}
+    found = [f.message for f in review(_drop_oracle(scenario), narrative) if f.path == "oracle"]
+    assert any("states red_light for npc1" in m and "CVC_21453" in m for m in found), found

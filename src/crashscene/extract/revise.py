@@ -146,9 +146,12 @@ def review(scenario: Scenario, narrative: str, facts: Sequence[str] = ()) -> lis
     found += _environment_findings(scenario, text, sketch)
     found += _road_findings(scenario, text, sketch)
     found += _actor_findings(scenario, text, sketch)
+    reading = _rules_reading(narrative)
     found += _oracle_findings(scenario)
     found += _sequence_findings(scenario)
-    found += _collision_findings(scenario, narrative)
+    found += _junction_findings(scenario)
+    found += _stated_cause_findings(scenario, reading)
+    found += _collision_findings(scenario, reading)
     found += [Finding(d.path, d.message) for d in check(scenario) if d.severity == Severity.WARNING
               and "evidence" not in d.path]
     return found
@@ -328,14 +331,87 @@ def _heading(s: Scenario, name: str) -> Heading | None:
     return actor.position.heading if actor is not None else None
 
 
-def _collision_findings(s: Scenario, narrative: str) -> list[Finding]:
-    """The draft's crash sequence against the report's impact sentences, as the rules backend reads them."""
+def _rules_reading(narrative: str) -> Scenario | None:
+    """The narrative as the rules backend reads it (no sketch), or None when it cannot."""
     from crashscene.extract.case_input import Report
     from crashscene.extract.rules import extract_rules
 
     try:
-        reading = extract_rules(Report(case_id="review", narrative=narrative, source=Path("narrative")), [])
+        return extract_rules(Report(case_id="review", narrative=narrative, source=Path("narrative")), [])
     except ExtractError:
+        return None
+
+
+# headings as angles from the ego's direction of travel [deg]: from_left travels towards the ego's right
+_HEADING_ANGLE = {Heading.SAME_DIRECTION: 0, Heading.FROM_RIGHT: 90, Heading.OPPOSITE_DIRECTION: 180,
+                  Heading.FROM_LEFT: 270}
+_DEVICES = {Sign.STOP_SIGN, Sign.YIELD_SIGN, Sign.TRAFFIC_LIGHT}
+
+
+def _crossing_angle(s: Scenario, one: str, two: str) -> int | None:
+    """The angle between two actors' directions of travel [deg, 0..180], None when a heading is unknown."""
+    a, b = _heading(s, one), _heading(s, two)
+    if a is None or b is None:
+        return None
+    delta = abs(_HEADING_ANGLE[a] - _HEADING_ANGLE[b]) % 360
+    return min(delta, 360 - delta)
+
+
+def _junction_findings(s: Scenario) -> list[Finding]:
+    """Convention 9 at a junction and on the opposing lanes, from the draft's own manoeuvres, devices and contacts:
+    an overtake enters the opposing lanes (CVC_21650); a left turn into an oncoming actor (CVC_21801, unless a red
+    light was run: the turn had the arrow); an angle contact between crossing actors at a junction without devices
+    (CVC_21800 for the actor without priority)."""
+    found = []
+    codes = {(entry.code, entry.actor) for entry in s.oracle}
+    for name, actor in s.actors.items():
+        if actor.behavior == Behavior.OVERTAKE and ("CVC_21650", name) not in codes:
+            found.append(Finding("oracle", f"{name} overtakes through the opposing lanes into a contact: CVC_21650 "
+                                 "wrong_side is missing (convention 9: entering the opposing lanes)"))
+    junction = s.road_network.road_type in (RoadType.INTERSECTION, RoadType.T_INTERSECTION)
+    ran_red = any(entry.code == "CVC_21453" for entry in s.oracle)
+    signs = set(s.road_network.traffic_signs)
+    for index, contact in enumerate(s.collisions or []):
+        pair = (contact.striking, contact.struck)
+        if not junction or any(name not in s.actors for name in pair):
+            continue
+        angle = _crossing_angle(s, *pair)
+        for turner, other in (pair, pair[::-1]):
+            if s.actors[turner].behavior == Behavior.TURN_LEFT and angle == 180 and not ran_red and \
+                    ("CVC_21801", turner) not in codes:
+                found.append(Finding("oracle", f"collisions[{index}]: {turner} turns left across the oncoming "
+                                     f"{other}: CVC_21801 left_turn_yield is missing (convention 9)"))
+        if contact.class_.value == "angle" and angle == 90 and not signs & _DEVICES and \
+                not any(code in ("CVC_21800", "CVC_21804") and actor in pair for code, actor in codes):
+            found.append(Finding("oracle", f"collisions[{index}]: {pair[0]} and {pair[1]} cross at a junction "
+                                 "without devices: CVC_21800 intersection_right_of_way for the one without priority "
+                                 "(the one the report says failed to yield, else the one with the other on its "
+                                 "right) is missing (convention 9)"))
+    return found
+
+
+# codes the narrative's cause statements give (issue 11's list: "ran the red light", "failed to stop", "speeding")
+_STATED_CODES = ("CVC_21453", "CVC_22450", "CVC_22349")
+
+
+def _stated_cause_findings(s: Scenario, reading: Scenario | None) -> list[Finding]:
+    """Convention 9 codes the report's cause statements give, as the rules backend reads them, that the draft lacks
+    for the same actor (red light, no stop at a stop sign, stated speeding)."""
+    if reading is None:
+        return []
+    codes = {(entry.code, entry.actor) for entry in s.oracle}
+    found = []
+    for index, entry in enumerate(reading.oracle):
+        if entry.code in _STATED_CODES and (entry.code, entry.actor) not in codes and entry.actor in s.actors:
+            quote = reading.evidence.get(f"oracle[{index}]", "")
+            found.append(Finding("oracle", f"the report states {entry.violation} for {entry.actor}"
+                                 + (f" ({quote!r})" if quote else "") + f": {entry.code} is missing (convention 9)"))
+    return found
+
+
+def _collision_findings(s: Scenario, reading: Scenario | None) -> list[Finding]:
+    """The draft's crash sequence against the report's impact sentences, as the rules backend reads them."""
+    if reading is None:
         return []
     expected = reading.collisions or []
     drafted = s.collisions or []

@@ -20,6 +20,14 @@ were generalised (merged into the rule they are a case of), cited (their convent
 Issue 11's first rules were written looking at folds 0, 1 and 2 of `--folds 4` only, sparing fold 3 (105203,
 109525, 3-C1-2017-001, 3-C1-2017-006, 3-C2-2017-002, 3-C2-2018-008, 3-C4-2017-002, 3-C4-2017-004, 3-C4-2018-015);
 later rules name their own cases, fold 3's included, and `--held-out` replaces the spared fold.
+
+Session 5 extended the test for what counts as a convention rule, and wrote it down (below, `THE_TEST`, and
+`tests/extract/test_extended_conventions.py`) before measuring anything: the normative specs are dsl.md AND
+rules.md, whose rulebook defines each code's trigger in its own words. Every case-written rule on the oracle's path
+was then judged against it by its wording alone (`EXTENDED_TEST_DECISIONS`, each decision written before the held-out
+table was measured again); rules whose wording mixes both kinds were split, the spec-worded part becoming a
+convention rule (`SPEC_QUOTED_CONVENTIONS`, each citing the spec's words verbatim; a test finds them in the copy of
+the specs under `tests/data/spec/`).
 """
 from __future__ import annotations
 
@@ -98,10 +106,9 @@ CONVENTION_RULES: dict[str, str] = {
 
 # the first round's rules written from the reports: measured sources (see above)
 ROUND_ONE_SOURCES: dict[str, tuple[str, ...]] = {
-    "rules_behavior.more_crossing_phrases": ('117330', '3-C2-2017-002'),
     "rules_behavior.shoulder_is_leaving_the_road": ('3-C1-2017-001', '3-C4-2018-015'),
     "rules_behavior.unoccupied_is_parked": (),
-    "rules_behavior.veering_into_a_lane": ('100343', '3-C4-2018-010'),
+    "rules_behavior.veering_into_a_lane": ('100343', '3-C2-2017-002', '3-C4-2018-010'),
     "rules_behavior.waiting_is_stopped": (),
     "rules_behavior.waiting_to_turn_is_a_stop": ('120013', '3-C2-2018-008'),
     "rules_environment.more_condition_words": ('3-C4-2018-010', '3-C4-2018-015'),
@@ -141,9 +148,9 @@ LATER_SOURCES: dict[str, tuple[str, ...]] = {
     "rules_collisions.noun_impact_is_not_a_contact": ("3-C1-2018-003", "3-C5-2018-004"),
     # rules_road: who an unattributed stop or yield sign controls
     "rules_road.attribute_signs": ("100237", "117021"),
-    # rules_oracle: rear-end codes read from the crash sequence, cause statements by their subject
-    "rules_oracle.sequence_rear_end": ("109176", "120013", "3-C1-2018-003", "3-C1-2018-012", "3-C5-2018-004"),
-    "rules_oracle.cause_statements": ("117330", "119897", "103341"),
+    # rules_oracle.sequence_rear_end (rear-end codes read from the crash sequence; 109176, 120013, 3-C1-2018-003,
+    # 3-C1-2018-012, 3-C5-2018-004) and rules_oracle.cause_statements (cause statements by their subject; 117330,
+    # 119897, 103341) were recorded here; session 5's test found both worded by the specs (EXTENDED_TEST_DECISIONS)
     # written after the record (41685c7, 6332e92) from synthetic narratives, naming no case: they change no
     # bundled case's extraction (tests/extract/test_held_out.py checks it), so they rest on no bundled case
     "rules_collisions.the_two_vehicles_collided": (),
@@ -201,8 +208,108 @@ FROM_THE_HELD_OUT_TABLE: dict[str, str] = {
                                                                   "named centre turn lane counts N - 1",
 }
 
+# session 5: the extended test, fixed before anything was measured (tests/extract/test_extended_conventions.py)
+THE_TEST = """A rule is a convention rule when both what it reads (its trigger words, or facts the extractor has
+already decided) and the value it gives are stated in a normative spec, up to inflection, spelling (centre/center),
+hyphenation, articles and the qualifier that decides between two codes the spec itself names (left of "double
+solid" centre lines is CVC_21460, left of the centre line CVC_21650). The normative specs are:
+- dsl.md sections 2, 3 and 5 (grammar, meaning of each field, the conventions);
+- rules.md, the rulebook: its table (each code's requirement and its quantitative check) and its paragraphs on
+  collisions and reproduction; the rulebook defines each code's trigger in its own words;
+- issue 11's list of impact formulas and cause statements.
+A value may be reached through a chain in which every link is a stated sentence: rules.md states what a code
+forbids, dsl.md convention 9 gives the code of a manoeuvre, device or contact, dsl.md section 3 names the manoeuvre.
+Not enough, however close: a word the specs do not use (veer, swerve, steer, encroach, the shoulder as leaving the
+road, waiting), a phrase read in a report, a heuristic (the sketch label drawn nearest a sign), a rule's score.
+The decision is made on the wording alone, before the rule's held-out effect is measured. A rule whose wording
+mixes both kinds is split: its spec-worded part becomes a convention rule citing the spec's words verbatim
+(SPEC_QUOTED_CONVENTIONS), the rest stays recorded with the cases it was written from."""
+
+# session 5: convention rules by the extended test, each citing the spec's words verbatim (file: "quote"; a test
+# finds every quote in tests/data/spec/) and tested on a synthetic narrative
+SPEC_QUOTED_CONVENTIONS: dict[str, str] = {
+    "rules_behavior.rulebook_crossing_words":
+        'rules.md CVC_21460: "never drive left of double solid centre lines", "beyond a double solid centre line"; '
+        'rules.md CVC_21650: "in a lane of the opposite direction"; rules.md CVC_21650\'s token: "wrong_side"; '
+        'dsl.md section 3 cross_centerline: "enters the opposing lanes"; dsl.md convention 9: "Entering the opposing '
+        'lanes -> CVC_21650"; dsl.md convention 3: "crosses into the opposing carriageway"',
+    "rules_road.sign_controls_by_the_spec":
+        'rules.md CVC_21800: "at an intersection without signals or with all-way stops"; dsl.md convention 9: '
+        '"no stop at a stop sign -> CVC_22450", "a yield sign not obeyed -> CVC_21803"; rules.md CVC_21802: "after '
+        'stopping at a stop sign, yield to traffic on the through road"; dsl.md convention 8: "stopped at a sign '
+        'then went straight"; dsl.md section 3: "if no actor names it, it controls the ego\'s approach"; issue 11\'s '
+        'cause statements "failed to stop", "failed to yield"',
+    "rules_collisions.spec_impact_formula":
+        'dsl.md convention 11: "the front of V2 struck the right side of V1", "sideswiped", "A vehicle struck in the '
+        'rear by a second vehicle", "keep the report\'s wording (V1 striking)"; issue 11\'s impact formulas',
+    "rules_oracle.sequence_rear_end":
+        'dsl.md convention 9: "striking a moving vehicle ahead -> CVC_21703", "a stopped one -> CVC_22350", read '
+        'from the crash sequence of dsl.md convention 11 ("the contacts between actors, in the order they happen")',
+    "rules_oracle.cause_statements":
+        'dsl.md section 3 oracle: "each attributed to the actor that committed it"; dsl.md convention 9: "too fast '
+        'for conditions", "stated speeding"; issue 11\'s statements "failed to stop", "too fast"',
+}
+
+# measured after these decisions were committed (`crashscene eval --gold examples/ciren --held-out --folds 4`):
+# held-out oracle recall 77.5% -> 85.0% (precision 83.8% -> 81.0%), overall 94.1% -> 94.7%, collisions 25.6% ->
+# 71.8%; the bundled extraction is byte for byte the same. Giving sequence_rear_end and cause_statements their
+# session-2 sources back leaves recall at 85.0% (precision 82.9%): the recall comes from the three splits. One
+# judgement was made after a measurement (of sources, not of scores): the remainder of more_crossing_phrases fired on
+# one case, and was merged into veering_into_a_lane.
+
+# session 5: every case-written rule on the oracle's path (manoeuvres, devices, the crash sequence, the oracle)
+# judged against THE_TEST by its wording, written before the held-out table was measured again
+EXTENDED_TEST_DECISIONS: dict[str, str] = {
+    "rules_behavior.veering_into_a_lane":
+        "stays: veer, move, steer, swerve are not the specs' words; 'drift' is (dsl.md section 3), but only for the "
+        "opposing lanes, which the convention rule centre_line_crossing_words already reads ('into the southbound "
+        "lane' while northbound); a drift into a lane of the same direction is a lane change nowhere in the specs. "
+        "It also holds what is left of the first round's more_crossing_phrases (sources 117330, 3-C2-2017-002), "
+        "split: 'left of center' is rules.md's 'left of ... centre lines' (CVC_21460/21650), moved to "
+        "rules_behavior.rulebook_crossing_words with the specs' other words for the same concept; 'encroached into "
+        "V2's lane' (rules.md has only 'post-encroachment time', a metric) and 'against the flow' are not the "
+        "specs' words. Re-measured, they fired on one case alone (3-C2-2017-002), so they were merged here, into the "
+        "reports' other words for moving into a lane, rather than kept as a rule resting on one case",
+    "rules_behavior.shoulder_is_leaving_the_road":
+        "stays: the specs name the shoulder only as a lane not counted (dsl.md convention 3), never as leaving the "
+        "road",
+    "rules_behavior.waiting_to_turn_is_a_stop":
+        "stays: 'stopped and not proceeding' is convention 8, but the trigger ('waiting', 'preparing', 'intending' "
+        "to turn) is not the specs' words",
+    "rules_vehicles.avoidance_is_not_the_manoeuvre":
+        "stays: 'avoid' is not the specs' word",
+    "rules_road.attribute_signs":
+        "split: an all-way stop controls every approach (rules.md CVC_21800), the vehicle stated as failing to stop "
+        "or yield or as stopped at the sign is the one it controls (issue 11's statements, conventions 8 and 9, "
+        "rules.md CVC_21802), and a sign no vehicle is tied to controls V1's approach (dsl.md section 3): moved to "
+        "rules_road.sign_controls_by_the_spec; the sketch label drawn nearest the sign, and the phrasings 'did not "
+        "yield/stop/see/observe', 'without stopping', 'ran the', 'disregarded the', stay here",
+    "rules_collisions.impact_formula":
+        "split: contacts read with 'struck' (and 'sideswiped'), dsl.md convention 11's own formula, moved to "
+        "rules_collisions.spec_impact_formula; the other verbs (impacted, contacted, hit, rear-ended, collided with, "
+        "crashed into, ran into) stay here",
+    "rules_collisions.possessive_and_with_its":
+        "stays: 'V1's frontal plane', 'with its frontal plane' are not the formula's words",
+    "rules_collisions.collided_head_on_at_fault":
+        "stays: 'head-on' is a class word of the specs, but the striker as the vehicle at fault is not stated",
+    "rules_collisions.corner_by_configuration": "stays: areas from the configuration are not stated",
+    "rules_collisions.event_numbers_and_merge":
+        "stays: 'Event 2' is issue 11's, but the merge of repeated readings of one contact is not stated; not split "
+        "this session",
+    "rules_collisions.noun_impact_is_not_a_contact": "stays: not stated (it narrows what is read)",
+    "rules_oracle.sequence_rear_end":
+        "reclassified as a convention rule: it reads the crash sequence (convention 11) and gives convention 9's "
+        "codes for striking a vehicle ahead, moving (CVC_21703) or stopped (CVC_22350); written in session 2 looking "
+        "at 109176, 120013, 3-C1-2018-003, 3-C1-2018-012, 3-C5-2018-004",
+    "rules_oracle.cause_statements":
+        "reclassified as a convention rule: the statements are the specs' (issue 11, convention 9) and the rule "
+        "attributes each to the vehicle that committed it (dsl.md section 3), the clause's acting vehicle; written in "
+        "session 2 looking at 117330, 119897, 103341",
+}
+
 RULE_SOURCES: dict[str, tuple[str, ...]] = {**ROUND_ONE_SOURCES, **{rule: () for rule in CONVENTION_RULES},
-                                            **LATER_SOURCES, **{rule: () for rule in FROM_THE_HELD_OUT_TABLE}}
+                                            **LATER_SOURCES, **{rule: () for rule in FROM_THE_HELD_OUT_TABLE},
+                                            **{rule: () for rule in SPEC_QUOTED_CONVENTIONS}}
 
 # sessions 2 and 3: written from dsl.md section 5 and synthetic narratives, not from bundled cases: they name no
 # case, or only the cases they were corrected on after `crashscene eval --held-out` showed a loss there (those
@@ -210,7 +317,8 @@ RULE_SOURCES: dict[str, tuple[str, ...]] = {**ROUND_ONE_SOURCES, **{rule: () for
 FROM_SYNTHETIC = frozenset(rule for rule, cases in LATER_SOURCES.items() if len(cases) < 2) | {
     "rules_road.marker_phrasings"}
 # every rule written from the spec rather than from a case: the first round's convention rules and FROM_SYNTHETIC
-FROM_CONVENTIONS = FROM_SYNTHETIC | frozenset(CONVENTION_RULES) | frozenset(FROM_THE_HELD_OUT_TABLE)
+FROM_CONVENTIONS = FROM_SYNTHETIC | frozenset(CONVENTION_RULES) | frozenset(FROM_THE_HELD_OUT_TABLE) | \
+    frozenset(SPEC_QUOTED_CONVENTIONS)
 # the first round's case-written rules that fire on no bundled case today: no bundled figure depends on them
 FIRES_ON_NO_BUNDLED_CASE = frozenset(rule for rule, cases in ROUND_ONE_SOURCES.items() if not cases)
 

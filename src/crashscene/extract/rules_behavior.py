@@ -32,9 +32,18 @@ _CROSS_SPEC = _any(
     r"drift(?:ed|ing)? (?:across|over) the cent",
     r"into (?:the )?(?:path of )?oncoming traffic",
     r"in the wrong direction")
-_CROSS_MORE = _any(r"left[- ]of[- ]cent(?:er|re)", r"encroach\w* (?:\w+ ){0,2}into V[1-9]'s (?:travel )?lane",
-                   r"against the flow")  # read in the reports
-_CROSS = _any(_CROSS_SPEC, _CROSS_MORE)
+# rules.md's own words for the same concept (CVC_21460 "left of double solid centre lines", "beyond a double solid
+# centre line"; CVC_21650 "in a lane of the opposite direction", wrong_side) and dsl.md's "enters the opposing
+# lanes", "crosses into the opposing carriageway"
+_CROSS_RULEBOOK = _any(
+    r"left[- ]of[- ](?:the\s+)?(?:double\s+solid\s+)?cent(?:er|re)",
+    r"beyond (?:the|a) (?:double\s+solid\s+)?cent(?:er|re)[- ]?lines?",
+    r"\b(?:in|into|entered|entering|enters) (?:a|an|the) lanes? of the opposite direction",
+    r"\bwrong[- _]side of the (?:road|roadway|street|highway)",
+    r"\bent(?:er|ers|ered|ering) the opposing lanes?",
+    r"\binto the opposing carriageway")
+_CROSS_MORE = _any(r"encroach\w* (?:\w+ ){0,2}into V[1-9]'s (?:travel )?lane", r"against the flow")  # read in reports
+_CROSS = _any(_CROSS_SPEC, _CROSS_RULEBOOK, _CROSS_MORE)
 _LEAVE_SPEC = _any(
     r"(?:depart(?:ed|ing|s)?|exit(?:ed|ing|s)?|ran|run|running|drove|went|veered|travel(?:ed|led)?)\s+(?:off\s+)?"
     r"(?:of\s+)?the\s+(?:left|right|north|south|east|west)?\s*(?:side|edge)\s+of\s+the\s+"
@@ -91,7 +100,8 @@ _PARKED_APPOSITION = r"|\b{label},\s+an?\s+(?:[\w-]+\s+){{0,3}}?(?:parked|unoccu
 PHRASES = (
     ("rules_behavior.lose_control_words", _LOSE, "lose_control"),
     ("rules_behavior.centre_line_crossing_words", _CROSS_SPEC, "cross_centerline"),
-    ("rules_behavior.more_crossing_phrases", _CROSS_MORE, "cross_centerline"),
+    ("rules_behavior.rulebook_crossing_words", _CROSS_RULEBOOK, "cross_centerline"),
+    ("rules_behavior.veering_into_a_lane", _CROSS_MORE, "cross_centerline"),  # the reports' moves into a lane
     ("rules_behavior.run_off_road_words", _LEAVE_SPEC, "leave_road"),
     ("rules_behavior.shoulder_is_leaving_the_road", _LEAVE_MORE, "leave_road"),
     ("rules_behavior.overtake_words", _OVERTAKE, "overtake"),

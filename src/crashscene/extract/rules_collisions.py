@@ -31,9 +31,10 @@ AREA = rf"{_PART}(?:[\s-]+{_PART}){{0,4}}"
 _AREA_OF = rf"(?:the\s+)?(?P<area>{AREA})\s+of\s+(?:(?:a|an|the)\s+[^.()]{{0,60}}?\(\s*)?(?P<label>V[1-9])\b"
 _POSSESSIVE = rf"(?P<label>V[1-9])'s?\s+(?P<area>{AREA})"
 _BARE = r"(?P<label>V[1-9])\b"
-_VERB = (r"\b(?:struck|strikes?|striking|impacted|impacting|contacted|contacting|hit|hitting|rear-ended|"
-         r"sideswiped|collided\s+with|crashed\s+into|ran\s+into)\b")
-_VERB_OR_NOUN = _VERB[:-3] + r"|impacts?)\b"  # the noun too: the switched-off form of one rule
+_SPEC_VERBS = r"struck|strikes?|striking|sideswiped"  # dsl.md convention 11's formula ("the front of V2 struck ...")
+_MORE_VERBS = (r"impacted|impacting|contacted|contacting|hit|hitting|rear-ended|collided\s+with|crashed\s+into|"
+               r"ran\s+into")  # read in the reports
+_VERB = rf"\b(?:{_SPEC_VERBS}|{_MORE_VERBS})\b"
 _CLASS_WORDS = (
     ("head_on", r"head[- ]on|offset[- ]frontal|frontal[- ](?:to[- ]frontal|offset)|front[- ]to[- ]front"),
     ("rear_end", r"rear[- ]end(?:ed)?|front[- ]to[- ](?:rear|back)"),
@@ -115,11 +116,14 @@ def decide_collisions(state: RulesState, actors: dict) -> list[dict]:
 def _contacts(state: RulesState) -> list[Contact]:
     text = state.t.text
     found: list[Contact] = []
-    formulas = state.uses("rules_collisions.impact_formula")
+    verbs = [_SPEC_VERBS] if state.uses("rules_collisions.spec_impact_formula") else []
+    if state.uses("rules_collisions.impact_formula"):
+        verbs.append(_MORE_VERBS)
     possessive = state.uses("rules_collisions.possessive_and_with_its")
     # "The impact pushed V1 forward": the noun names the first contact again, not a new one
-    verb = _VERB if state.uses("rules_collisions.noun_impact_is_not_a_contact") else _VERB_OR_NOUN
-    for match in re.finditer(verb, text, re.I) if formulas else ():
+    if verbs and not state.uses("rules_collisions.noun_impact_is_not_a_contact"):
+        verbs.append(r"impacts?")  # the noun too: the switched-off form of one rule
+    for match in re.finditer(rf"\b(?:{'|'.join(verbs)})\b", text, re.I) if verbs else ():
         contact = _active_or_passive(text, match, possessive)
         if contact is not None:
             found.append(contact)

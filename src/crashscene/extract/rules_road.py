@@ -48,8 +48,7 @@ def decide_road_network(state: RulesState) -> dict:
     if road_type in ("intersection", "t_intersection"):
         if state.uses("rules_road.sketch_devices"):
             _sketch_devices(state)
-        if state.uses("rules_road.attribute_signs"):
-            _attribute_signs(state)
+        _attribute_signs(state)
     ways = _ways(state, road_text)
     lanes = count_lanes(state, road_text, ways)
     speed = _speed_limit(state) if state.uses("rules_road.posted_limit") else None
@@ -132,6 +131,8 @@ def _sketch_devices(state: RulesState) -> None:
             state.note("road_network.traffic_signs", f"sketch: {fact}")
 
 
+# issue 11's "failed to stop", "failed to yield"; dsl.md convention 8's "stopped at a sign"
+_SIGN_STATED = r"(?:fail(?:ed|ing|s)? to (?:yield|stop)|\bstopped (?:at|for) the (?:stop|yield) sign)\b"
 _YIELDED = (r"(?:fail(?:ed|ing|s)? to (?:yield|stop|obey|observe)|did not (?:yield|stop|see|observe)|"
             r"\bstopped (?:at|for) the (?:stop|yield)|without (?:stopping|yielding)|(?:ran|disregarded) the)\b")
 
@@ -140,21 +141,30 @@ def _attribute_signs(state: RulesState) -> None:
     """Which approaches an unattributed stop or yield sign controls: an all-way stop controls every one; else
     the vehicle the text says failed to yield or stop (or stopped at the sign); else the vehicle whose label
     the sketch draws nearest to the sign; else V1's (dsl.md section 3: a device no actor names controls the
-    ego's approach)."""
+    ego's approach). Two switches: the spec's words (`sign_controls_by_the_spec`: all-way stops, issue 11's
+    'failed to stop/yield', 'stopped at the stop sign', V1 by default) and the rest, written from the reports
+    (`attribute_signs`: 'four-way stop', 'did not yield', 'ran the', the sketch's nearest label)."""
+    spec = state.uses("rules_road.sign_controls_by_the_spec")
+    more = state.uses("rules_road.attribute_signs")
+    if not (spec or more):
+        return
     text = state.t.text
-    if "stop_sign" in state.signs and re.search(r"all[- ]way stop|\b(?:four|4)[- ]way stop", text, re.I):
+    all_way = (r"all[- ]way stop" if spec else r"(?!)") + (r"|\b(?:four|4)[- ]way stop" if more else "")
+    if "stop_sign" in state.signs and re.search(all_way, text, re.I):
         state.stop_controlled.update(state.vehicles)
     sequence = state.pre_crash + " " + state.crash_sentence
     for sign, controlled in (("stop_sign", state.stop_controlled), ("yield_sign", state.yield_controlled)):
         if sign not in state.signs or controlled:
             continue
-        for match in re.finditer(_YIELDED, sequence, re.I):
+        for match in re.finditer(_YIELDED if more else _SIGN_STATED, sequence, re.I):
             label = label_at(sequence, match.start())
             if label in state.vehicles:
                 controlled.add(label)
                 break
         else:
-            controlled.add(_nearest_label(state, sign.replace("_", " ")) or "V1")
+            label = (_nearest_label(state, sign.replace("_", " ")) if more else None) or ("V1" if spec else None)
+            if label:
+                controlled.add(label)
 
 
 def _nearest_label(state: RulesState, fact: str) -> str | None:

@@ -12,13 +12,21 @@ import math
 
 import numpy as np
 
-from crashscene.geometry import ANGLE_RANGE, HEAD_ON_MIN, REAR_END_MAX, classify_contact, wrap_angle
+from crashscene.geometry import (
+    ANGLE_RANGE,
+    HEAD_ON_MIN,
+    REAR_END_MAX,
+    classify_contact,
+    footprints_overlap,
+    wrap_angle,
+)
 from crashscene.simulate.embedded import impact
 
 DT = 0.05  # [s] integration step of the prediction
 HORIZON = 4.0  # [s] how long after the impact the pushed car is followed
 CORNER = 0.4  # [-] the striker's centre is this fraction of the struck car's width off its centre line
 CORNERS = (0.3, 0.4, 0.5, 0.6)  # [-] the fractions a plan chooses among where it can predict the push well
+SEPARATE_STEPS = 2  # [-] the two bodies of a nearly plastic impact may still touch this many steps after it
 
 
 def pushed_path(v_striker: float, v_struck: float, side: float, m_striker: float, m_struck: float,
@@ -35,9 +43,10 @@ def pushed_path(v_striker: float, v_struck: float, side: float, m_striker: float
 
 def pushed_paths(v_striker: float, v_struck: float, offsets: np.ndarray, m_striker: float, m_struck: float,
                  l_striker: float, w_striker: float, l_struck: float, w_struck: float, friction: float,
-                 head_on: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                 head_on: bool = False, striker: bool = False):
     """`pushed_path` for several striker centres at once, `offsets` (N,) times the struck car's width to its
-    left: (forward, left, yaw) (N, steps)."""
+    left: (forward, left, yaw) (N, steps); with `striker`, also the striker's own slide after the impact in the
+    same frame, ((forward, left, yaw), (x, y, yaw))."""
     n = len(offsets)
     reach = (l_striker + l_struck) / 2 - 0.05
     xa = np.full(n, reach if head_on else -reach)
@@ -51,10 +60,24 @@ def pushed_paths(v_striker: float, v_struck: float, offsets: np.ndarray, m_strik
     ib = impact.yaw_inertia(mb, l_struck * one, w_struck * one)
     va = np.stack([(-v_striker if head_on else v_striker) * one, 0 * one])
     vb = np.stack([v_struck * one, 0 * one])
-    _, _, vb, wb, _ = impact.exchange(nx, ny, px, py, xa, ya, va, 0 * one, ma, ia, 0 * one, 0 * one, vb,
-                                      0 * one, mb, ib)
-    return slide_path(0 * one, 0 * one, 0 * one, vb[0], vb[1], wb, friction, l_struck * one, w_struck * one, DT,
-                      int(HORIZON / DT))
+    va, wa, vb, wb, _ = impact.exchange(nx, ny, px, py, xa, ya, va, 0 * one, ma, ia, 0 * one, 0 * one, vb,
+                                        0 * one, mb, ib)
+    steps = int(HORIZON / DT)
+    struck = slide_path(0 * one, 0 * one, 0 * one, vb[0], vb[1], wb, friction, l_struck * one, w_struck * one, DT,
+                        steps)
+    if not striker:
+        return struck
+    return struck, slide_path(xa, ya, yaw_a, va[0], va[1], wa, friction, l_striker * one, w_striker * one, DT, steps)
+
+
+def touch_again(struck: tuple[np.ndarray, np.ndarray, np.ndarray], striker: tuple[np.ndarray, np.ndarray, np.ndarray],
+                l_struck: float, w_struck: float, l_striker: float, w_striker: float) -> np.ndarray:
+    """(N, steps) bool: whether the two slides of `pushed_paths(..., striker=True)` have touched again by each step
+    (after the first, while they separate): a second push the prediction of the struck car's path does not hold."""
+    (fb, lb, yb), (xa, ya, yaw_a) = struck, striker
+    touch = footprints_overlap(xa, ya, yaw_a, l_striker, w_striker, fb, lb, yb, l_struck, w_struck)
+    touch[:, :SEPARATE_STEPS] = False
+    return np.logical_or.accumulate(touch, axis=1)
 
 
 def slide_path(x, y, yaw, vx, vy, yaw_rate, friction: float, length, width, dt: float, steps: int):

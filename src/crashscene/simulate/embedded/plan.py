@@ -2,8 +2,8 @@
 manoeuvre triggers, so that the paths conflict as the report says (see `timing` for the kinematics), and the
 signal phase that gives the anchor its green. In reproduce mode also the written crash sequence beyond its
 first contact: the actors of a chain of rear-ends in the written order along their lane, a wrong-way driver in
-its head-on partner's lane, and a cascade, where a third vehicle meets the car the first impact pushes
-(`cascade`).
+its head-on partner's lane, and a cascade, where a third vehicle meets a car the first impact pushes or
+deflects (`cascade`).
 
 Every draw comes from the variation's own generator in a fixed order, so a plan depends only on
 (scenario, seed, variation index).
@@ -43,6 +43,7 @@ CASCADE_LAG = 0.7  # [-] a steering driver follows its lateral reference this mu
 CASCADE_ACROSS = 0.9  # [-] at most this part of the way across is done before the scene starts
 NEAR_ROUTE = 8.0  # [m] a pushed car further than this from a route's centre line cannot meet a car on it
 CASCADE_WINDOW = 0.8  # [s] a later contact's striker arrives up to this long after the pushed car is in its path
+CASCADE_CENTRAL = 10.0  # [deg] a later contact is timed where the predicted heading is this near its most central
 STOP_DECEL = 4.0  # [m/s2] a stopping driver's braking (drivers.behaviors.DECELERATE_RATE)
 STOP_NEAR_JUNCTION = 40.0  # [m] a stopping driver this close to a junction stops at its line
 WRONG_WAY_LEFT = 0.4  # [lanes] a drift across several lanes starts this far short of the partner's lane
@@ -628,15 +629,16 @@ class VariationPlan:
 
     def plan_cascade(self) -> None:
         """A written sequence that starts with an end-on contact (a rear-end into a stopped car, a head-on) and
-        goes on with a third vehicle meeting the struck one: the striker hits the struck car off its centre
-        line, on the side that turns it (the impulse of cascade.pushed_path, the simulator's impact model) so
-        that the third vehicle meets it as the later contact's class says, and the third vehicle is placed to
-        reach the pushed car just after it is in its path (or, with no room behind, slowed and held at its start);
-        a striker steering across (an overtake) is on its corner before the impact (`_settle_before`)."""
+        goes on with a third vehicle meeting the struck one, or the striker: the striker hits the struck car off
+        its centre line, on the side that sends the one the third vehicle meets (the struck car pushed, the striker
+        deflected: the impulse of cascade.pushed_paths, the simulator's impact model) so that the third vehicle
+        meets it as the later contact's class says, and the third vehicle is placed to reach it just after it is
+        in its path (or, with no room behind, slowed and held at its start); a striker steering across (an
+        overtake) is on its corner before the impact (`_settle_before`)."""
         found = self._cascade_actors()
         if found is None:
             return
-        si, ti, xi, first_class, later = found
+        si, ti, mover, xi, first_class, later = found
         head_on = first_class == "head_on"
         arrays, cols = self.ctx.arrays, self.ctx.columns
         impact = self._first_impact(si, ti, head_on)
@@ -646,23 +648,27 @@ class VariationPlan:
         px, py, pyaw = (float(q) for q in arrays.point(np.array(self.route[ti]), np.array(impact_s)))
         x_actor = self.scene.actors[xi]
         _, lat_x = _relative(arrays, self.route[ti], self.s0[ti], x_actor.x, x_actor.y)
-        preferred = -1.0 if lat_x - self.d0[ti] >= 0 else 1.0
+        preferred = -1.0 if lat_x - self.d0[ti] >= 0 else 1.0  # tried first; both sides are tried
         # a car standing still is pushed as predicted: the plan chooses how far off its centre line to hit it; one
         # that is moving (and braking for what it sees coming) is hit at the usual corner
         corners = cascade.CORNERS if v_t == 0.0 else (cascade.CORNER,)
         offsets = np.array([side * c for side in (preferred, -preferred) for c in corners])
-        fwd, left, yaw = cascade.pushed_paths(self.speeds[si], v_t, offsets, cols[si].limits.mass,
-                                              cols[ti].limits.mass, float(self.length[si]), float(self.width[si]),
-                                              float(self.length[ti]), float(self.width[ti]), self.ctx.friction,
-                                              head_on=head_on)
-        best, best_score = None, (-1, -math.inf)
+        (fwd, left, yaw), striker = cascade.pushed_paths(
+            self.speeds[si], v_t, offsets, cols[si].limits.mass, cols[ti].limits.mass, float(self.length[si]),
+            float(self.width[si]), float(self.length[ti]), float(self.width[ti]), self.ctx.friction, head_on=head_on,
+            striker=True)
+        again = cascade.touch_again((fwd, left, yaw), striker, float(self.length[ti]), float(self.width[ti]),
+                                    float(self.length[si]), float(self.width[si]))
+        best, best_score = None, (-1, False, -math.inf)
+        moving = (fwd, left, yaw) if mover == ti else striker
         for j, offset in enumerate(offsets):
-            meeting = self._pushed_meeting(ti, xi, (fwd[j], left[j], yaw[j]), (px, py, pyaw), later)
+            meeting = self._pushed_meeting(mover, xi, tuple(q[j] for q in moving), (px, py, pyaw), later)
             if meeting is None:
                 continue
-            # the written class first, then the side of the struck car it names, then the heading furthest inside
-            # the class's range (the least sensitive to what the plan does not foresee)
-            score = (2 * (meeting[2] == later[0]) + (meeting[3] == later[1]), meeting[5])
+            # the written class first, then the side of the moving car it names, then a push the striker does not
+            # repeat before the meeting (a second push turns the struck car otherwise than predicted), then the
+            # heading furthest inside the class's range (the least sensitive to what the plan does not foresee)
+            score = (2 * (meeting[2] == later[0]) + (meeting[3] == later[1]), not again[j, meeting[0]], meeting[5])
             if score > best_score:
                 best, best_score = (float(offset), *meeting), score
         if best is None:
@@ -751,12 +757,12 @@ class VariationPlan:
     def _pushed_meeting(self, ti: int, xi: int, path: tuple[np.ndarray, np.ndarray, np.ndarray],
                         pose: tuple[float, float, float], later: tuple[str, str]
                         ) -> tuple[int, float, str, str, float, float] | None:
-        """Where the third actor xi meets the struck actor ti pushed along `path` (cascade.pushed_paths: forward,
-        left, yaw in the frame of its `pose` at the impact): (step of the path, station ahead on xi's route [m],
-        the class of that contact, the struck car's area facing xi, its half extent across xi's path [m], how far
-        [deg] its heading is inside the written class's range): the step where that contact has the `later`
-        (class, area) written, else the one nearest a drawn moment in the window after the struck car enters
-        xi's path."""
+        """Where the third actor xi meets actor ti moving along `path` after the impact (cascade.pushed_paths:
+        forward, left, yaw in the frame of the struck car's `pose` at the impact): (step of the path, station
+        ahead on xi's route [m], the class of that contact, ti's area facing xi, its half extent across xi's path
+        [m], how far [deg] its heading is inside the written class's range): the step where that contact has the
+        `later` (class, area) written, else the one nearest a drawn moment in the window after ti enters xi's
+        path."""
         arrays = self.ctx.arrays
         px, py, pyaw = pose
         fwd, left, yaw = path
@@ -785,16 +791,22 @@ class VariationPlan:
         klass = cascade.contact_class(rel[hit])
         area = cascade.facing_area(pyaw + yaw[hit], yaw_x[hit])
         margin = cascade.class_margin(rel[hit], later[0])
+        # the steps with the written class and area (else the nearest to them), and among those the ones whose
+        # heading is near the most central one: a struck car that spins fast is in the class's range only briefly,
+        # and what the prediction does not foresee shifts the moment of contact
+        group = [(klass[h] != later[0], area[h] != later[1]) for h in range(len(hit))]
+        best = min(group)
+        central = max(margin[h] for h in range(len(hit)) if group[h] == best) - CASCADE_CENTRAL
         want = hit[0] + self.draws.cascade[xi] * CASCADE_WINDOW / cascade.DT
-        i = min(range(len(hit)), key=lambda h: (klass[h] != later[0], area[h] != later[1], abs(hit[h] - want)))
+        i = min(range(len(hit)), key=lambda h: (group[h], margin[h] < central, abs(hit[h] - want)))
         k = int(hit[i])
         return k, float(gap[k]), str(klass[i]), str(area[i]), float(extent[k]), float(margin[i])
 
-    def _cascade_actors(self) -> tuple[int, int, int, str, tuple[str, str]] | None:
-        """(striker, struck, third actor, first class, (later class, the struck actor's area in it)) of a
-        written end-on first contact (rear-end
-        into a stopped car, head-on) followed by a contact of the struck actor with a third one that drives
-        freely straight on; else None."""
+    def _cascade_actors(self) -> tuple[int, int, int, int, str, tuple[str, str]] | None:
+        """(striker, struck, the one of them that meets a third actor next, the third actor, first class, (later
+        class, the mover's area in it)) of a written end-on first contact (a rear-end into a stopped car, a
+        head-on) followed by a contact of either of its two actors with a third one that drives freely straight
+        on (the struck car pushed into its path, or the striker deflected into it); else None."""
         seq = self.ctx.contacts
         cols = self.ctx.columns
         roles = [c.role for c in cols]
@@ -802,10 +814,12 @@ class VariationPlan:
                 or not all(r in roles for c in seq for r in c[:2]):
             return None
         si, ti = roles.index(seq[0][0]), roles.index(seq[0][1])
-        for striking, struck, klass, striking_area, _ in seq[1:]:
+        for striking, struck, klass, striking_area, struck_area in seq[1:]:
             pair = {striking, struck}
-            if roles[ti] in pair and roles[si] not in pair:
-                xi = roles.index((pair - {roles[ti]}).pop())
+            if (roles[ti] in pair) != (roles[si] in pair):
+                mover = ti if roles[ti] in pair else si
+                xi = roles.index((pair - {roles[mover]}).pop())
+                later = (klass, struck_area if roles[mover] == struck else striking_area)
                 break
         else:
             return None
@@ -817,8 +831,7 @@ class VariationPlan:
         if seq[0][2] == "head_on" and (cols[ti].is_ads or cols[ti].behavior != "go_forward"
                                        or cols[si].behavior not in ("go_forward", "overtake", "cross_centerline")):
             return None
-        struck_area = next(c[4] for c in seq[1:] if {c[0], c[1]} == {roles[ti], roles[xi]})
-        return si, ti, xi, seq[0][2], (klass, struck_area if roles[ti] == struck else striking_area)
+        return si, ti, mover, xi, seq[0][2], later
 
     def _stop_station(self, a: int) -> float | None:
         """[m] where a stopping (or static) actor stands still: after its trigger and braking, or at its line."""
