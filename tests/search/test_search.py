@@ -103,18 +103,19 @@ def test_a_program_without_its_sampling_plan_is_refused(tmp_path):
 
 
 @pytest.mark.slow
-def test_search_pins_parameters_and_repeats(tmp_path):
+@pytest.mark.parametrize("sampler", ["ce", "cmaes"])
+def test_search_pins_parameters_and_repeats(sampler, tmp_path):
     """A small real search: parameters reach the scenes, outputs are written, the same seed repeats."""
     runner = CliRunner()
     outs = []
     for k in range(2):
         out = tmp_path / f"run{k}"
         result = runner.invoke(app, ["search", str(CASES / "100237" / "golden.yaml"), "--budget", "16",
-                                     "--sampler", "ce", "--seed", "3", "--out", str(out), "--json"])
+                                     "--sampler", sampler, "--seed", "3", "--out", str(out), "--json"])
         assert result.exit_code == 0, result.output
         summary = json.loads(result.output[result.output.index("{"):])
         assert tuple(summary) == SUMMARY_KEYS
-        assert summary["evaluated"] == 16 and summary["sampler"] == "ce" and summary["objective"] == "robustness"
+        assert summary["evaluated"] == 16 and summary["sampler"] == sampler and summary["objective"] == "robustness"
         outs.append((summary, pq.read_table(out / "evaluations.parquet")))
     (first, table_a), (second, table_b) = outs
     assert {k: v for k, v in first.items() if k != "seconds"} == {k: v for k, v in second.items() if k != "seconds"}
