@@ -21,10 +21,12 @@ from crashscene.geometry import (
     wrap_angle,
 )
 from crashscene.simulate.embedded import impact
+from crashscene.simulate.embedded.vehicles import limits_for
 
 DT = 0.05  # [s] integration step of the prediction
 HORIZON = 4.0  # [s] how long after the impact the pushed car is followed
 CORNER = 0.4  # [-] the striker's centre is this fraction of the struck car's width off its centre line
+CAR_WHEELBASE_RATIO = limits_for("car").wheelbase_ratio  # [-] the struck vehicle's when not given
 CORNERS = (0.3, 0.4, 0.5, 0.6)  # [-] the fractions a plan chooses among where it can predict the push well
 SEPARATE_STEPS = 2  # [-] the two bodies of a nearly plastic impact may still touch this many steps after it
 
@@ -43,10 +45,12 @@ def pushed_path(v_striker: float, v_struck: float, side: float, m_striker: float
 
 def pushed_paths(v_striker: float, v_struck: float, offsets: np.ndarray, m_striker: float, m_struck: float,
                  l_striker: float, w_striker: float, l_struck: float, w_struck: float, friction: float,
-                 head_on: bool = False, striker: bool = False):
+                 head_on: bool = False, striker: bool = False, wheelbase_ratios: tuple[float, float] = (
+                     CAR_WHEELBASE_RATIO, CAR_WHEELBASE_RATIO)):
     """`pushed_path` for several striker centres at once, `offsets` (N,) times the struck car's width to its
     left: (forward, left, yaw) (N, steps); with `striker`, also the striker's own slide after the impact in the
-    same frame, ((forward, left, yaw), (x, y, yaw))."""
+    same frame, ((forward, left, yaw), (x, y, yaw)); `wheelbase_ratios` [-] the striker's and the struck car's
+    (vehicles.VehicleLimits)."""
     n = len(offsets)
     reach = (l_striker + l_struck) / 2 - 0.05
     xa = np.full(n, reach if head_on else -reach)
@@ -64,10 +68,11 @@ def pushed_paths(v_striker: float, v_struck: float, offsets: np.ndarray, m_strik
                                         0 * one, mb, ib)
     steps = int(HORIZON / DT)
     struck = slide_path(0 * one, 0 * one, 0 * one, vb[0], vb[1], wb, friction, l_struck * one, w_struck * one, DT,
-                        steps)
+                        steps, wheelbase_ratios[1] * l_struck * one)
     if not striker:
         return struck
-    return struck, slide_path(xa, ya, yaw_a, va[0], va[1], wa, friction, l_striker * one, w_striker * one, DT, steps)
+    return struck, slide_path(xa, ya, yaw_a, va[0], va[1], wa, friction, l_striker * one, w_striker * one, DT, steps,
+                              wheelbase_ratios[0] * l_striker * one)
 
 
 def touch_again(struck: tuple[np.ndarray, np.ndarray, np.ndarray], striker: tuple[np.ndarray, np.ndarray, np.ndarray],
@@ -80,13 +85,14 @@ def touch_again(struck: tuple[np.ndarray, np.ndarray, np.ndarray], striker: tupl
     return np.logical_or.accumulate(touch, axis=1)
 
 
-def slide_path(x, y, yaw, vx, vy, yaw_rate, friction: float, length, width, dt: float, steps: int):
+def slide_path(x, y, yaw, vx, vy, yaw_rate, friction: float, length, width, dt: float, steps: int, wheelbase=None):
     """(x, y, yaw) (N, steps) of N sliding vehicles every dt [s] from now ([m], [m/s], [rad/s] (N,)), integrated
-    as the simulator moves a vehicle after an impact (simulator._move: impact.slide, trapezoidal), exact until
-    it touches something else."""
+    as the simulator moves a vehicle after an impact (simulator._move: impact.tyre_slide, trapezoidal), exact
+    until it touches something else; `wheelbase` [m] (N,), a car's share of the length when not given."""
+    wheelbase = CAR_WHEELBASE_RATIO * length if wheelbase is None else wheelbase
     out = np.zeros((3, len(x), steps))
     for k in range(steps):
-        vx1, vy1, w1 = impact.slide(vx, vy, yaw, yaw_rate, friction, length, width, dt)
+        vx1, vy1, w1 = impact.tyre_slide(vx, vy, yaw, yaw_rate, friction, length, width, wheelbase, dt)
         x = x + 0.5 * (vx + vx1) * dt
         y = y + 0.5 * (vy + vy1) * dt
         yaw = yaw + 0.5 * (yaw_rate + w1) * dt

@@ -1,15 +1,21 @@
-"""Motion after impact: the impulse-momentum exchange at a contact, and sliding until rest.
+"""Motion after impact: the impulse-momentum exchange at a contact, and the tyre forces until rest.
 
 At a contact the two footprints (oriented rectangles) touch along a normal (the
 separating axis of least penetration) at a contact point (the deepest corner, or
-the middle of a face lying against a face). The exchange is a rigid-body impulse
-with restitution E and inter-vehicle friction MU_CONTACT, applied to the centre
-of mass (mass by vehicle type) and the yaw inertia of a uniform box. From then
-on the vehicle is out of its driver's control and slides: its lateral velocity
-decays at the tyre friction mu*g, its rolling velocity at ROLL_FRACTION of that
-(damaged, the driver braking late), its yaw rate at the friction torque of the
-box, until it is at rest. A second contact is exchanged the same way.
-All arrays are per contact (vectorised over the variations that touch).
+the middle of a face lying against a face). The exchange is the planar
+impulse-momentum model of accident reconstruction (Brach, "Vehicle Accident
+Analysis and Reconstruction Methods", ch. 5): one impulse at the contact point
+on both rigid bodies (mass by vehicle type, yaw inertia of a uniform box),
+normal restitution RESTITUTION, and a tangential impulse that makes the contact
+points stick when that needs no more than MU_CONTACT times the normal impulse,
+else slides at that ratio (Coulomb). Linear and angular momentum are conserved;
+no energy is created. From then on the vehicle is out of its driver's control:
+each axle slides on its tyres with Coulomb friction against its contact patch's
+velocity (mu across the body, ROLL_FRACTION of it along), so a vehicle sliding
+sideways keeps spinning, one rolling on stops turning, until it is at rest
+(`tyre_slide`). A second contact is exchanged the same way. `slide` is the
+motion of a planned loss of control before any impact (skid), whose yaw the
+plan holds. All arrays are per contact (vectorised over the variations that touch).
 """
 from __future__ import annotations
 
@@ -18,12 +24,14 @@ import numpy as np
 from crashscene.units import G
 
 RESTITUTION = 0.15  # [-] vehicle-to-vehicle impacts are nearly plastic (reconstruction practice: 0.1-0.3)
-MU_CONTACT = 0.4  # [-] friction between the two bodies along the contact face
-ROLL_FRACTION = 0.35  # [-] rolling deceleration after an impact, as a fraction of mu*g
+MU_CONTACT = 0.4  # [-] limiting ratio of tangential to normal impulse between two vehicle bodies (Brach's
+# impulse ratio; crushed sheet metal interlocks, so sticking is common and 0.3-0.6 typical)
+ROLL_FRACTION = 0.35  # [-] rolling deceleration after an impact, as a fraction of mu*g (damaged, braked late)
 REST_SPEED = 0.15  # [m/s] below this (and REST_YAW_RATE) a sliding vehicle is at rest
 REST_YAW_RATE = 0.05  # [rad/s]
 INSIDE_TOLERANCE = 0.02  # [m] a corner this close to the other body counts as inside it
 FACE_TOLERANCE = 0.15  # [m] corners this close to the deepest one form a face lying against the other
+TYRE_SWEEPS = 4  # [-] Gauss-Seidel sweeps of the two axles' friction impulses per step (tyre_slide)
 
 
 def yaw_inertia(mass: np.ndarray, length: np.ndarray, width: np.ndarray) -> np.ndarray:
@@ -84,9 +92,16 @@ def _inside(px, py, x, y, c, s, length, width) -> np.ndarray:
 
 
 def exchange(nx, ny, px, py, xa, ya, va, wa, ma, ia, xb, yb, vb, wb, mb, ib):
-    """Impulse exchange at a contact. va, vb: (2, N) centre velocities [m/s]; wa, wb: yaw rates [rad/s];
-    ma, mb [kg]; ia, ib [kg m2]. Returns the new (va, wa, vb, wb) and the impulse on b (2, N) [N s];
-    where the bodies already separate nothing changes."""
+    """Planar impulse exchange at a contact (Brach's impulse-momentum model). va, vb: (2, N) centre velocities
+    [m/s]; wa, wb: yaw rates [rad/s]; ma, mb [kg]; ia, ib [kg m2]. Returns the new (va, wa, vb, wb) and the
+    impulse on b (2, N) [N s]; where the bodies already separate nothing changes.
+
+    The impulse P on b (-P on a) changes the relative velocity of the contact points by K P, K the 2x2 inverse
+    effective mass of the two bodies at the contact (translation and yaw of each). If the impulse that ends the
+    sliding along the face (and leaves the normal approach speed reversed times RESTITUTION) lies within the
+    friction cone (tangential <= MU_CONTACT x normal), the faces stick; otherwise they slide and the tangential
+    impulse is MU_CONTACT times the normal one, against the sliding. Linear and angular momentum are conserved.
+    """
     rax, ray = px - xa, py - ya
     rbx, rby = px - xb, py - yb
     vpa = np.stack([va[0] - wa * ray, va[1] + wa * rax])
@@ -94,19 +109,30 @@ def exchange(nx, ny, px, py, xa, ya, va, wa, ma, ia, xb, yb, vb, wb, mb, ib):
     rel = vpb - vpa
     vn = rel[0] * nx + rel[1] * ny
     approaching = vn < 0
-
-    def eff(tx, ty):
-        cra = rax * ty - ray * tx
-        crb = rbx * ty - rby * tx
-        return 1.0 / ma + 1.0 / mb + cra ** 2 / ia + crb ** 2 / ib
-
-    jn = np.where(approaching, -(1.0 + RESTITUTION) * vn / eff(nx, ny), 0.0)
-    tx, ty = rel[0] - vn * nx, rel[1] - vn * ny
-    tn = np.hypot(tx, ty)
-    tx, ty = np.where(tn > 1e-9, tx / np.maximum(tn, 1e-9), 0.0), np.where(tn > 1e-9, ty / np.maximum(tn, 1e-9), 0.0)
-    vt = rel[0] * tx + rel[1] * ty
-    jt = np.clip(-vt / eff(tx, ty), -MU_CONTACT * jn, MU_CONTACT * jn)
-    jx, jy = jn * nx + jt * tx, jn * ny + jt * ty
+    inv_m = 1.0 / ma + 1.0 / mb
+    kxx = inv_m + ray ** 2 / ia + rby ** 2 / ib
+    kyy = inv_m + rax ** 2 / ia + rbx ** 2 / ib
+    kxy = -rax * ray / ia - rbx * rby / ib
+    det = kxx * kyy - kxy ** 2
+    # sticking: the impulse that leaves the contact points with no sliding and the normal speed -E * vn
+    tx_, ty_ = -(rel[0] + RESTITUTION * vn * nx), -(rel[1] + RESTITUTION * vn * ny)
+    sx, sy = (kyy * tx_ - kxy * ty_) / det, (kxx * ty_ - kxy * tx_) / det
+    s_n = sx * nx + sy * ny
+    s_t = np.hypot(sx - s_n * nx, sy - s_n * ny)
+    sticks = (s_n > 0) & (s_t <= MU_CONTACT * s_n)
+    # sliding: the tangential impulse is MU_CONTACT times the normal one, against the sliding direction
+    ux, uy = rel[0] - vn * nx, rel[1] - vn * ny
+    un = np.hypot(ux, uy)
+    ux, uy = np.where(un > 1e-9, ux / np.maximum(un, 1e-9), 0.0), np.where(un > 1e-9, uy / np.maximum(un, 1e-9), 0.0)
+    dx, dy = nx - MU_CONTACT * ux, ny - MU_CONTACT * uy
+    k_nd = nx * (kxx * dx + kxy * dy) + ny * (kxy * dx + kyy * dy)
+    k_nn = nx * (kxx * nx + kxy * ny) + ny * (kxy * nx + kyy * ny)
+    # with a strongly eccentric contact the friction could add to the approach: no more than a frictionless push
+    k_nd = np.maximum(k_nd, 0.5 * k_nn)
+    jn = -(1.0 + RESTITUTION) * vn / k_nd
+    jx = np.where(sticks, sx, jn * dx)
+    jy = np.where(sticks, sy, jn * dy)
+    jx, jy = np.where(approaching, jx, 0.0), np.where(approaching, jy, 0.0)
     vb = vb + np.stack([jx, jy]) / mb
     va = va - np.stack([jx, jy]) / ma
     wb = wb + (rbx * jy - rby * jx) / ib
@@ -124,6 +150,45 @@ def slide(vx, vy, yaw, yaw_rate, friction: float, length, width, dt: float):
     w = np.sign(w) * np.maximum(np.abs(w) - mg * dt, 0.0)
     spin_decel = 3.0 * mg * length / (length ** 2 + width ** 2)  # friction torque / box inertia [rad/s2]
     yaw_rate = np.sign(yaw_rate) * np.maximum(np.abs(yaw_rate) - spin_decel * dt, 0.0)
+    vx, vy = u * c - w * s, u * s + w * c
+    rest = (np.hypot(vx, vy) < REST_SPEED) & (np.abs(yaw_rate) < REST_YAW_RATE)
+    return np.where(rest, 0.0, vx), np.where(rest, 0.0, vy), np.where(rest, 0.0, yaw_rate)
+
+
+def tyre_slide(vx, vy, yaw, yaw_rate, friction, length, width, wheelbase, dt: float):
+    """One step of a vehicle's motion after an impact, out of its driver's control: (vx, vy, yaw_rate) after the
+    tyre forces of dt [s].
+
+    Each axle (half the wheelbase ahead of and behind the centre of mass, half the weight N on each) slides on
+    its tyres against the velocity (u, w) of its contact patch, as a wheel whose demanded force exceeds the
+    friction does in PC-Crash's tyre model (Steffan and Moser, SAE 960886: mu N against the wheel's velocity,
+    mu N sin(slip angle) across), with the share along the body reduced to ROLL_FRACTION (the wheels still
+    roll, braked late): the force -mu N (ROLL_FRACTION u, w) / |(u, w)|. A vehicle sliding sideways, or rolling fast, while it yaws has its
+    axles' forces nearly parallel and keeps most of its yaw rate until it slows, as a vehicle spun by an impact
+    does; one yawing at low speed has its axles sliding opposite ways and stops turning quickly. The forces are
+    applied implicitly (no larger than what stops the sliding within the step). Yaw inertia: the uniform box
+    (yaw_inertia). Without yaw the rates are those of `slide`: mu g across, ROLL_FRACTION mu g along.
+    """
+    c, s = np.cos(yaw), np.sin(yaw)
+    u = vx * c + vy * s  # rolling (along the body)
+    w = -vx * s + vy * c  # sliding (across the body)
+    h = wheelbase / 2  # [m] each axle's distance from the centre of mass
+    q = h ** 2 * 12.0 / (length ** 2 + width ** 2)  # h^2 / k^2, k the yaw radius of gyration of the box
+    w_f, w_r = w + yaw_rate * h, w - yaw_rate * h
+    step = 0.5 * friction * G * dt  # [m/s] the velocity change each axle's friction gives in a step (per unit mass)
+    speed_f = np.maximum(np.hypot(u, w_f), 1e-9)
+    speed_r = np.maximum(np.hypot(u, w_r), 1e-9)
+    du = ROLL_FRACTION * step * np.abs(u) * (1.0 / speed_f + 1.0 / speed_r)
+    u = np.sign(u) * np.maximum(np.abs(u) - du, 0.0)
+    cap_f, cap_r = step * np.abs(w_f) / speed_f, step * np.abs(w_r) / speed_r
+    # the axles' lateral impulses (per unit mass) that would stop both sliding, within each axle's share of the
+    # friction (projected Gauss-Seidel on the 2 x 2 system; the coupling 1 - q is small, a few sweeps settle it)
+    p_f, p_r = np.zeros_like(w), np.zeros_like(w)
+    for _ in range(TYRE_SWEEPS):
+        p_f = np.clip(-(w_f + (1.0 - q) * p_r) / (1.0 + q), -cap_f, cap_f)
+        p_r = np.clip(-(w_r + (1.0 - q) * p_f) / (1.0 + q), -cap_r, cap_r)
+    w = w + p_f + p_r
+    yaw_rate = yaw_rate + (p_f - p_r) * q / h
     vx, vy = u * c - w * s, u * s + w * c
     rest = (np.hypot(vx, vy) < REST_SPEED) & (np.abs(yaw_rate) < REST_YAW_RATE)
     return np.where(rest, 0.0, vx), np.where(rest, 0.0, vy), np.where(rest, 0.0, yaw_rate)

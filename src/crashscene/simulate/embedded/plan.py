@@ -651,12 +651,12 @@ class VariationPlan:
         preferred = -1.0 if lat_x - self.d0[ti] >= 0 else 1.0  # tried first; both sides are tried
         # a car standing still is pushed as predicted: the plan chooses how far off its centre line to hit it; one
         # that is moving (and braking for what it sees coming) is hit at the usual corner
-        corners = cascade.CORNERS if v_t == 0.0 else (cascade.CORNER,)
+        corners = cascade.CORNERS if v_t == 0.0 or head_on else (cascade.CORNER,)
         offsets = np.array([side * c for side in (preferred, -preferred) for c in corners])
         (fwd, left, yaw), striker = cascade.pushed_paths(
             self.speeds[si], v_t, offsets, cols[si].limits.mass, cols[ti].limits.mass, float(self.length[si]),
             float(self.width[si]), float(self.length[ti]), float(self.width[ti]), self.ctx.friction, head_on=head_on,
-            striker=True)
+            striker=True, wheelbase_ratios=(cols[si].limits.wheelbase_ratio, cols[ti].limits.wheelbase_ratio))
         again = cascade.touch_again((fwd, left, yaw), striker, float(self.length[ti]), float(self.width[ti]),
                                     float(self.length[si]), float(self.width[si]))
         best, best_score = None, (-1, False, -math.inf)

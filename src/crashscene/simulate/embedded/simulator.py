@@ -399,6 +399,10 @@ def _move(batch: batch_setup.BatchSetup, state: State, accel_cmd: np.ndarray, la
     if sliding.any():
         vx, vy, w = impact.slide(state.vx, state.vy, state.yaw, state.yaw_rate, batch.friction, batch.length,
                                  batch.width, dt)
+        if state.collided.any():  # after an impact: the tyre forces of each axle (a planned skid keeps `slide`)
+            tx, ty, tw = impact.tyre_slide(state.vx, state.vy, state.yaw, state.yaw_rate, batch.friction,
+                                           batch.length, batch.width, wheelbase, dt)
+            vx, vy, w = (np.where(state.collided, new, old) for new, old in ((tx, vx), (ty, vy), (tw, w)))
         held = ~(t_next - state.lost_time > batch.spin_hold)  # NaN hold: held until rest
         spinning = state.lost & ~state.collided & held & (np.hypot(vx, vy) > impact.REST_SPEED)
         w = np.where(spinning, state.spin, w)  # out of control the yaw is held until an impact or rest
