@@ -268,14 +268,17 @@ class Geometry:
     )
 
 
-def _geometry(batch: batch_setup.BatchSetup, state: State, t: float, fixed: Fixed) -> Geometry:
+def _geometry(batch: batch_setup.BatchSetup, state: State, t: float, fixed: Fixed | None = None) -> Geometry:
     routes, r = batch.routes, batch.route
     g = Geometry()
     k, _ = routes.index(state.s)
     g.route_yaw = routes.yaw[r, k]
     g.route_lane = routes.lane[r, k]
     g.front = state.s + batch.length / 2
-    entries, exits = fixed.entries, fixed.exits  # (V, A, J)
+    if fixed is not None:
+        entries, exits = fixed.entries, fixed.exits  # (V, A, J)
+    else:  # the shared recorder of the other backends
+        entries, exits = routes.entry_s[r], routes.entry_exit[r]
     rear = state.s - batch.length / 2
     g.in_junction_route = routes.junction[r, k] >= 0
     n_j = entries.shape[-1]
