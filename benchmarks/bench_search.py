@@ -1,6 +1,6 @@
 """Benchmark: random sampling against the adaptive samplers, per bundled case with a contact.
 
-Run by hand: `.venv/bin/python benchmarks/bench_search.py [--budget 400] [--samplers random,halton,ce,bo]
+Run by hand: `.venv/bin/python benchmarks/bench_search.py [--budget 400] [--samplers random,halton,ce,bo,cmaes]
 [--cases 100237,120013] [--limit K] [--out out/bench_search] [--objective ttc] [--ego auto]`.
 
 For every case of examples/ciren whose golden DSL has a contact between actors
@@ -43,7 +43,7 @@ def cases_with_contact() -> list[Path]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--budget", type=int, default=400)
-    parser.add_argument("--samplers", default="random,halton,ce,bo")
+    parser.add_argument("--samplers", default="random,halton,ce,bo,cmaes")
     parser.add_argument("--objective", default="ttc")
     parser.add_argument("--ego", default="auto", help="the ADS's role: auto (crashscene.search.seat) or a role")
     parser.add_argument("--seed", type=int, default=0)

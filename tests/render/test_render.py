@@ -90,12 +90,16 @@ def _declared(text: str) -> dict[str, str]:
     return dict(re.findall(r"^param (\w+) = (VerifaiRange\([^)]*\))", text, re.MULTILINE))
 
 
+MODEL = {"npc1_MODEL_INDEX": "VerifaiRange(0.0, 6.0)"}   # V2, a car: the search picks its model of 6
+
+
 @pytest.mark.parametrize(("case", "ads", "wanted"), [
-    ("100237", "ego", {"npc1_PULL_OUT_TTA": "VerifaiRange(1.5, 4.0)"}),   # V2 does not yield at its sign
-    ("3-C4-2017-007", "ego", {"SIGNAL_GREEN_REMAINING": "VerifaiRange(3.0, 15.0)"}),
-    ("103378", "npc1", {"EGO_LEAD_TIME": "VerifaiRange(0.8, 2.0)"}),     # V1 drifts over, the ADS drives V2
-    ("103378", "ego", {}),                                                 # the ADS's own manoeuvre: none
-    ("119897", "npc1", {"EGO_LEAD_TIME": "VerifaiRange(0.8, 2.0)", "EGO_SKID_ROTATION": "VerifaiRange(0.0, 1.0)"}),
+    ("100237", "ego", {"npc1_PULL_OUT_TTA": "VerifaiRange(1.5, 4.0)", **MODEL}),   # V2 does not yield at its sign
+    ("3-C4-2017-007", "ego", {"SIGNAL_GREEN_REMAINING": "VerifaiRange(3.0, 15.0)", **MODEL}),
+    ("103378", "npc1", {"EGO_LEAD_TIME": "VerifaiRange(0.8, 2.0)", **MODEL}),     # V1 drifts over, the ADS drives V2
+    ("103378", "ego", MODEL),                                               # the ADS's own manoeuvre: none
+    ("119897", "npc1", {"EGO_LEAD_TIME": "VerifaiRange(0.8, 2.0)", "EGO_SKID_ROTATION": "VerifaiRange(0.0, 1.0)",
+                        **MODEL}),
 ])
 def test_a_search_program_declares_the_timings_the_simulator_would_draw(case, ads, wanted, tmp_path):
     scenario = load_file(EXAMPLES / case / "golden.yaml")

@@ -25,6 +25,7 @@ def _bowl(points: np.ndarray) -> np.ndarray:
 @pytest.mark.parametrize("name", SAMPLERS)
 def test_sampler_same_seed_same_points(name):
     runs = []
+    state = np.random.get_state()
     for _ in range(2):
         sampler = create_sampler(name, 3, seed=7, round_size=16)
         asked = []
@@ -35,9 +36,11 @@ def test_sampler_same_seed_same_points(name):
             asked.append(points)
         runs.append(np.concatenate(asked))
     np.testing.assert_array_equal(runs[0], runs[1])
+    after = np.random.get_state()   # numpy's global generator is the caller's: left as it was
+    assert after[2:] == state[2:] and (after[1] == state[1]).all()
 
 
-@pytest.mark.parametrize("name", ["ce", "bo"])
+@pytest.mark.parametrize("name", ["ce", "bo", "cmaes"])
 def test_adaptive_samplers_concentrate_on_low_values(name):
     sampler = create_sampler(name, 3, seed=1, round_size=25)
     rounds = []
@@ -65,7 +68,7 @@ def test_failure_rules_recover_a_box():
 
 
 @pytest.mark.parametrize("budget, sampler, objective, message", [
-    (400, "annealing", "robustness", "--sampler 'annealing' is not allowed; allowed: random, halton, ce, bo"),
+    (400, "annealing", "robustness", "--sampler 'annealing' is not allowed; allowed: random, halton, ce, bo, cmaes"),
     (5, "ce", "robustness", "--budget 5 is below the round size 8"),
     (400, "ce", "speed", "--objective 'speed' is not allowed; allowed: robustness, ttc"),
 ])
@@ -77,34 +80,42 @@ def test_bad_requests(budget, sampler, objective, message):
 def test_cli_bad_sampler_names_file_and_allowed():
     result = CliRunner().invoke(app, ["search", str(CASES / "100237" / "golden.yaml"), "--sampler", "grid"])
     assert result.exit_code == 2
-    assert "golden.yaml" in result.output and "allowed: random, halton, ce, bo" in result.output
+    assert "golden.yaml" in result.output and "allowed: random, halton, ce, bo, cmaes" in result.output
 
 
-def test_no_sampled_parameters(tmp_path):
-    import scenic
+def test_no_sampled_parameters():
+    from crashscene.search.space import space_of
 
+    fixed = [{"name": "EGO_SPEED", "low": 10.0, "high": 10.0}, {"name": "EGO_INIT_DIST", "low": 15.0, "high": 15.0}]
+    with pytest.raises(SearchError, match="fixed.scenic: no sampled parameters to search"):
+        space_of(fixed, "fixed.scenic")
+    space = space_of(fixed + [{"name": "npc1_SPEED", "low": 8.0, "high": 12.0}], "one.scenic")
+    assert space.names == ("npc1_SPEED",) and space.constants == (("EGO_SPEED", 10.0), ("EGO_INIT_DIST", 15.0))
+
+
+def test_a_program_without_its_sampling_plan_is_refused(tmp_path):
     from crashscene.search.space import parameter_space
 
-    program = tmp_path / "fixed.scenic"
-    program.write_text("param SPEED = 10.0\nego = new Object at 0 @ 0\n", encoding="utf-8")
-    compiled = scenic.scenarioFromFile(str(program), mode2D=True)
-    with pytest.raises(SearchError, match="no sampled parameters to search"):
-        parameter_space(compiled, program)
+    program = tmp_path / "hand.scenic"
+    program.write_text("param SPEED = VerifaiRange(8, 12)\nego = new Object at 0 @ 0\n", encoding="utf-8")
+    with pytest.raises(SearchError, match="no compiled sampling plan beside hand.scenic"):
+        parameter_space(program)
 
 
 @pytest.mark.slow
-def test_search_pins_parameters_and_repeats(tmp_path):
+@pytest.mark.parametrize("sampler", ["ce", "cmaes"])
+def test_search_pins_parameters_and_repeats(sampler, tmp_path):
     """A small real search: parameters reach the scenes, outputs are written, the same seed repeats."""
     runner = CliRunner()
     outs = []
     for k in range(2):
         out = tmp_path / f"run{k}"
         result = runner.invoke(app, ["search", str(CASES / "100237" / "golden.yaml"), "--budget", "16",
-                                     "--sampler", "ce", "--seed", "3", "--out", str(out), "--json"])
+                                     "--sampler", sampler, "--seed", "3", "--out", str(out), "--json"])
         assert result.exit_code == 0, result.output
         summary = json.loads(result.output[result.output.index("{"):])
         assert tuple(summary) == SUMMARY_KEYS
-        assert summary["evaluated"] == 16 and summary["sampler"] == "ce" and summary["objective"] == "robustness"
+        assert summary["evaluated"] == 16 and summary["sampler"] == sampler and summary["objective"] == "robustness"
         outs.append((summary, pq.read_table(out / "evaluations.parquet")))
     (first, table_a), (second, table_b) = outs
     assert {k: v for k, v in first.items() if k != "seconds"} == {k: v for k, v in second.items() if k != "seconds"}
@@ -116,14 +127,12 @@ def test_search_pins_parameters_and_repeats(tmp_path):
     names = [p["name"] for p in report["parameters"]]
     # the pinned values are what the simulator saw: compare with the scenes' sampled parameters
     from crashscene.dsl import load_file
-    from crashscene.render.sample import compile_program
-    from crashscene.search.space import parameter_space, pinned_scenes
+    from crashscene.search.space import PinnedScenes, parameter_space
 
-    compiled = compile_program(tmp_path / "run0" / "scenario.scenic")
-    space = parameter_space(compiled, tmp_path / "run0" / "scenario.scenic")
+    space = parameter_space(tmp_path / "run0" / "scenario.scenic")
     assert list(space.names) == names
     values = np.array([table_a.column(n).to_pylist()[:2] for n in names]).T
-    scenes = pinned_scenes(compiled, tmp_path / "run0" / "scenario.scenic", values, 3, 0)
+    scenes = PinnedScenes(tmp_path / "run0" / "scenario.scenic", space)(values, 3, 0)
     for scene, row in zip(scenes, values):
         assert [scene.params[n] for n in names] == pytest.approx(list(row))
     assert load_file(tmp_path / "run0" / "scenario.yaml").actors["ego"]
@@ -162,24 +171,49 @@ def test_a_searched_skid_rotation_reaches_the_plan(tmp_path):
     `EGO_SKID_ROTATION` give V1 different skids (its heading at the end differs)."""
     from crashscene.dsl import load_file
     from crashscene.render import render
-    from crashscene.render.sample import compile_program
-    from crashscene.search.space import parameter_space, pinned_scenes
+    from crashscene.search.space import PinnedScenes, parameter_space
     from crashscene.simulate.backend import SimulationRequest, SimulationSettings, create_simulator
 
     scenario = load_file(CASES / "119897" / "golden.yaml")
     rendered = render(scenario, tmp_path, search_ads="npc1")
-    compiled = compile_program(rendered.program)
-    space = parameter_space(compiled, rendered.program)
+    space = parameter_space(rendered.program)
     column = space.names.index("EGO_SKID_ROTATION")
     settings = SimulationSettings(mode="test", ego_role="npc1")
     final_yaw = []
     for rotation in (0.0, 1.0):
         unit = np.full((1, space.dimension), 0.5)
         unit[0, column] = rotation
-        scenes = pinned_scenes(compiled, rendered.program, space.values(unit), 0, 0)
+        scenes = PinnedScenes(rendered.program, space)(space.values(unit), 0, 0)
         assert scenes[0].params["EGO_SKID_ROTATION"] == rotation
         request = SimulationRequest(scenario=scenario, scenes=scenes, map_file=rendered.map, settings=settings)
         traces = create_simulator("embedded", settings).simulate(request).tables["traces"].to_pandas()
         yaw = traces[traces.actor == "ego"].yaw.to_numpy()
         final_yaw.append(float(np.unwrap(yaw)[-1] - yaw[0]))
     assert abs(final_yaw[0] - final_yaw[1]) > 0.1
+
+
+@pytest.mark.slow
+def test_a_searched_model_index_picks_the_vehicle_model(tmp_path):
+    """In a search's program V2's model is `npc1_MODEL_INDEX`'s integer part in the pool, smallest first: in Scenic's
+    own sampler (the reference), in the compiled one, and in the pinned scenes of a search."""
+    from crashscene.dsl import load_file
+    from crashscene.render import render
+    from crashscene.render.plan import BLUEPRINT_POOLS, model_pool
+    from crashscene.render.sample import sample_scenes
+    from crashscene.search.space import PinnedScenes, parameter_space
+
+    rendered = render(load_file(CASES / "100237" / "golden.yaml"), tmp_path, search_ads="ego")
+    pool = model_pool(list(BLUEPRINT_POOLS["car"]))
+    assert pool[0] == "vehicle.audi.a2" and pool[-1] == "vehicle.nissan.patrol"
+    for sampler in ("scenic", "compiled"):
+        scenes = sample_scenes(rendered.program, 12, 0, sampler=sampler)
+        picked = [(s.actors[1].blueprint, pool[int(s.params["npc1_MODEL_INDEX"])]) for s in scenes]
+        assert all(a == b for a, b in picked), (sampler, picked)
+        assert len({a for a, _ in picked}) > 1
+    space = parameter_space(rendered.program)
+    unit = np.full((len(pool), space.dimension), 0.5)
+    unit[:, space.names.index("npc1_MODEL_INDEX")] = (np.arange(len(pool)) + 0.5) / len(pool)
+    scenes = PinnedScenes(rendered.program, space)(space.values(unit), 0, 0)
+    assert [s.actors[1].blueprint for s in scenes] == pool
+    areas = [s.actors[1].length * s.actors[1].width for s in scenes]
+    assert areas == sorted(areas)

@@ -178,18 +178,19 @@ def test_same_seed_same_bytes(tmp_path):
 
 LATER_CONTACTS = {  # cascades planned from a predicted slide: (scenario, least sequence rate, why)
     # the overtaker hits the corner the plan chose, so the struck car turns its side to the car behind it (0.1 of
-    # the variations before the overtaker was settled on that corner in time)
+    # the variations before the overtaker was settled on that corner in time; 0.92 of 100 measured)
     "a_head_on_spins_the_struck_car_into_the_path_of_the_overtaken_one": (scenario(
         "two_way", "speed_limit_sign", 55,
         actor("ego", "go_forward", "reference: road, relation: behind")
         + actor("npc1", "overtake", "reference: ego, relation: front, heading: opposite_direction")
         + actor("npc2", "go_forward", "reference: ego, relation: front, heading: opposite_direction"),
         oracle("CVC_21650", "wrong_side", "npc1"),
-        contact("npc1", "ego", "front", "front", "head_on") + contact("npc2", "ego", "front", "left", "angle")), 0.4),
+        contact("npc1", "ego", "front", "front", "head_on") + contact("npc2", "ego", "front", "left", "angle")), 0.7),
     # the later contact is the striker's own: it glances off the corner of the stopped car it hits (the plan
     # chooses which, from its predicted slide) into the car coming up in the next lane (0 of 20 variations when
-    # only the struck car's motion was planned; 0.93 of 60 measured with a constant yaw decay after impact, 0.63 of
-    # 60 with the impulse of the full effective-mass matrix and the tyre forces of impact.tyre_slide)
+    # only the struck car's motion was planned; with the impulse of the full effective-mass matrix and the tyre
+    # forces of impact.tyre_slide, 0.80 of 100 when the meeting is timed within 2 deg of the most central heading,
+    # 0.58 within 10 deg)
     "a_rear_end_deflects_the_striker_into_the_car_in_the_next_lane": (scenario(
         "divided", "speed_limit_sign", 55,
         actor("ego", "go_forward", "reference: road, relation: behind")
@@ -197,7 +198,7 @@ LATER_CONTACTS = {  # cascades planned from a predicted slide: (scenario, least 
         + actor("npc2", "go_forward", "reference: ego, relation: left, heading: same_direction"),
         oracle("CVC_22350", "unsafe_speed", "ego"),
         contact("ego", "npc1", "front", "rear", "rear_end") + contact("npc2", "ego", "front", "left", "sideswipe")),
-        0.5),
+        0.65),
 }
 
 

@@ -25,7 +25,7 @@ class SearchPlan(BaseModel):
 
     model_config = ConfigDict(extra="forbid", frozen=True)
 
-    samplers: tuple[str, ...] = Field(description="one search per sampler (random, halton, ce, bo)")
+    samplers: tuple[str, ...] = Field(description="one search per sampler (random, halton, ce, bo, cmaes)")
     budget: int = Field(gt=0, description="variations per search")
     objective: str = "robustness"
     rounds: int = Field(default=8, ge=1)

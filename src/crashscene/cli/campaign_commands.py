@@ -160,7 +160,7 @@ def campaign(
     keep_traces: Annotated[bool, typer.Option("--keep-traces", help="Keep every chunk's traces under OUT/cases.")] = False,
     report: Annotated[bool, typer.Option("--report/--no-report", help="Write OUT/report.html at the end.")] = True,
     search: Annotated[Optional[list[str]], typer.Option("--search", help="Also search each case with this sampler "
-                                                                       "(random, halton, ce, bo; repeatable).")] = None,
+                                                                       "(random, halton, ce, bo, cmaes; repeatable).")] = None,
     budget: Annotated[int, typer.Option("--budget", help="Variations per search (--search).")] = 400,
     objective: Annotated[str, typer.Option("--objective", help="Search objective: robustness or ttc.")] = "robustness",
     as_json: Annotated[bool, typer.Option("--json", help="Summary as JSON on stdout.")] = False,

@@ -14,8 +14,9 @@ from crashscene.cli import app
 def search(
     file: Annotated[Path, typer.Argument(help="Scenario file (DSL YAML).")],
     budget: Annotated[int, typer.Option("--budget", help="Variations to evaluate in total.")] = 400,
-    sampler: Annotated[str, typer.Option("--sampler", help="random, halton, ce (VerifAI cross-entropy) or bo "
-                                                           "(Bayesian optimisation, Optuna TPE).")] = "ce",
+    sampler: Annotated[str, typer.Option("--sampler", help="random, halton, ce (VerifAI cross-entropy), bo "
+                                                           "(Bayesian optimisation, Optuna TPE) or cmaes "
+                                                           "(CMA-ES, pycma).")] = "ce",
     objective: Annotated[str, typer.Option("--objective", help="robustness (min rule robustness of the ADS, a "
                                                                "collision lowest) or ttc (its min time to "
                                                                "collision).")] = "robustness",

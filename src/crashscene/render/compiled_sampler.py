@@ -98,9 +98,18 @@ class CompiledSampler:
     # ------------------------------------------------------------------ drawing
 
     def scenes(self, first: int, n: int, seed: int, digest: str, map_file: str,
-               max_attempts: int = 2000) -> list[SampledScene]:
-        """Scenes for variation indices first .. first+n-1."""
+               max_attempts: int = 2000, pinned: np.ndarray | None = None) -> list[SampledScene | None]:
+        """Scenes for variation indices first .. first+n-1.
+
+        `pinned`: (n, P) values of the plan's parameters (in plan order) held fixed for every attempt of each
+        scene (a search's points); every other choice is drawn as without it, and a scene no attempt could place
+        with its values is None instead of an error."""
         indices = np.arange(first, first + n)
+        if pinned is not None:
+            pinned = np.asarray(pinned, dtype=float)
+            if pinned.shape != (n, len(self.param_names)):
+                raise SampleError(f"pinned values of shape {pinned.shape}; expected ({n}, {len(self.param_names)}) "
+                                  f"for the parameters {', '.join(self.param_names)}")
         generators = [np.random.Generator(np.random.PCG64(np.random.SeedSequence([int(seed) & 0xFFFFFFFFFFFFFFFF,
                                                                                    int(i)])))
                       for i in indices]
@@ -110,13 +119,15 @@ class CompiledSampler:
         used = 0
         block = FIRST_ATTEMPTS
         while pending:
+            if used >= max_attempts and pinned is not None:
+                break
             if used >= max_attempts:
                 raise SampleError(f"scene {int(indices[pending[0]])} (seed {seed}) could not be sampled: no "
                                   f"attempt out of {max_attempts} met the requirements (cars on the road, "
                                   "none overlapping)")
             block = min(block, max_attempts - used)
             draws = np.concatenate([generators[k].random((block, self.width)) for k in pending])
-            attempt = self.evaluate(draws)
+            attempt = self.evaluate(draws, None if pinned is None else np.repeat(pinned[pending], block, axis=0))
             ok = attempt["ok"].reshape(len(pending), block)
             still = []
             for row, k in enumerate(pending):
@@ -130,15 +141,18 @@ class CompiledSampler:
             pending = still
             used += block
             block *= 4
-        return [self._scene(chosen[k], int(indices[k]), seed, digest, map_file) for k in range(n)]
+        return [self._scene(chosen[k], int(indices[k]), seed, digest, map_file) if k in chosen else None
+                for k in range(n)]
 
-    def evaluate(self, u: np.ndarray) -> dict[str, np.ndarray]:
-        """Every attempt at once from uniforms `u` (attempts, width): placements and whether they are valid."""
+    def evaluate(self, u: np.ndarray, values: np.ndarray | None = None) -> dict[str, np.ndarray]:
+        """Every attempt at once from uniforms `u` (attempts, width): placements and whether they are valid.
+        `values`: (attempts, P) parameter values to use instead of those `u` draws."""
         import shapely
 
         m = len(u)
         k_combo = np.minimum((u[:, 0] * len(self.passed)).astype(np.int64), len(self.passed) - 1)
-        values = self.low + (self.high - self.low) * u[:, 1:1 + len(self.param_names)]
+        if values is None:
+            values = self.low + (self.high - self.low) * u[:, 1:1 + len(self.param_names)]
         out: dict[str, np.ndarray] = {"values": values}
         s_of: dict[str, np.ndarray] = {}
         boxes = []
@@ -167,7 +181,10 @@ class CompiledSampler:
             heading = self._heading(route, clamped)
             lane = (self.routes.starts[route] <= clamped[:, None]).sum(axis=1) - 1
             pool = len(actor["blueprints"])
-            bp = np.minimum((u[:, 1 + len(self.param_names) + j] * pool).astype(np.int64), pool - 1)
+            if "model_param" in actor:  # a search's program: the parameter's integer part (program.py's _model)
+                bp = np.clip(values[:, self.column[actor["model_param"]]].astype(np.int64), 0, pool - 1)
+            else:
+                bp = np.minimum((u[:, 1 + len(self.param_names) + j] * pool).astype(np.int64), pool - 1)
             dims = np.asarray(actor["dims"], dtype=float)[bp]
             out.update({f"{role}.x": xy[:, 0], f"{role}.y": xy[:, 1], f"{role}.heading": heading,
                         f"{role}.route": route, f"{role}.lane": lane, f"{role}.bp": bp})

@@ -398,11 +398,13 @@ def _check_references(actors: list[ActorPlan]) -> None:
 
 def search_parameters(plan: RenderPlan, actor: ActorPlan, prefix: str,
                       is_ads: bool) -> list[tuple[str, Range, str]]:
-    """(name, range, unit note) of the timing choices the embedded simulator would draw for `actor` (its
-    parameters' prefix: EGO, npc1, ...), declared as sampled parameters for a search: unless the ADS drives it,
-    a lateral manoeuvre's `<prefix>_LEAD_TIME`, a loss of control's `<prefix>_SKID_ROTATION` and a pull-out's
-    `<prefix>_PULL_OUT_TTA` (a stop- or yield-controlled actor charged with not yielding); on the ADS, the green its axis has left when it reaches
-    a signalised junction (`SIGNAL_GREEN_REMAINING`)."""
+    """(name, range, unit note) of the choices the embedded simulator or Scenic would draw per variation for
+    `actor` (its parameters' prefix: EGO, npc1, ...), declared as sampled parameters for a search: unless the ADS
+    drives it, a lateral manoeuvre's `<prefix>_LEAD_TIME`, a loss of control's `<prefix>_SKID_ROTATION` and a
+    pull-out's `<prefix>_PULL_OUT_TTA` (a stop- or yield-controlled actor charged with not yielding); for any
+    actor whose vehicle model Scenic draws from a pool, `<prefix>_MODEL_INDEX` (the pool in `model_pool` order
+    at the value's integer part: a uniform value draws each model as often as the plain program does); on the
+    ADS, the green its axis has left when it reaches a signalised junction (`SIGNAL_GREEN_REMAINING`)."""
     out: list[tuple[str, Range, str]] = []
     behavior = Behavior(actor.behavior)
     if behavior in LATERAL_BEHAVIORS and not is_ads:
@@ -415,11 +417,21 @@ def search_parameters(plan: RenderPlan, actor: ActorPlan, prefix: str,
             and Disposition.NO_YIELD in dispositions_of(actor.dispositions) and not is_ads:
         out.append((f"{prefix}_PULL_OUT_TTA", Range(low=PULL_OUT_TTA[0], high=PULL_OUT_TTA[1]),
                     "[s] test mode: pulls out when the ADS is this far in time from the conflict point"))
+    if len(actor.blueprints) > 1:
+        out.append((f"{prefix}_MODEL_INDEX", Range(low=0.0, high=float(len(actor.blueprints))),
+                    "[-] vehicle model: the pool, smallest first, at the integer part of the value"))
     if is_ads and Sign.TRAFFIC_LIGHT.value in plan.traffic_signs \
             and plan.topology in (RoadType.INTERSECTION.value, RoadType.T_INTERSECTION.value):
         out.append(("SIGNAL_GREEN_REMAINING", Range(low=SIGNAL_GREEN[0], high=SIGNAL_GREEN[1]),
                     "[s] green left for the ADS's axis when it reaches the junction"))
     return out
+
+
+def model_pool(blueprints: list[str]) -> list[str]:
+    """A blueprint pool ordered by footprint area [m2] (its size lengthwise and crosswise at once: a longer or a
+    wider body meets another vehicle's path earlier), as a search's `<prefix>_MODEL_INDEX` indexes it, so that
+    neighbouring values are vehicles of similar size."""
+    return sorted(blueprints, key=lambda bp: (BLUEPRINT_DIMS[bp][0] * BLUEPRINT_DIMS[bp][1], bp))
 
 
 def placement_order(actors: list[ActorPlan]) -> list[ActorPlan]:

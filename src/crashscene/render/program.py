@@ -32,6 +32,7 @@ from crashscene.render.plan import (
     Placement,
     Range,
     RenderPlan,
+    model_pool,
     placement_order,
 )
 from crashscene.render.plan import search_parameters as plan_search_parameters
@@ -161,6 +162,9 @@ def program_context(plan: RenderPlan, *, carla_town: str | None = None, map_name
     for actor in placement_order(plan.actors):
         prefix = "EGO" if actor.role == "ego" else actor.role
         pool = actor.blueprints
+        model_param = None
+        if search_ads is not None and len(pool) > 1:   # the search picks the model (plan.search_parameters)
+            pool, model_param = model_pool(pool), f"{prefix}_MODEL_INDEX"
         for bp in pool:
             if bp not in BLUEPRINT_DIMS:
                 raise RenderError(f"blueprint {bp!r} has no dimensions in crashscene.render.plan.BLUEPRINT_DIMS")
@@ -174,7 +178,7 @@ def program_context(plan: RenderPlan, *, carla_town: str | None = None, map_name
         data = actor.model_dump()
         data.update(
             prefix=prefix, blueprint_expr=bp_expr, length_expr=length_expr, width_expr=width_expr,
-            blueprint_pool=pool,
+            blueprint_pool=pool, model_param=model_param,
             gap=0.5 * (lengths[actor.role] + lengths.get(actor.placement_ref, lengths[actor.role])),
             oncoming_sign=-1.0 if actor.along == "behind" else 1.0,
             cruise_speed=_cruise(actor, plan), loss_steer=Range(low=LOSS_STEER[0], high=LOSS_STEER[1]),
@@ -211,7 +215,12 @@ def program_text(context: dict[str, Any], *, scenario_hash_value: str, summary: 
         dims = {bp: list(BLUEPRINT_DIMS[bp]) for pool in pools.values() for bp in pool}
         extra = [f"_DIMS = {py(dims)}  # [m] (length, width) per blueprint", "",
                  "@_distributionFunction", "def _dim(bp, index):", "    return _DIMS[bp][index]", ""]
-        extra += [f"_bp_{role} = Uniform(*{py(pool)})" for role, pool in pools.items()]
+        picked = {a["role"]: a["model_param"] for a in actors if a["model_param"]}
+        if picked:
+            extra += ["@_distributionFunction", "def _model(pool, value):",
+                      "    return pool[min(max(int(value), 0), len(pool) - 1)]", ""]
+        extra += [f"_bp_{role} = _model({py(pool)}, globalParameters.{picked[role]})" if role in picked
+                  else f"_bp_{role} = Uniform(*{py(pool)})" for role, pool in pools.items()]
         text = head + marker + "\n".join(extra) + "\n" + tail
     return text
 

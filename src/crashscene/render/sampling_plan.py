@@ -2,10 +2,11 @@
 
 `render` writes the program and, from the same template context, this plan:
 the sampled global parameters (uniform ranges, in declaration order), the
-program's constant parameters, each actor's placement rule, blueprint pool and
-`cs_*` tokens, and the arguments the program hands to
-`scenic_support.candidates`. `crashscene.render.compiled_sampler` draws scenes from it
-with numpy instead of Scenic's interpreter: same candidates, same placement
+program's constant parameters, each actor's placement rule, blueprint pool
+(in a search's program, also the parameter that picks from it) and `cs_*`
+tokens, and the arguments the program hands to `scenic_support.candidates`.
+`crashscene.render.compiled_sampler` draws scenes from it with numpy instead
+of Scenic's interpreter: same candidates, same placement
 arithmetic, same built-in requirements (every car inside road-or-shoulder, no
 two cars overlapping). The plan carries the sha256 of the program it was
 written with, so a hand-edited program is never sampled from a stale plan.
@@ -50,6 +51,8 @@ def sampling_plan(context: dict[str, Any], program_text: str) -> dict[str, Any]:
             "dims": [[float(v) for v in BLUEPRINT_DIMS[bp]] for bp in a["blueprint_pool"]],  # [m] length, width
             "dispositions": ",".join(a["dispositions"]),
             **{name: a[name] for name in ATTRIBUTES}})
+        if a["model_param"]:  # a search's program picks the blueprint with this parameter (plan.search_parameters)
+            actors[-1]["model_param"] = a["model_param"]
     constants = [[k, v] for k, v in {"weather": plan.carla_weather, "time_of_day_hour": float(plan.hour),
                  "cs_topology": plan.topology, "cs_horizon": float(plan.horizon),
                  "cs_speed_limit": float(plan.speed_limit or 0.0), "cs_road_surface": plan.road_surface,

@@ -23,7 +23,7 @@ from crashscene.search.errors import SearchError
 from crashscene.search.objective import FAILURE_VERDICTS, OBJECTIVES, objective_values, worst_value
 from crashscene.search.samplers import SAMPLERS, create_sampler
 from crashscene.search.seat import resolve_seat
-from crashscene.search.space import ParameterSpace, parameter_space, pinned_scenes
+from crashscene.search.space import ParameterSpace, PinnedScenes, parameter_space
 
 DEFAULT_ROUNDS = 8
 MIN_ROUND = 8   # variations per round below which the batched simulator gains nothing
@@ -61,7 +61,6 @@ def search_scenario(scenario: Scenario, out_dir: Path, *, budget: int, sampler: 
     `ego_role`, `rounds` (convergence), `rules` (failure region), `parameters`.
     """
     from crashscene.render import RenderError, render
-    from crashscene.render.sample import compile_program
     from crashscene.simulate.backend import SimulationSettings, check_ego_role, create_simulator
 
     start = time.perf_counter()
@@ -75,10 +74,10 @@ def search_scenario(scenario: Scenario, out_dir: Path, *, budget: int, sampler: 
     try:
         rendered = render(scenario, out_dir, map_mode=map_mode, carla_maps=carla_maps, search_ads=ego_role)
         program = Path(rendered.program)
-        compiled = compile_program(program)
     except RenderError as exc:
-        raise SearchError(f"render/compile failed: {exc}") from exc
-    space = parameter_space(compiled, program)
+        raise SearchError(f"render failed: {exc}") from exc
+    space = parameter_space(program)
+    pinned = PinnedScenes(program, space)
     chooser = create_sampler(sampler, space.dimension, seed, size)
     rows: list[dict[str, Any]] = []
     crit_parts: list[pa.Table] = []
@@ -89,7 +88,7 @@ def search_scenario(scenario: Scenario, out_dir: Path, *, budget: int, sampler: 
             k = min(size, budget - first)
             points = chooser.ask(k)
             values = space.values(points)
-            batch, crit = _evaluate(simulator, settings, scenario, compiled, program, rendered, values, seed, first,
+            batch, crit = _evaluate(simulator, settings, scenario, pinned, program, rendered, values, seed, first,
                                     objective)
             crit_parts.append(crit)
             for i, row in enumerate(batch):
@@ -105,14 +104,14 @@ def search_scenario(scenario: Scenario, out_dir: Path, *, budget: int, sampler: 
     return summary
 
 
-def _evaluate(simulator, settings, scenario, compiled, program: Path, rendered, values: np.ndarray, seed: int,
-              first: int, objective: str) -> tuple[list[dict[str, Any]], pa.Table]:
+def _evaluate(simulator, settings, scenario, pinned: PinnedScenes, program: Path, rendered, values: np.ndarray,
+              seed: int, first: int, objective: str) -> tuple[list[dict[str, Any]], pa.Table]:
     """Simulate and monitor one round; one row per variation (objective NaN for invalid ones)."""
     from crashscene.monitor.criticality import CRITICALITY_SCHEMA, ads_objectives
     from crashscene.pipeline.simulate import judge_block
     from crashscene.simulate.backend import SimulationRequest
 
-    drawn = pinned_scenes(compiled, program, values, seed, first)
+    drawn = pinned(values, seed, first)
     scenes = [s for s in drawn if not isinstance(s, str)]
     rows = [{"variation": first + i, "objective": math.nan, "verdict": "invalid", "failure": False,
              "min_ttc": math.nan, "reason": s if isinstance(s, str) else None} for i, s in enumerate(drawn)]

@@ -12,6 +12,10 @@ No optimiser is written here; each sampler wraps a published method from a kept 
   multivariate TPE), rounds asked in a batch with the constant-liar strategy; the first round is its
   random start-up. (VerifAI's own `bo` sampler needs GPyOpt, which does not install with numpy 2 era
   packages; TPE is the kept alternative.)
+- `cmaes`: the covariance matrix adaptation evolution strategy (Hansen and Ostermeier 2001; Hansen 2016, "The
+  CMA Evolution Strategy: A Tutorial") from `cma` (pycma, by its author), one generation per round (population =
+  the round size), started at the centre of the cube with the step size its documentation prescribes (the
+  optimum within x0 +- 3 sigma0: sigma0 = 1/6 of the unit width), bounds kept by pycma's own `BoundTransform`.
 
 All randomness comes from the seed: the same seed asks the same points given the same objectives.
 """
@@ -21,10 +25,11 @@ import numpy as np
 
 from crashscene.search.errors import SearchError
 
-SAMPLERS = ("random", "halton", "ce", "bo")
+SAMPLERS = ("random", "halton", "ce", "bo", "cmaes")
 ELITE_FRACTION = 0.2   # share of evaluated points that count as elite in the cross-entropy update
 CE_BUCKETS = 5         # VerifAI's default for continuous parameters
 CE_ALPHA = 0.9         # VerifAI's default smoothing
+CMA_SIGMA0 = 1.0 / 6.0   # [unit cube] pycma: the optimum is expected within x0 +- 3 sigma0 (x0 = the centre)
 
 
 class Sampler:
@@ -125,6 +130,30 @@ class TpeSampler(Sampler):
         self.pending = []
 
 
+class CmaEsSampler(Sampler):
+    name = "cmaes"
+
+    def __init__(self, dimension: int, seed: int, population: int):
+        super().__init__(dimension, seed)
+        import cma
+
+        rng = np.random.default_rng(np.random.SeedSequence([seed, 4]))
+        options = {"popsize": population, "bounds": [0.0, 1.0], "seed": float("nan"),  # no global seeding
+                   "randn": lambda *shape: rng.standard_normal(shape), "verbose": -9, "verb_log": 0,
+                   "verb_disp": 0}
+        self.es = cma.CMAEvolutionStrategy(np.full(dimension, 0.5), CMA_SIGMA0, options)
+        self.asked: list[np.ndarray] = []
+
+    def ask(self, n: int) -> np.ndarray:
+        self.asked = self.es.ask(n)
+        return np.clip(np.array(self.asked, dtype=float), 0.0, 1.0)
+
+    def tell(self, points: np.ndarray, values: np.ndarray) -> None:
+        if len(self.asked) >= self.es.popsize:  # a last, partial round is never followed by another ask
+            self.es.tell(self.asked, [float(v) for v in values])
+        self.asked = []
+
+
 def create_sampler(name: str, dimension: int, seed: int, round_size: int) -> Sampler:
     """The sampler called `name` (one of SAMPLERS)."""
     if name == "random":
@@ -135,4 +164,6 @@ def create_sampler(name: str, dimension: int, seed: int, round_size: int) -> Sam
         return CrossEntropySampler(dimension, seed)
     if name == "bo":
         return TpeSampler(dimension, seed, startup=round_size)
+    if name == "cmaes":
+        return CmaEsSampler(dimension, seed, population=round_size)
     raise SearchError(f"--sampler {name!r} is not allowed; allowed: {', '.join(SAMPLERS)}")

@@ -1,11 +1,13 @@
 """The search space of a rendered Scenic program, and scenes drawn with its parameters pinned.
 
-The space is the program's `VerifaiRange` parameters (name, low, high). A
-search proposes points of the unit cube; `ParameterSpace.values` maps them to
-parameter values, and `pinned_scenes` draws the scenes with those values held
-fixed: Scenic's external sampler is replaced by `PinnedSampler`, so every
-other random choice (placement candidates, blueprints) is drawn as in
-`crashscene.render.sample`, index-deterministically from (seed, variation).
+The space is the program's sampled parameters (`VerifaiRange(low, high)`, low < high), read
+from the sampling plan `render` writes beside the program (`sampler.json`). A search
+proposes points of the unit cube; `ParameterSpace.values` maps them to parameter values,
+and `PinnedScenes` draws the scenes with those values held fixed, with the compiled
+sampler (`crashscene.render.compiled_sampler`, Scenic's distribution without its
+interpreter): every other random choice (placement candidate, blueprints without a
+search parameter) is drawn as in `crashscene.render.sample`, index-deterministically from
+(seed, variation), and a point no attempt can place is a rejected scene.
 """
 from __future__ import annotations
 
@@ -14,20 +16,21 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from scenic.core.external_params import ExternalSampler
 
-from crashscene.render.sample import SampleError, sample_scenes
+from crashscene.render.errors import SampleError
+from crashscene.render.sample import MAX_ITERATIONS
 from crashscene.scene import SampledScene
 from crashscene.search.errors import SearchError
 
 
 @dataclass(frozen=True)
 class ParameterSpace:
-    """The sampled parameters of a program: names and bounds, in program order."""
+    """The sampled parameters of a program: names and bounds, in program order, and its constants."""
 
     names: tuple[str, ...]
     low: np.ndarray    # (D,)
     high: np.ndarray   # (D,)
+    constants: tuple[tuple[str, float], ...] = ()   # parameters declared with low == high (name, value)
 
     @property
     def dimension(self) -> int:
@@ -43,53 +46,60 @@ class ParameterSpace:
         return (values - self.low) / span
 
 
-class PinnedSampler(ExternalSampler):
-    """An external sampler that returns values set from outside (`pin`), for every attempt of a scene."""
-
-    def __init__(self, params: tuple[Any, ...]):
-        self.params = params
-        self.rejectionFeedback = None
-        self.cachedSample: dict[int, float] = {}
-        self._values: dict[int, float] = {}
-        for index, param in enumerate(params):
-            param.sampler = self
-            param.pinned_index = index
-
-    def pin(self, values: np.ndarray) -> None:
-        self._values = {i: float(v) for i, v in enumerate(values)}
-
-    def nextSample(self, feedback):  # noqa: N802 (Scenic's hook name)
-        return self._values
-
-    def valueFor(self, param):  # noqa: N802  (a 1-tuple, as VerifAI features give)
-        return (self.cachedSample[param.pinned_index],)  # VerifaiRange unpacks a 1-tuple
-
-
-def parameter_space(scenario: Any, program: Path) -> ParameterSpace:
-    """The VerifaiRange parameters of a compiled program; pins them (the scenario's sampler is replaced)."""
-    from scenic.core.external_params import VerifaiRange
-
-    params = tuple(scenario.externalParams)
-    named = {id(value): name for name, value in scenario.params.items() if isinstance(value, VerifaiRange)}
-    if not params or any(not isinstance(p, VerifaiRange) or id(p) not in named for p in params):
-        raise SearchError(f"{program}: no sampled parameters to search (the program has no `param NAME = "
+def space_of(params: list[dict[str, Any]], source: str) -> ParameterSpace:
+    """The space of a sampling plan's `params` ({name, low, high}, program order); `source` names the program."""
+    searched = [p for p in params if float(p["high"]) > float(p["low"])]
+    if not searched:
+        raise SearchError(f"{source}: no sampled parameters to search (the program has no `param NAME = "
                           f"VerifaiRange(low, high)` with low < high); give the DSL ranges instead of fixed values")
-    bounds = np.array([p.domain.intervals[0] for p in params], dtype=float)
-    if not (bounds[:, 1] > bounds[:, 0]).any():
-        raise SearchError(f"{program}: every sampled parameter has an empty range; nothing to search")
-    scenario.externalSampler = PinnedSampler(params)
-    return ParameterSpace(names=tuple(named[id(p)] for p in params), low=bounds[:, 0], high=bounds[:, 1])
+    return ParameterSpace(names=tuple(p["name"] for p in searched),
+                          low=np.array([float(p["low"]) for p in searched]),
+                          high=np.array([float(p["high"]) for p in searched]),
+                          constants=tuple((p["name"], float(p["low"])) for p in params
+                                          if float(p["high"]) <= float(p["low"])))
 
 
-def pinned_scenes(scenario: Any, program: Path, values: np.ndarray, seed: int,
-                  first: int) -> list[SampledScene | str]:
-    """One scene per row of `values` (variation first + row), or the reason it could not be drawn."""
-    sampler: PinnedSampler = scenario.externalSampler
-    out: list[SampledScene | str] = []
-    for row, vector in enumerate(values):
-        sampler.pin(vector)
+def parameter_space(program: Path) -> ParameterSpace:
+    """The sampled parameters of a rendered program (from its sampling plan)."""
+    from crashscene.render.compiled_sampler import PlanError, load_plan
+
+    try:
+        plan = load_plan(program)
+    except PlanError as exc:
+        raise SearchError(str(exc)) from exc
+    return space_of(plan["params"], str(program))
+
+
+class PinnedScenes:
+    """Scenes of one rendered program with its searched parameters pinned (module docstring)."""
+
+    def __init__(self, program: Path, space: ParameterSpace):
+        from crashscene.render.compiled_sampler import CompiledSampler, PlanError
+        from crashscene.render.sample import _program_hash, _render_meta
+
+        program = Path(program)
         try:
-            out.append(sample_scenes(program, 1, seed, first=first + row, scenario=scenario)[0])
+            self.sampler = CompiledSampler(program)
+        except PlanError as exc:
+            raise SearchError(str(exc)) from exc
+        meta = _render_meta(program)
+        self.digest = meta.get("scenario_hash") or _program_hash(program)
+        self.map_file = str(program.parent / meta.get("map", "map.xodr"))
+        order = {name: k for k, name in enumerate(self.sampler.param_names)}
+        self.columns = np.array([order[name] for name in space.names], dtype=np.int64)
+        self.fixed = {order[name]: value for name, value in space.constants}
+
+    def __call__(self, values: np.ndarray, seed: int, first: int) -> list[SampledScene | str]:
+        """One scene per row of `values` (variation first + row), or the reason it could not be drawn."""
+        full = np.empty((len(values), len(self.sampler.param_names)))
+        for column, value in self.fixed.items():
+            full[:, column] = value
+        full[:, self.columns] = values
+        try:
+            scenes = self.sampler.scenes(first, len(values), seed, self.digest, self.map_file,
+                                         max_attempts=MAX_ITERATIONS, pinned=full)
         except SampleError as exc:
-            out.append(f"scene rejected: {exc}")
-    return out
+            raise SearchError(f"scenes could not be drawn: {exc}") from exc
+        return [scene if scene is not None else
+                f"scene rejected: no attempt out of {MAX_ITERATIONS} placed the cars with these values (on the "
+                f"road, none overlapping)" for scene in scenes]
