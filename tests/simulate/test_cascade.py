@@ -63,3 +63,22 @@ def test_pushed_paths_gives_the_strikers_slide_from_where_it_struck():
     # the striker came from behind, slowed by the impact: it stays behind the struck car's centre, off its line
     assert np.all(x < struck[0]) and np.all(np.sign(y[:, 0]) == np.sign(offsets))
     assert np.all(np.diff(x, axis=1) >= -1e-9)
+
+
+def test_clip_slide_starts_where_a_car_driving_straight_on_touches_the_slower_car_ahead():
+    from crashscene.simulate.embedded.cascade import DT, clip_slide
+
+    dt, speed, partner_speed, ahead = 0.1, 20.0, 12.0, 10.0
+    t = dt * np.arange(1, 61)
+    rows = (speed * t, np.zeros(60), np.zeros(60))  # no pull-out at all: straight on, the partner 0.9 m aside
+    touch = (ahead - 4.5) / (speed - partner_speed)  # [s] the bumpers meet
+    t_meet = dt * np.ceil(touch / dt - 1e-9)
+    car = (4.5, 1.8, 1500.0, 0.6)
+    t_touch, (along, across, yaw) = clip_slide(rows, 1.0, speed, 0.0, ahead, partner_speed, -0.9, t_meet, dt, car,
+                                               car, 0.8)
+    assert t_touch == pytest.approx(touch, abs=dt / 100)
+    # it slides on from where it touched, slower than it came and no faster than the partner it pushed ahead
+    assert along[0] == pytest.approx(speed * touch, abs=speed * DT + 0.1)
+    assert np.all(np.diff(along) / DT < speed)
+    # pushed back on its right front corner (the car it clipped is on its right) it turns right, clockwise
+    assert yaw[10] < -0.05 and np.all(np.diff(yaw[:10]) < 0.0)

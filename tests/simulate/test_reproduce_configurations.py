@@ -199,6 +199,19 @@ LATER_CONTACTS = {  # cascades planned from a predicted slide: (scenario, least 
         oracle("CVC_22350", "unsafe_speed", "ego"),
         contact("ego", "npc1", "front", "rear", "rear_end") + contact("npc2", "ego", "front", "left", "sideswipe")),
         0.65),
+    # a pull-out clips the car ahead and the clip spins the striker across into an oncoming car: the plan chooses
+    # how fast it comes up on the car it clips (how hard the clip turns it) from its predicted slide (0 of 40
+    # variations when only the clip was planned; 0.75 of 40 on a wet road; on a dry one the tyres stop the spin
+    # before it is square to the oncoming car)
+    "a_clip_spins_the_striker_into_an_oncoming_car": (scenario(
+        "two_way", "speed_limit_sign", 55,
+        actor("ego", "cross_centerline", "reference: road, relation: behind")
+        + actor("npc1", "go_forward", "reference: ego, relation: front, heading: same_direction")
+        + actor("npc2", "go_forward", "reference: ego, relation: front, heading: opposite_direction"),
+        oracle("CVC_21703", "following_too_closely", "ego"),
+        contact("ego", "npc1", "right", "rear", "sideswipe") + contact("ego", "npc2", "front", "left", "angle"))
+        .replace("weather: clear, time_of_day: daytime, road_surface: dry",
+                 "weather: rainy, time_of_day: daytime, road_surface: wet"), 0.55),
 }
 
 

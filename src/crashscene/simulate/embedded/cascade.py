@@ -1,10 +1,11 @@
-"""The motion a first impact gives the struck vehicle, predicted for planning a later contact (a cascade).
+"""The motion a first impact gives the vehicles it involves, predicted for planning a later contact (a cascade).
 
 A rear-end can push the struck car out of its lane when it strikes one rear corner: the impulse
-(`impact.exchange`, the simulator's own model) turns the struck car and it slides (`impact.slide`) the
+(`impact.exchange`, the simulator's own model) turns the struck car and it slides (`impact.tyre_slide`) the
 way its nose points. `pushed_path` integrates that motion from the moment of contact, so that the plan
 can place the third vehicle of the written sequence where the pushed car will be, when it is there.
-`slide_path` is that slide for any vehicle already sliding.
+`slide_path` is that slide for any vehicle already sliding; `clip_slide`, the slide of a car that clips the car
+ahead while pulling out, so that the plan can place a third vehicle where the clip sends it.
 """
 from __future__ import annotations
 
@@ -18,6 +19,7 @@ from crashscene.geometry import (
     REAR_END_MAX,
     classify_contact,
     footprints_overlap,
+    touch_fraction,
     wrap_angle,
 )
 from crashscene.simulate.embedded import impact
@@ -136,3 +138,52 @@ def to_world(x0: float, y0: float, yaw0: float, fwd: np.ndarray, left: np.ndarra
     """World coordinates [m] of points given in the frame of a pose (x0, y0, yaw0)."""
     c, s = math.cos(yaw0), math.sin(yaw0)
     return x0 + fwd * c - left * s, y0 + fwd * s + left * c
+
+
+def clip_slide(rows: tuple[np.ndarray, np.ndarray, np.ndarray], sign: float, speed: float, lateral: float,
+               partner_ahead: float, partner_speed: float, partner_lateral: float, t_meet: float, dt: float,
+               me: tuple[float, float, float, float], partner: tuple[float, float, float, float], friction: float
+               ) -> tuple[float, tuple[np.ndarray, np.ndarray, np.ndarray]] | None:
+    """The slide of a car after it clips a car driving straight on ahead of it, as the simulator gives it
+    (impact.exchange, then tyre_slide): (time [s] from the start of its manoeuvre to the touch, (along, across,
+    yaw) every DT after it). rows: its path (x, y, yaw every dt [s] from the start of the manoeuvre, turning
+    left; mirrored when `sign` is -1; swerve.path or a skid's); it starts at `speed` [m/s], `lateral` [m] from
+    its route's centre line, the partner's centre `partner_ahead` [m] ahead of it at `partner_lateral` [m],
+    driving at `partner_speed` [m/s]; `t_meet` [s] the step they overlap first. me, partner: (length, width [m],
+    mass [kg], wheelbase ratio [-]). The frame: along the road from where the manoeuvre starts, across from the
+    centre line. None when the rows do not reach t_meet."""
+    x, y, yaw = rows
+    k = int(round(t_meet / dt)) - 1
+    if k < 0 or k >= len(x):
+        return None
+
+    def pose_at(i: int) -> tuple[float, float, float]:
+        if i < 0:
+            return 0.0, lateral, 0.0
+        return float(x[i]), lateral + sign * float(y[i]), sign * float(yaw[i])
+
+    before, after = pose_at(k - 1), pose_at(k)
+    t_before = k * dt
+    one = np.ones(1)
+
+    def mine(f):
+        return tuple(one * (b + f * (a - b)) for b, a in zip(before, after))
+
+    def theirs(f):
+        return partner_ahead + partner_speed * (t_before + f * dt), partner_lateral * one, 0.0 * one
+
+    f = touch_fraction(mine, theirs, me[0] * one, me[1] * one, partner[0] * one, partner[1] * one, 1)
+    xa, ya, yaw_a = mine(f)
+    xb, yb, yaw_b = theirs(f)
+    la, wa, ma = (q * one for q in me[:3])
+    lb, wb, mb = (q * one for q in partner[:3])
+    v_a = np.hypot(after[0] - before[0], after[1] - before[1]) / dt
+    va = np.stack([v_a * np.cos(yaw_a), v_a * np.sin(yaw_a)])  # along its heading, as the simulator has it
+    vb = np.stack([partner_speed * one, 0.0 * one])
+    nx, ny, px, py = impact.contact_frame(xa, ya, yaw_a, la, wa, xb, yb, yaw_b, lb, wb)
+    va, w_a, _, _, _ = impact.exchange(nx, ny, px, py, xa, ya, va, (after[2] - before[2]) / dt * one, ma,
+                                       impact.yaw_inertia(ma, la, wa), xb, yb, vb, 0.0 * one, mb,
+                                       impact.yaw_inertia(mb, lb, wb))
+    along, across, turn = slide_path(xa, ya, yaw_a, va[0], va[1], w_a, friction, la, wa, DT, int(HORIZON / DT),
+                                     me[3] * la)
+    return t_before + float(f[0]) * dt, (along[0], across[0], turn[0])

@@ -35,6 +35,7 @@ VEER_BEHAVIORS = ("change_lane_left", "change_lane_right", "cross_centerline", "
 SYNC_SLACK = 0.8  # [s] an actor moved back to meet later is placed this much early (sync.Meeting slows it)
 START_MARGIN = 5.0  # [m] an actor moved back along its route stays this far from the route's start
 CLIP_CLOSING = 3.0  # [m/s] a vehicle pulling out around the one ahead and clipping it comes up at least this fast
+CLIP_SPEEDS = 5  # [-] partner speeds (down to the slowest of its range) a clip followed by a later contact tries
 CLIP_PARTS = 8  # [-] a clip's partner may start within a step's closing further ahead, in this many parts
 CHAIN_GAP = 4.0  # [m] at least this between the bumpers of actors reordered along their lane
 SPEEDING_RUN = 2.0  # [s] a striker charged with speeding drives this long before its impact (rules: 1 s over)
@@ -48,6 +49,21 @@ STOP_DECEL = 4.0  # [m/s2] a stopping driver's braking (drivers.behaviors.DECELE
 STOP_NEAR_JUNCTION = 40.0  # [m] a stopping driver this close to a junction stops at its line
 WRONG_WAY_LEFT = 0.4  # [lanes] a drift across several lanes starts this far short of the partner's lane
 ADVANCE_MARGIN = 3.0  # [m] an actor advanced by its timing plan stays this far before its junction entry
+
+
+@dataclass(frozen=True)
+class ClipTiming:
+    """A pull-out clipping the vehicle ahead: its trigger [s] and simulator step [s], when after it they touch
+    (`t_meet` [s]), its path (x, y, yaw every step after it, turning left; mirrored when `sign` is -1), the
+    partner's centre ahead at the step [m] and its lateral offset from the striker's route [m]."""
+
+    trigger: float
+    t_step: float
+    t_meet: float
+    rows: tuple[np.ndarray, np.ndarray, np.ndarray]
+    sign: float
+    ahead: float
+    lateral: float
 
 
 @dataclass(frozen=True)
@@ -293,9 +309,11 @@ class VariationPlan:
         closing = self.speeds[a] - self.speeds[partner]
         if closing < 0.5:
             return False
+        if self.ctx.reproduce and self._clip_then_meet(a, partner, gap, contact, rate):
+            return True
         timed = self._clip_on_path(a, partner, gap, lateral, contact, rate, reach / closing)
         if timed is not None:
-            self.trigger[a] = timed
+            self.trigger[a] = timed.trigger
             return True
         half = (self.width[a] + self.width[partner]) / 2
         u = (self.lead_time(a) - 0.8) / 1.2  # [0, 1)
@@ -304,9 +322,10 @@ class VariationPlan:
         return True
 
     def _clip_on_path(self, a: int, partner: int, gap: float, lateral: float, contact: str, rate: float,
-                      t_reach: float) -> float | None:
-        """[s] the trigger of actor a's pull-out whose path first touches the partner ahead (both at their
-        planned speeds) with the written class, before a reaches it straight on (`t_reach` [s]); None if none."""
+                      t_reach: float) -> ClipTiming | None:
+        """The pull-out of actor a whose path first touches the partner ahead (both at their planned speeds) with
+        the written class, before a reaches it straight on (`t_reach` [s]): its trigger [s] and where they touch
+        (`ClipTiming`); None if none."""
         limits = self.ctx.columns[a].limits
         other = self.scene.actors[partner]
         gap, lateral = _relative(self.ctx.arrays, self.route[a], self.s0[a], other.x, other.y, exact=True)
@@ -316,7 +335,8 @@ class VariationPlan:
                            limits.steer_rate, limits.steer_max, dt)
         wanted = skid_plan.Wanted(contact, self.contact_area(a, partner), self.contact_area(partner, a),
                                   skidder_first=a < partner)
-        found = skid_plan.first_contact(path, 1.0 if offset >= 0 else -1.0, float(self.speeds[a]), gap,
+        sign = 1.0 if offset >= 0 else -1.0
+        found = skid_plan.first_contact(path, sign, float(self.speeds[a]), gap,
                                         float(self.speeds[partner]), False, lateral - float(self.d0[a]),
                                         skid_plan.Body(float(self.length[a]), float(self.width[a])),
                                         skid_plan.Body(float(self.length[partner]), float(self.width[partner])),
@@ -330,7 +350,81 @@ class VariationPlan:
                 return None
             self.s0[partner] = placed
             self.moved[partner] = True
-        return found[1]
+        t_step = found[1] + dt / 2 if found[1] > 0 else 0.0  # the simulator step the pull-out starts on
+        ahead = gap + found[3] - (self.speeds[a] - self.speeds[partner]) * t_step
+        return ClipTiming(found[1], t_step, found[2], tuple(q[0] for q in path), sign, float(ahead), float(lateral))
+
+    def _clip_then_meet(self, a: int, partner: int, gap: float, contact: str, rate: float) -> bool:
+        """A clip followed by a written contact of the striker with a third actor that drives freely straight on
+        (the striker's own motion after the clip carries it there): the partner comes as much slower (within its
+        range) as makes the striker's slide after the clip (cascade.clip_slide, the simulator's impact and tyre
+        model) meet the third actor with the written class, and the third actor is placed to meet it there
+        (`_meet_at`); False when the sequence is another one or no such meeting is found."""
+        found = self._after_clip(a, partner)
+        if found is None:
+            return False
+        third, later = found
+        ctx, cols = self.ctx, self.ctx.columns
+        arrays, dt = ctx.arrays, ctx.skid_paths.dt
+        lo = timing.SPEED_SCALE[0]
+        best, best_score = None, (-1, -math.inf)
+        saved = (self.scale[partner], self.speeds[partner], self.s0[partner], self.moved[partner])
+        for scale in np.linspace(float(self.scale[partner]), lo, CLIP_SPEEDS):
+            self.scale[partner], self.speeds[partner] = scale, self.planned[partner] * scale
+            closing = self.speeds[a] - self.speeds[partner]
+            reach = gap - (self.length[a] + self.length[partner]) / 2
+            if closing < 0.5 or reach <= 0:
+                continue
+            other = self.scene.actors[partner]
+            _, lateral = _relative(arrays, self.route[a], self.s0[a], other.x, other.y)
+            timed = self._clip_on_path(a, partner, gap, lateral, contact, rate, reach / closing)
+            shifted = (self.s0[partner], self.moved[partner])
+            self.s0[partner], self.moved[partner] = saved[2], saved[3]
+            if timed is None:
+                continue
+            slide = cascade.clip_slide(timed.rows, timed.sign, float(self.speeds[a]), float(self.d0[a]), timed.ahead,
+                                       float(self.speeds[partner]), timed.lateral, timed.t_meet, dt,
+                                       (float(self.length[a]), float(self.width[a]), cols[a].limits.mass,
+                                        cols[a].limits.wheelbase_ratio),
+                                       (float(self.length[partner]), float(self.width[partner]),
+                                        cols[partner].limits.mass, cols[partner].limits.wheelbase_ratio),
+                                       ctx.friction)
+            if slide is None:
+                continue
+            t_touch, path = slide
+            pose = tuple(float(q) for q in arrays.point(np.array(self.route[a]),
+                                                         np.array(self.s0[a] + self.speeds[a] * timed.t_step)))
+            meeting = self._pushed_meeting(a, third, path, (pose[0], pose[1], pose[2]), later)
+            if meeting is None:
+                continue
+            score = (2 * (meeting[2] == later[0]) + (meeting[3] == later[1]), meeting[5])
+            if score > best_score:
+                best, best_score = (scale, timed, shifted, t_touch, meeting), score
+        self.scale[partner], self.speeds[partner] = saved[0], saved[1]
+        if best is None or best[4][2] != later[0]:
+            return False
+        scale, timed, shifted, t_touch, meeting = best
+        k, gap_k, _, _, extent, _ = meeting
+        if not self._meet_at(third, gap_k - self.length[third] / 2 - extent,
+                             timed.t_step + t_touch + (k + 1) * cascade.DT, passing=(a,)):
+            return False
+        self.scale[partner], self.speeds[partner] = scale, self.planned[partner] * scale
+        self.s0[partner], self.moved[partner] = shifted
+        self.trigger[a] = timed.trigger
+        return True
+
+    def _after_clip(self, a: int, partner: int) -> tuple[int, tuple[str, str]] | None:
+        """(third actor, (class, actor a's area)) of actor a's next written contact after its first one with
+        `partner`, when it is with a third actor that drives freely straight on (not the ADS); else None."""
+        cols, roles = self.ctx.columns, [c.role for c in self.ctx.columns]
+        mine = [c for c in self.ctx.contacts if roles[a] in c[:2] and all(r in roles for r in c[:2])]
+        if cols[a].is_ads or len(mine) < 2 or roles[partner] not in mine[0][:2]:
+            return None
+        striking, struck, klass, striking_area, struck_area = mine[1]
+        third = roles.index(striking if struck == roles[a] else struck)
+        if third == partner or cols[third].is_ads or cols[third].behavior != "go_forward":
+            return None
+        return third, (klass, striking_area if striking == roles[a] else struck_area)
 
     def _lateral_distance(self, a: int, lateral: float, opposite: bool) -> float:
         """[m] how far actor a steers sideways to reach its partner's path (sets a skid's side)."""
@@ -677,13 +771,7 @@ class VariationPlan:
         arrive = t1 + (k + 1) * cascade.DT
         # a striker drifting out of the lane ahead of it is no obstacle to a start behind it
         passing = (si,) if self.ctx.columns[si].behavior in LATERAL_BEHAVIORS else ()
-        reach = gap_k - self.length[xi] / 2 - extent  # [m] how far the third actor drives to the meeting
-        placed = _shift_start(self.ctx.arrays, xi, self.route, self.s0, reach - self.speeds[xi] * arrive,
-                              self.length, self.d0, passing=passing)
-        if placed is not None:
-            self.s0[xi] = placed
-            self.moved[xi] = True
-        elif not self._arrive_later(xi, reach, arrive):
+        if not self._meet_at(xi, gap_k - self.length[xi] / 2 - extent, arrive, passing):
             return
         # the striker holds its centre off the struck car's centre line, toward the corner it hits (its own
         # left is the struck car's right when it comes the other way)
@@ -697,6 +785,17 @@ class VariationPlan:
         self.drifted[si] += target - self.d0[si]
         self.d0[si] = target
         self.lateral_target[si] = target
+
+    def _meet_at(self, a: int, reach: float, arrive: float, passing: tuple[int, ...] = ()) -> bool:
+        """Actor a covers `reach` [m] along its route by `arrive` [s]: it starts where that takes its own speed, else
+        (no room behind) it drives slower and waits (`_arrive_later`); False when it cannot."""
+        placed = _shift_start(self.ctx.arrays, a, self.route, self.s0, reach - self.speeds[a] * arrive, self.length,
+                              self.d0, passing=passing)
+        if placed is not None:
+            self.s0[a] = placed
+            self.moved[a] = True
+            return True
+        return self._arrive_later(a, reach, arrive)
 
     def _settle_before(self, a: int, t1: float) -> None:
         """Actor a steers across to its lateral target and is there CASCADE_SETTLE [s] before its impact at t1 [s]:
@@ -757,12 +856,12 @@ class VariationPlan:
     def _pushed_meeting(self, ti: int, xi: int, path: tuple[np.ndarray, np.ndarray, np.ndarray],
                         pose: tuple[float, float, float], later: tuple[str, str]
                         ) -> tuple[int, float, str, str, float, float] | None:
-        """Where the third actor xi meets actor ti moving along `path` after the impact (cascade.pushed_paths:
-        forward, left, yaw in the frame of the struck car's `pose` at the impact): (step of the path, station
-        ahead on xi's route [m], the class of that contact, ti's area facing xi, its half extent across xi's path
-        [m], how far [deg] its heading is inside the written class's range): the step where that contact has the
-        `later` (class, area) written, else the one nearest a drawn moment in the window after ti enters xi's
-        path."""
+        """Where the third actor xi meets actor ti moving along `path` after an impact (cascade.pushed_paths,
+        clip_slide: forward, left, yaw in the frame of `pose`): (step of the path, station on xi's route from its
+        start [m] (negative: behind it, where it is then placed), the class of that contact, ti's area facing xi,
+        its half extent across xi's path [m], how far [deg] its heading is inside the written class's range): the
+        step where that contact has the `later` (class, area) written, else the one nearest a drawn moment in the
+        window after ti enters xi's path."""
         arrays = self.ctx.arrays
         px, py, pyaw = pose
         fwd, left, yaw = path
@@ -785,7 +884,9 @@ class VariationPlan:
         yaw_x = arrays.point(np.full(len(gap), r), self.s0[xi] + gap)[2]
         rel = pyaw + yaw - yaw_x
         extent = self.length[ti] / 2 * np.abs(np.sin(rel)) + self.width[ti] / 2 * np.abs(np.cos(rel))
-        hit = np.nonzero((np.abs(lat - self.d0[xi]) < self.width[xi] / 2 + extent - 0.3) & (gap > 0))[0]
+        # on its route far enough from its start for it to be placed further back to meet there
+        hit = np.nonzero((np.abs(lat - self.d0[xi]) < self.width[xi] / 2 + extent - 0.3)
+                         & (k_route * ROUTE_DS > START_MARGIN + self.length[xi]))[0]
         if len(hit) == 0:
             return None
         klass = cascade.contact_class(rel[hit])
@@ -794,7 +895,9 @@ class VariationPlan:
         # the steps with the written class and area (else the nearest to them), and among those the ones whose
         # heading is near the most central one: a struck car that spins fast is in the class's range only briefly,
         # and what the prediction does not foresee shifts the moment of contact
-        group = [(klass[h] != later[0], area[h] != later[1]) for h in range(len(hit))]
+        # (then those where its centre is in xi's lane: it is in the path it meets xi in, not just reaching into it)
+        inside = np.abs(lat[hit] - self.d0[xi]) < self.lane_width / 2
+        group = [(klass[h] != later[0], area[h] != later[1], not inside[h]) for h in range(len(hit))]
         best = min(group)
         central = max(margin[h] for h in range(len(hit)) if group[h] == best) - CASCADE_CENTRAL
         want = hit[0] + self.draws.cascade[xi] * CASCADE_WINDOW / cascade.DT
