@@ -119,7 +119,9 @@ def write_table(run_dir: str | Path, name: str, table: pa.Table) -> Path:
     schema metadata (the scenario digest) is kept."""
     schema = TABLES[name]
     metadata = table.schema.metadata
-    table = table.select(schema.names).cast(schema)
+    # one chunk per column: Parquet's pages follow the chunks the writer is handed, so the blocks of different
+    # worker counts (or simulator chunks) would write the same values as different bytes
+    table = table.select(schema.names).cast(schema).combine_chunks()
     if metadata:
         table = table.replace_schema_metadata(metadata)
     path = Path(run_dir) / f"{name}.parquet"

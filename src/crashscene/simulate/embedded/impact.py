@@ -4,12 +4,12 @@ At a contact the two footprints (oriented rectangles) touch along a normal (the
 separating axis of least penetration) at a contact point (the deepest corner, or
 the middle of a face lying against a face). The exchange is the planar
 impulse-momentum model of accident reconstruction (Brach, "Vehicle Accident
-Analysis and Reconstruction Methods", ch. 5): one impulse at the contact point
+Analysis and Reconstruction Methods"): one impulse at the contact point
 on both rigid bodies (mass by vehicle type, yaw inertia of a uniform box),
 normal restitution RESTITUTION, and a tangential impulse that makes the contact
 points stick when that needs no more than MU_CONTACT times the normal impulse,
 else slides at that ratio (Coulomb). Linear and angular momentum are conserved;
-no energy is created. From then on the vehicle is out of its driver's control:
+no energy is created. A vehicle the impact upsets (`upsets`) is from then on out of its driver's control:
 each axle slides on its tyres with Coulomb friction against its contact patch's
 velocity (mu across the body, ROLL_FRACTION of it along), so a vehicle sliding
 sideways keeps spinning, one rolling on stops turning, until it is at rest
@@ -25,13 +25,22 @@ from crashscene.units import G
 
 RESTITUTION = 0.15  # [-] vehicle-to-vehicle impacts are nearly plastic (reconstruction practice: 0.1-0.3)
 MU_CONTACT = 0.4  # [-] limiting ratio of tangential to normal impulse between two vehicle bodies (Brach's
-# impulse ratio; crushed sheet metal interlocks, so sticking is common and 0.3-0.6 typical)
+# impulse ratio; crushed sheet metal interlocks, so the contact points often stick)
 ROLL_FRACTION = 0.35  # [-] rolling deceleration after an impact, as a fraction of mu*g (damaged, braked late)
 REST_SPEED = 0.15  # [m/s] below this (and REST_YAW_RATE) a sliding vehicle is at rest
 REST_YAW_RATE = 0.05  # [rad/s]
 INSIDE_TOLERANCE = 0.02  # [m] a corner this close to the other body counts as inside it
 FACE_TOLERANCE = 0.15  # [m] corners this close to the deepest one form a face lying against the other
+CONTROL_DELTA_V = 2.5  # [m/s] an impact changing a vehicle's velocity by less (about the 5 mph a bumper is built
+# to take, FMVSS 581's former test speed) and its yaw rate by less than CONTROL_YAW_RATE leaves its driver in control
+CONTROL_YAW_RATE = 0.5  # [rad/s]
 TYRE_SWEEPS = 4  # [-] Gauss-Seidel sweeps of the two axles' friction impulses per step (tyre_slide)
+
+
+def upsets(dv: np.ndarray, dw: np.ndarray) -> np.ndarray:
+    """Whether an impact that changed a vehicle's velocity by dv [m/s] and its yaw rate by dw [rad/s] takes it out
+    of its driver's control (else the driver drives on: a heavy truck that barely slowed, a light touch)."""
+    return (np.asarray(dv) >= CONTROL_DELTA_V) | (np.abs(np.asarray(dw)) >= CONTROL_YAW_RATE)
 
 
 def yaw_inertia(mass: np.ndarray, length: np.ndarray, width: np.ndarray) -> np.ndarray:

@@ -174,6 +174,7 @@ class VariationPlan:
                     plan.enter_wrong_way(a)
                 plan.plan_junction(a, offset)
         if ctx.reproduce:
+            plan.knock_aside()
             plan.plan_cascade()
         plan.plan_signal_phase()
         return plan
@@ -720,6 +721,30 @@ class VariationPlan:
             if s != self.s0[i]:
                 self.s0[i] = s
                 self.moved[i] = True
+
+    def knock_aside(self) -> None:
+        """A striker that rear-ends a vehicle and then, later in the written sequence, rear-ends another one
+        ahead of it in the same lane went past the first: it hits the first at a rear corner (its centre
+        cascade.CORNER of that car's width off the car's, the side drawn), so that the eccentric impulse and the
+        striker's continued push (a heavy striker keeps its driver, impact.upsets) turn that car out of the lane
+        and leave the way on to the next one open. (The cascade helper's earlier attempt, which failed while the
+        striker slid after the impact.)"""
+        seq, roles = self.ctx.contacts, [c.role for c in self.ctx.columns]
+        if not seq or seq[0][2] != "rear_end" or not all(r in roles for r in seq[0][:2]):
+            return
+        si, ti = roles.index(seq[0][0]), roles.index(seq[0][1])
+        cols = self.ctx.columns
+        if cols[si].is_ads or cols[si].behavior != "go_forward" or not _same_lane(self.route, self.d0, si, ti):
+            return
+        if not any(striking == roles[si] and struck != roles[ti] and klass == "rear_end" and struck in roles
+                   and _same_lane(self.route, self.d0, ti, roles.index(struck))
+                   and self.s0[roles.index(struck)] > self.s0[ti] for striking, struck, klass, *_ in seq[1:]):
+            return
+        side = 1.0 if self.draws.spin[si] > 0 else -1.0
+        target = float(self.d0[ti]) + side * cascade.CORNER * self.width[ti]
+        self.drifted[si] += target - self.d0[si]
+        self.d0[si] = target
+        self.lateral_target[si] = target
 
     def plan_cascade(self) -> None:
         """A written sequence that starts with an end-on contact (a rear-end into a stopped car, a head-on) and

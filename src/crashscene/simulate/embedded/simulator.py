@@ -5,9 +5,9 @@ variations), asks each actor's driver for an `Action`, moves the vehicles with
 a kinematic bicycle model (pure-pursuit steering along the route at the
 commanded lateral offset, acceleration/brake/steering limits per vehicle
 type), and checks every pair of footprints for overlap. At each contact onset
-the two vehicles exchange an impulse and from then on slide out of their
-drivers' control until at rest (`impact`), so a second contact can follow; each
-onset is recorded. The only Python loops in the step loop run over actors and
+the two vehicles exchange an impulse, and each one the impulse upsets slides out
+of its driver's control until at rest (`impact`), so a second contact can follow;
+each onset is recorded. The only Python loops in the step loop run over actors and
 actor pairs, never over variations.
 """
 from __future__ import annotations
@@ -203,7 +203,8 @@ class State:
         self.spin = np.zeros_like(self.x)
         self.lost_time = np.full(self.x.shape, np.nan)  # [s] when the actor lost control
         self.collided = np.zeros(self.x.shape, dtype=bool)  # has had a contact
-        self.free = np.zeros(self.x.shape, dtype=bool)  # sliding after an impact, out of its driver's control
+        self.free = np.zeros(self.x.shape, dtype=bool)  # sliding after an impact (or a loss of control), out of
+        # its driver's control
         self.vx = np.zeros_like(self.x)  # [m/s] velocity of a sliding vehicle (world frame)
         self.vy = np.zeros_like(self.x)
         n_a = self.x.shape[1]
@@ -527,11 +528,11 @@ def _exchange(batch: batch_setup.BatchSetup, state: State, recorder: Recorder, o
     dvb[idx] = np.hypot(*(vb1 - vb))
     cx[idx], cy[idx] = px, py
     recorder.collision(onset, a, b, t, state, False, delta_v=(dva, dvb), point=(cx, cy))
-    for k, vel, w in ((a, va1, wa1), (b, vb1, wb1)):
+    for k, vel, w, vel0, w0 in ((a, va1, wa1, va, wa), (b, vb1, wb1, vb, wb)):
         state.vx[idx, k], state.vy[idx, k] = vel
         state.yaw_rate[idx, k] = w
         state.v[idx, k] = np.hypot(*vel)
-        state.free[idx, k] = True
+        state.free[idx, k] |= impact.upsets(np.hypot(*(vel - vel0)), w - w0)  # else its driver drives on
         state.collided[idx, k] = True
 
 

@@ -26,7 +26,8 @@ VEHICLE_LIMITS: dict[str, VehicleLimits] = {
     "car": VehicleLimits(),
     "truck": VehicleLimits(wheelbase_ratio=0.55, accel_max=1.5, brake_max=6.0, brake_comfort=2.5,
                            steer_max=math.radians(30), steer_rate=math.radians(40), lat_accel_comfort=2.0,
-                           speed_max=35.0, mass=2500.0),  # a light truck (pickup, SUV, van), the commonest in reports
+                           speed_max=35.0, mass=15000.0),  # dsl.md's heavy truck: a semi or tractor-trailer (about 15 t
+    # empty, 36 t loaded at the US 80,000 lb limit), a bus (12-18 t), a box truck
     "motorcycle": VehicleLimits(wheelbase_ratio=0.65, accel_max=4.5, brake_max=7.0, brake_comfort=3.5,
                                 steer_max=math.radians(30), steer_rate=math.radians(90), lat_accel_comfort=3.0,
                                 speed_max=60.0, mass=300.0),

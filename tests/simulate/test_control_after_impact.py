@@ -1,0 +1,40 @@
+"""Who keeps control after an impact (embedded.impact.upsets): a vehicle the impulse barely changes drives on,
+one it upsets slides out of its driver's control."""
+from __future__ import annotations
+
+import numpy as np
+
+from crashscene.scene import SampledScene
+from crashscene.simulate.embedded import impact
+
+from .conftest import EXAMPLES, LANE, actor
+from .test_embedded import actor_trace, run
+
+
+def test_upsets_at_the_declared_delta_v_and_yaw_rate():
+    dv = np.array([0.0, impact.CONTROL_DELTA_V - 0.01, impact.CONTROL_DELTA_V, 1.0, 1.0])
+    dw = np.array([0.0, 0.0, 0.0, impact.CONTROL_YAW_RATE, -impact.CONTROL_YAW_RATE])
+    assert impact.upsets(dv, dw).tolist() == [False, False, True, True, True]
+
+
+def test_a_heavy_striker_barely_upset_by_the_impact_drives_on_and_the_car_it_hits_slides(straight_map):
+    # a heavy truck follows a braking car too closely and rear-ends it: the truck's own delta-v is about a tenth
+    # of the car's, so its driver keeps control (it accelerates back to its speed), while the car slides out of
+    # control (it never accelerates again)
+    case = EXAMPLES / "109176" / "golden.yaml"  # npc1 decelerates in front; ego CVC_21703
+    truck = {"type": "truck", "blueprint": "vehicle.carlamotors.european_hgv", "length": 7.94, "width": 2.89}
+    scenes = [SampledScene(index=i, seed=5, scenario_hash="h", map_file=str(straight_map), params={
+        "npc1_TRIGGER_TIME": 2.0}, actors=[
+        actor("ego", 40.0, -LANE / 2, 0.0, 20.0, dispositions=["CVC_21703"]).model_copy(update=truck),
+        actor("npc1", 40.0 + 26.0 + i, -LANE / 2, 0.0, 20.0, behavior="decelerate",
+              reference="ego", relation="front", heading="same_direction")]) for i in range(6)]
+    tables = run(case, scenes, straight_map, mode="reproduce")
+    first = {}
+    for r in tables["collisions"].to_pylist():
+        first.setdefault(r["variation"], r)
+    assert len(first) >= 4
+    for v, contact in first.items():
+        assert contact["delta_v_a"] < impact.CONTROL_DELTA_V < contact["delta_v_b"]
+        truck_trace, car = actor_trace(tables, v, "ego"), actor_trace(tables, v, "npc1")
+        assert (truck_trace["accel"][truck_trace["t"] > contact["t"] + 0.05] > 0.1).any()
+        assert (car["accel"][car["t"] > contact["t"] + 0.05] <= 1e-9).all()
