@@ -193,6 +193,7 @@ def _sampler_for(backend: str, sampler: str | None) -> str:
 
 
 MIN_BLOCK = 100  # variations per process below which forking costs more than it saves
+EARLY_WRITE_BYTES = 320 * 2**20  # [bytes] traces up to this size are written while the workers judge them
 BLOCKS_PER_WORKER = 1  # one block a worker: the step loop's cost per step is mostly fixed, so larger blocks are cheaper
 _INHERITED: dict[str, Any] = {}  # the request, read by forked children only
 
@@ -235,16 +236,20 @@ def simulate_blocks(backend: str, settings: SimulationSettings, request: Simulat
     Variation i depends only on its scene, so the concatenated tables equal one process's. Only the embedded
     backend is split (a CARLA server is one shared world; Newtonian runs scene by scene anyway). `simulated` is
     called with the simulator's tables as soon as every block has sent them, before the blocks are judged: the
-    caller writes them while the workers judge.
+    caller writes them while the workers judge (when the traces are at most EARLY_WRITE_BYTES, else once judged).
     """
     scenes = list(request.scenes)
     workers = min(workers, max(1, len(scenes) // MIN_BLOCK)) if backend == "embedded" else 1
     if workers == 1:
         with create_simulator(backend, settings) as simulator:
             result = simulator.simulate(request)
-        if simulated is not None:
+        early = simulated is not None and _write_early(result)
+        if early:
             simulated(result)
-        return result, (judge(dict(result.tables)) if judge is not None else None)
+        judged = judge(dict(result.tables)) if judge is not None else None
+        if simulated is not None and not early:
+            simulated(result)
+        return result, judged
     start = time.perf_counter()
     blocks = min(BLOCKS_PER_WORKER * workers, max(1, len(scenes) // MIN_BLOCK))
     bounds = list(itertools.pairwise([len(scenes) * k // blocks for k in range(blocks + 1)]))
@@ -262,13 +267,16 @@ def simulate_blocks(backend: str, settings: SimulationSettings, request: Simulat
                     if request.progress is not None:
                         request.progress(bounds[k][1] - bounds[k][0])
                     if all(part is not None for part in parts):
-                        result = _concatenated(parts, len(scenes), start)
-                        if simulated is not None:
+                        result = _concatenated(parts, start)
+                        if simulated is not None and _write_early(result):
                             simulated(result)
+                            simulated = None
                 else:
                     judged[k] = payload
     finally:
         _INHERITED.clear()
+    if simulated is not None:
+        simulated(result)
     if judge is None:
         return result, None
     from crashscene.monitor.result import combine
@@ -277,14 +285,16 @@ def simulate_blocks(backend: str, settings: SimulationSettings, request: Simulat
                           sum(j.seconds for j in judged) / workers)
 
 
-def _concatenated(parts: list[BatchResult], n_scenes: int, start: float) -> BatchResult:
-    """The blocks' tables in index order, chunked as one process chunks them: Parquet's pages follow the chunks, so
-    the files have the same bytes whatever the number of blocks (traces: `canonical_chunks`, the others: one)."""
-    from crashscene.simulate.embedded.record import canonical_chunks
+def _write_early(result: BatchResult) -> bool:
+    """Whether the tables can be written while the blocks are judged: `write_table` copies the traces into one
+    chunk, which beside the judges' arrays would exceed the memory budget for large traces."""
+    traces = result.tables.get("traces")
+    return traces is None or traces.nbytes <= EARLY_WRITE_BYTES
 
+
+def _concatenated(parts: list[BatchResult], start: float) -> BatchResult:
+    """The blocks' tables in index order (`write_table` writes each as one chunk: the same bytes as one process)."""
     tables = {name: pa.concat_tables([part.tables[name] for part in parts]) for name in parts[0].tables}
-    tables = {name: canonical_chunks(table, n_scenes) if name == "traces" else table.combine_chunks()
-              for name, table in tables.items()}
     notes = list(dict.fromkeys(note for part in parts for note in part.notes))
     return BatchResult(backend=parts[0].backend, tables=tables, seconds=time.perf_counter() - start, notes=notes)
 

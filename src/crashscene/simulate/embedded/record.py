@@ -18,8 +18,6 @@ from crashscene.simulate.tables import actors_table, collisions_table, variation
 from crashscene.traces import CONTROLS, MANEUVERS, SIGNAL_STATES, TRACE_SCHEMA
 
 LANE_CHANGE_BEHAVIORS = ("change_lane_left", "change_lane_right", "overtake")
-TABLE_CHUNK = 500  # scenes per chunk of the traces table: Parquet's pages follow the chunks, so the file's bytes do
-# not depend on how many scenes were simulated together or in how many processes
 NEVER_MOVED = 0.5  # [m] an ego that travels less than this never moved
 STILL_BEHAVIORS = ("stop", "static")
 
@@ -198,7 +196,6 @@ class Recorder:
     # ------------------------------------------------------------ result
     def tables(self, scenes: list[SampledScene]) -> dict[str, pa.Table]:
         traces = pa.concat_tables(self.trace_parts) if self.trace_parts else TRACE_SCHEMA.empty_table()
-        traces = canonical_chunks(traces, len(scenes))
         rows = sorted(self.collision_rows, key=lambda row: (row["variation"], row["t"], row["actor_a"],
                                                             row["actor_b"]))
         return {
@@ -207,20 +204,6 @@ class Recorder:
             "collisions": collisions_table(rows),
             "variations": variations_table(scenes, self.valid, self.reasons, self.settings),
         }
-
-
-def canonical_chunks(traces: pa.Table, n_scenes: int) -> pa.Table:
-    """`traces` (every scene the same number of rows, in scene order) chunked TABLE_CHUNK scenes a chunk, counted
-    from the first scene, whatever chunks it came in (simulation chunks, worker blocks): the layout the Parquet
-    writer's pages follow. Slices inside one chunk are views; a slice across chunks is copied into one."""
-    if not n_scenes or not traces.num_rows or traces.num_rows % n_scenes:
-        return traces
-    rows = traces.num_rows // n_scenes * TABLE_CHUNK
-    parts = []
-    for lo in range(0, traces.num_rows, rows):
-        part = traces.slice(lo, rows)
-        parts.append(part if part.column(0).num_chunks == 1 else part.combine_chunks())
-    return pa.concat_tables(parts)
 
 
 def _strings(codes: np.ndarray, names: list[str]) -> pa.Array:
