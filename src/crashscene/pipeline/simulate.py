@@ -251,7 +251,11 @@ def simulate_blocks(backend: str, settings: SimulationSettings, request: Simulat
             simulated(result)
         return result, judged
     start = time.perf_counter()
-    blocks = min(BLOCKS_PER_WORKER * workers, max(1, len(scenes) // MIN_BLOCK))
+    from crashscene.simulate.embedded.simulator import chunk_size
+
+    # one block a worker, or as many more as keep each block to one simulator chunk (bounds a judge's memory)
+    blocks = min(max(BLOCKS_PER_WORKER * workers, -(-len(scenes) // chunk_size(scenes))),
+                 max(1, len(scenes) // MIN_BLOCK))
     bounds = list(itertools.pairwise([len(scenes) * k // blocks for k in range(blocks + 1)]))
     _INHERITED.update(backend=backend, settings=settings, request=request, judge=judge)
     _import_before_fork(judge is not None)
