@@ -1,11 +1,16 @@
-"""Who keeps control after an impact (embedded.impact.upsets): a vehicle the impulse barely changes drives on,
-one it upsets slides out of its driver's control."""
+"""Who keeps control after an impact (embedded.impact.upsets): a vehicle the impulse barely changes drives on
+(in its lane's centre), one it upsets slides out of its driver's control."""
 from __future__ import annotations
 
 import numpy as np
 
+from crashscene.dsl import load_file
 from crashscene.scene import SampledScene
-from crashscene.simulate.embedded import impact
+from crashscene.simulate.backend import SimulationSettings
+from crashscene.simulate.embedded import impact, setup
+from crashscene.simulate.embedded.record import Recorder
+from crashscene.simulate.embedded.simulator import run_batch
+from crashscene.simulate.roads import RoadMap
 
 from .conftest import EXAMPLES, LANE, actor
 from .test_embedded import actor_trace, run
@@ -38,3 +43,32 @@ def test_a_heavy_striker_barely_upset_by_the_impact_drives_on_and_the_car_it_hit
         truck_trace, car = actor_trace(tables, v, "ego"), actor_trace(tables, v, "npc1")
         assert (truck_trace["accel"][truck_trace["t"] > contact["t"] + 0.05] > 0.1).any()
         assert (car["accel"][car["t"] > contact["t"] + 0.05] <= 1e-9).all()
+
+
+def test_a_driver_still_in_control_after_a_contact_holds_its_lanes_centre(straight_map):
+    # the same truck told by its plan to drive 0.8 m left of its lane's centre: after the rear-end it keeps control
+    # and steers back to the centre (a truck that knocked a car aside from its corner drives on in its lane)
+    case = EXAMPLES / "109176" / "golden.yaml"
+    truck = {"type": "truck", "blueprint": "vehicle.carlamotors.european_hgv", "length": 7.94, "width": 2.89}
+    scenes = [SampledScene(index=i, seed=5, scenario_hash="h", map_file=str(straight_map), params={
+        "npc1_TRIGGER_TIME": 2.0}, actors=[
+        actor("ego", 40.0, -LANE / 2, 0.0, 20.0, dispositions=["CVC_21703"]).model_copy(update=truck),
+        actor("npc1", 40.0 + 40.0 + i, -LANE / 2, 0.0, 20.0, behavior="decelerate",
+              reference="ego", relation="front", heading="same_direction")]) for i in range(4)]
+    settings = SimulationSettings(mode="reproduce")
+    roadmap = RoadMap.load(straight_map)
+    batch = setup.build(load_file(case), scenes, roadmap, settings)
+    batch.lateral_target[:, 0] = 0.8  # [m] left of the lane's centre (the drivers hold views of this column)
+    recorder = Recorder(roadmap, settings)
+    run_batch(batch, recorder)
+    tables = recorder.tables(scenes)
+    first = {}
+    for r in tables["collisions"].to_pylist():
+        first.setdefault(r["variation"], r)
+    assert len(first) >= 3
+    for v, contact in first.items():
+        trace = actor_trace(tables, v, "ego")
+        before = (trace["t"] > contact["t"] - 0.5) & (trace["t"] < contact["t"])
+        later = trace["t"] > contact["t"] + 3.0
+        d = trace["y"] + LANE / 2  # [m] left of the lane's centre (the straight map runs along x)
+        assert np.all(d[before] > 0.5) and np.all(np.abs(d[later]) < 0.25)

@@ -113,7 +113,8 @@ class Observation:
     others_y: np.ndarray  # (V, A)
     others_yaw: np.ndarray  # (V, A) [rad]
     others_speed: np.ndarray  # (V, A) [m/s]
-    collided: np.ndarray  # bool: this actor has already collided (it is stopped by the simulator)
+    collided: np.ndarray  # bool: this actor has already collided (it slides out of control unless the impact barely
+    # upset it, impact.upsets)
 
     def read_only(self) -> Observation:
         """A copy whose arrays are copies marked read-only: a driver cannot change the simulator's state."""

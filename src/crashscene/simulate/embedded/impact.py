@@ -192,10 +192,13 @@ def tyre_slide(vx, vy, yaw, yaw_rate, friction, length, width, wheelbase, dt: fl
     cap_f, cap_r = step * np.abs(w_f) / speed_f, step * np.abs(w_r) / speed_r
     # the axles' lateral impulses (per unit mass) that would stop both sliding, within each axle's share of the
     # friction (projected Gauss-Seidel on the 2 x 2 system; the coupling 1 - q is small, a few sweeps settle it)
-    p_f, p_r = np.zeros_like(w), np.zeros_like(w)
-    for _ in range(TYRE_SWEEPS):
-        p_f = np.clip(-(w_f + (1.0 - q) * p_r) / (1.0 + q), -cap_f, cap_f)
-        p_r = np.clip(-(w_r + (1.0 - q) * p_f) / (1.0 + q), -cap_r, cap_r)
+    # (np.minimum/np.maximum: np.clip's arithmetic without its overhead, which the plans' many short slides feel)
+    one_minus, one_plus = 1.0 - q, 1.0 + q
+    p_f = np.minimum(np.maximum(-(w_f + one_minus * 0.0) / one_plus, -cap_f), cap_f)  # first sweep: p_r = 0
+    p_r = np.minimum(np.maximum(-(w_r + one_minus * p_f) / one_plus, -cap_r), cap_r)
+    for _ in range(TYRE_SWEEPS - 1):
+        p_f = np.minimum(np.maximum(-(w_f + one_minus * p_r) / one_plus, -cap_f), cap_f)
+        p_r = np.minimum(np.maximum(-(w_r + one_minus * p_f) / one_plus, -cap_r), cap_r)
     w = w + p_f + p_r
     yaw_rate = yaw_rate + (p_f - p_r) * q / h
     vx, vy = u * c - w * s, u * s + w * c
