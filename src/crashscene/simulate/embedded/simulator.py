@@ -484,12 +484,19 @@ def _check_collisions(batch: batch_setup.BatchSetup, state: State, recorder: Rec
         overlap_all = ~(gone[:, ia] | gone[:, ib]) & footprints_overlap(x[:, ia], y[:, ia], yaw[:, ia], L[:, ia],
                                                                         W[:, ia], x[:, ib], y[:, ib], yaw[:, ib],
                                                                         L[:, ib], W[:, ib])
-    moved = False  # an exchange moved vehicles: test the remaining pairs on the new state
+    moved = np.zeros(len(x), dtype=bool)  # variations where an exchange moved vehicles back to their contact:
+    # the remaining pairs are tested again there, on the new state (elsewhere the state is the one tested at once)
     for p, (a, b) in enumerate(zip(ia.tolist(), ib.tolist())):
-        if moved or not together:
+        if not together:
             active = ~(state.gone[:, a] | state.gone[:, b])
             overlap = active & footprints_overlap(state.x[:, a], state.y[:, a], state.yaw[:, a], L[:, a], W[:, a],
                                                   state.x[:, b], state.y[:, b], state.yaw[:, b], L[:, b], W[:, b])
+        elif moved.any():
+            rows = np.flatnonzero(moved)
+            overlap = overlap_all[:, p].copy()
+            overlap[rows] = ~(gone[rows, a] | gone[rows, b]) & footprints_overlap(
+                state.x[rows, a], state.y[rows, a], state.yaw[rows, a], L[rows, a], W[rows, a],
+                state.x[rows, b], state.y[rows, b], state.yaw[rows, b], L[rows, b], W[rows, b])
         else:
             overlap = overlap_all[:, p]
         onset = overlap & ~state.touching[:, a, b]
@@ -501,7 +508,7 @@ def _check_collisions(batch: batch_setup.BatchSetup, state: State, recorder: Rec
             continue  # a spawn overlap invalidates the variation; the vehicles are not stopped
         frac = _back_to_contact(batch, state, onset, a, b)
         _exchange(batch, state, recorder, overlap, onset, a, b, t - (1.0 - frac) * batch.settings.dt)
-        moved = True
+        moved |= onset  # _back_to_contact moved a and b there; _exchange changed velocities only
 
 
 def _exchange(batch: batch_setup.BatchSetup, state: State, recorder: Recorder, overlap: np.ndarray,
