@@ -102,3 +102,14 @@ def test_arbitrary_text_raises_only_dsl_error(text: str) -> None:
         loads(text)
     except DslError:
         pass
+
+
+def test_an_identifier_with_a_trailing_newline_roundtrips() -> None:
+    """Hypothesis once found 'A\\n': YAML reads the plain scalar back without its newline, so it must be quoted."""
+    scenario = from_raw({"environment": {"weather": "clear", "time_of_day": "day"},
+                         "road_network": {"road_type": "straight", "number_of_ways": 2, "number_of_lanes": 2,
+                                          "road_marker": "solid_line", "traffic_signs": []},
+                         "actors": {"ego": {"type": "car", "behavior": "go_straight",
+                                            "position": {"reference": "road", "relation": "front"}}},
+                         "oracle": [], "scenario_id": "A\n"})
+    assert loads(dumps(scenario)) == scenario

@@ -249,11 +249,11 @@ def _quoted(text: str) -> str:
 
 
 def _word(text: str) -> str:
-    """An identifier-like scalar: plain when YAML would read it back as the same string."""
+    """An identifier-like scalar: plain when YAML reads it back as exactly this string (a trailing newline is not)."""
     plain = _PLAIN.match(text) and fold(text) not in _YAML_SPECIAL
     if plain:
         try:
-            plain = isinstance(yaml.safe_load(text), str)
+            plain = yaml.safe_load(text) == text
         except yaml.YAMLError:
             plain = False
     return text if plain else _quoted(text)
