@@ -119,9 +119,9 @@ class CompiledSampler:
         used = 0
         block = FIRST_ATTEMPTS
         while pending:
-            if used >= max_attempts and pinned is not None:
-                break
             if used >= max_attempts:
+                if pinned is not None:  # the rest are rejected scenes (None)
+                    break
                 raise SampleError(f"scene {int(indices[pending[0]])} (seed {seed}) could not be sampled: no "
                                   f"attempt out of {max_attempts} met the requirements (cars on the road, "
                                   "none overlapping)")

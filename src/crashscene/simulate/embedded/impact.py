@@ -194,9 +194,8 @@ def tyre_slide(vx, vy, yaw, yaw_rate, friction, length, width, wheelbase, dt: fl
     # friction (projected Gauss-Seidel on the 2 x 2 system; the coupling 1 - q is small, a few sweeps settle it)
     # (np.minimum/np.maximum: np.clip's arithmetic without its overhead, which the plans' many short slides feel)
     one_minus, one_plus = 1.0 - q, 1.0 + q
-    p_f = np.minimum(np.maximum(-(w_f + one_minus * 0.0) / one_plus, -cap_f), cap_f)  # first sweep: p_r = 0
-    p_r = np.minimum(np.maximum(-(w_r + one_minus * p_f) / one_plus, -cap_r), cap_r)
-    for _ in range(TYRE_SWEEPS - 1):
+    p_r = np.zeros_like(w_r)
+    for _ in range(TYRE_SWEEPS):
         p_f = np.minimum(np.maximum(-(w_f + one_minus * p_r) / one_plus, -cap_f), cap_f)
         p_r = np.minimum(np.maximum(-(w_r + one_minus * p_f) / one_plus, -cap_r), cap_r)
     w = w + p_f + p_r

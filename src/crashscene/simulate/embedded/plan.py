@@ -398,7 +398,7 @@ class VariationPlan:
             meeting = self._pushed_meeting(a, third, path, (pose[0], pose[1], pose[2]), later)
             if meeting is None:
                 continue
-            score = (2 * (meeting[2] == later[0]) + (meeting[3] == later[1]), meeting[5])
+            score = (_matches(meeting, later), meeting[5])
             if score > best_score:
                 best, best_score = (scale, timed, shifted, t_touch, meeting), score
         self.scale[partner], self.speeds[partner] = saved[0], saved[1]
@@ -727,8 +727,7 @@ class VariationPlan:
         ahead of it in the same lane went past the first: it hits the first at a rear corner (its centre
         cascade.CORNER of that car's width off the car's, the side drawn), so that the eccentric impulse and the
         striker's continued push (a heavy striker keeps its driver, impact.upsets) turn that car out of the lane
-        and leave the way on to the next one open. (The cascade helper's earlier attempt, which failed while the
-        striker slid after the impact.)"""
+        and leave the way on to the next one open."""
         seq, roles = self.ctx.contacts, [c.role for c in self.ctx.columns]
         if not seq or seq[0][2] != "rear_end" or not all(r in roles for r in seq[0][:2]):
             return
@@ -787,7 +786,7 @@ class VariationPlan:
             # the written class first, then the side of the moving car it names, then a push the striker does not
             # repeat before the meeting (a second push turns the struck car otherwise than predicted), then the
             # heading furthest inside the class's range (the least sensitive to what the plan does not foresee)
-            score = (2 * (meeting[2] == later[0]) + (meeting[3] == later[1]), not again[j, meeting[0]], meeting[5])
+            score = (_matches(meeting, later), not again[j, meeting[0]], meeting[5])
             if score > best_score:
                 best, best_score = (float(offset), *meeting), score
         if best is None:
@@ -1028,6 +1027,12 @@ def prepare_skids(ctx: PlanContext, route: np.ndarray, s0: np.ndarray, speed: np
     skidding = [a for a in range(n_a) if any(skids_toward(ctx, a, b) for b in range(n_a) if b != a)]
     ctx.skid_paths.prepare([_planned_speed(ctx.arrays, route[v, a], s0[v, a], speed[v, a], ctx.columns[a], ctx.cond,
                                            ctx.default_limit) for v in range(route.shape[0]) for a in skidding])
+
+
+def _matches(meeting: tuple[int, float, str, str, float, float], later: tuple[str, str]) -> int:
+    """How well a predicted meeting (`VariationPlan._pushed_meeting`) has the written later contact (class, area):
+    2 for the class, plus 1 for the area."""
+    return 2 * (meeting[2] == later[0]) + (meeting[3] == later[1])
 
 
 def _same_lane(route: np.ndarray, d0: np.ndarray | None, a: int, b: int) -> bool:
