@@ -120,8 +120,10 @@ def _contacts(state: RulesState) -> list[Contact]:
     if state.uses("rules_collisions.impact_formula"):
         verbs.append(_MORE_VERBS)
     possessive = state.uses("rules_collisions.possessive_and_with_its")
-    # "The impact pushed V1 forward": the noun names the first contact again, not a new one
-    if verbs and not state.uses("rules_collisions.noun_impact_is_not_a_contact"):
+    # "The impact pushed V1 forward": the noun names the first contact again, not a new one. Switched off, the
+    # noun is read again as the first round read it: with the reports' other verbs (impact_formula), never with
+    # convention 11's own formula alone
+    if state.uses("rules_collisions.impact_formula") and not state.uses("rules_collisions.noun_impact_is_not_a_contact"):
         verbs.append(r"impacts?")  # the noun too: the switched-off form of one rule
     for match in re.finditer(rf"\b(?:{'|'.join(verbs)})\b", text, re.I) if verbs else ():
         contact = _active_or_passive(text, match, possessive)
