@@ -133,3 +133,18 @@ def test_the_noun_impact_comes_back_only_with_the_verbs_it_was_read_with():
     assert "struck" in spec_only.evidence["collisions[0]"]
     with_verbs = _extract(narrative, off=noun_off)  # the first round's reading: the noun states the contact first
     assert "frontal impact" in with_verbs.evidence["collisions[0]"]
+
+
+REAR_END = "rules_collisions.rear_end_as_a_verb"
+SAME_WAY = ("V1 was traveling east on a two-lane, two-way road. V2 was traveling east ahead of V1 and slowed for "
+            "traffic. ")
+
+
+@pytest.mark.parametrize("sentence", ["V1 rear-ended V2.", "V2 was rear-ended by V1.", "V1 rear ended V2 in the lane."])
+def test_rear_ended_is_the_class_token_as_a_verb(sentence):
+    off = ["rules_collisions.impact_formula"]  # the reports' other verbs, 'rear-ended' among them before the split
+    s = _extract(SAME_WAY + sentence, off=off)
+    assert [(c.striking, c.struck, c.striking_area.value, c.struck_area.value, c.class_.value)
+            for c in s.collisions] == [("ego", "npc1", "front", "rear", "rear_end")]
+    assert ("CVC_21703", "ego") in _oracle(s)  # convention 9: striking a moving vehicle ahead
+    assert _extract(SAME_WAY + sentence, off=[*off, REAR_END]).collisions == []

@@ -342,12 +342,20 @@ SESSION_6_DECISIONS: dict[str, str] = {
         "unchanged; its 'encroach ... into V2's lane' is, for a vehicle travelling the other way, also read by "
         "rules_behavior.lane_of_the_opposite_direction, by the lane (rules.md's 'a lane of the opposite direction'), "
         "not by the verb",
+    "rules_collisions.impact_formula":
+        "split again: 'rear-ended' (and 'rear-ending', 'rear-ends') is dsl.md's class token rear_end up to hyphenation "
+        "and inflection, the contact rules.md calls 'struck from behind': moved to rules_collisions.rear_end_as_a_verb; "
+        "the other verbs (impacted, contacted, hit, collided with, crashed into, ran into) and the noun 'impact' stay",
 }
 SESSION_6_CONVENTIONS: dict[str, str] = {
     "rules_lanes.through_lanes_per_direction":
         'dsl.md section 3: "counts the through lanes of that roadway in both directions"; dsl.md convention 3: '
         '"counting through lanes only", "is V1\'s carriageway alone: number_of_ways: 1 and its lanes"; dsl.md '
         'convention 7: "V1 eastbound, V2 northbound"',
+    "rules_collisions.rear_end_as_a_verb":
+        'dsl.md section 3 (class): "front into rear, same direction -> '
+        'rear_end"; rules.md: "rear_end (relative heading under 30°, struck from behind)"; dsl.md convention 11: '
+        '"keep the report\'s wording (V1 striking)"',
 }
 
 RULE_SOURCES: dict[str, tuple[str, ...]] = {**ROUND_ONE_SOURCES, **{rule: () for rule in CONVENTION_RULES},
