@@ -20,7 +20,13 @@ from crashscene.geometry import wrap_angle
 from crashscene.monitor.rules import Disposition
 from crashscene.render.plan import LATERAL_BEHAVIORS, LEAD_TIME, SIGNAL_GREEN, SKID_ROTATION
 from crashscene.scene import SampledScene
-from crashscene.simulate.drivers.behaviors import OVER_LIMIT, SPEEDING_CODES, speed_factor
+from crashscene.simulate.drivers.behaviors import (
+    DECELERATE_RATE,
+    DECELERATE_TO,
+    OVER_LIMIT,
+    SPEEDING_CODES,
+    speed_factor,
+)
 from crashscene.simulate.embedded import cascade, signals, swerve, timing
 from crashscene.simulate.embedded import skid as skid_plan
 from crashscene.simulate.embedded.control import entry_before
@@ -49,6 +55,8 @@ STOP_DECEL = 4.0  # [m/s2] a stopping driver's braking (drivers.behaviors.DECELE
 STOP_NEAR_JUNCTION = 40.0  # [m] a stopping driver this close to a junction stops at its line
 WRONG_WAY_LEFT = 0.4  # [lanes] a drift across several lanes starts this far short of the partner's lane
 ADVANCE_MARGIN = 3.0  # [m] an actor advanced by its timing plan stays this far before its junction entry
+KNOCK_HORIZON = 15.0  # [s] a knocked-aside car's first impact is looked for this long after the start
+KNOCK_CLEAR = 0.5  # [m] ...and it passes the actors ahead of it in its lane this far clear
 
 
 @dataclass(frozen=True)
@@ -724,8 +732,8 @@ class VariationPlan:
 
     def knock_aside(self) -> None:
         """A striker that rear-ends a vehicle and then, later in the written sequence, rear-ends another one
-        ahead of it in the same lane went past the first: it hits the first at a rear corner (its centre
-        cascade.CORNER of that car's width off the car's, the side drawn), so that the eccentric impulse and the
+        ahead of it in the same lane went past the first: it hits the first at a rear corner (its centre a
+        fraction of that car's width off the car's, `_room_to_leave`), so that the eccentric impulse and the
         striker's continued push (a heavy striker keeps its driver, impact.upsets) turn that car out of the lane
         and leave the way on to the next one open."""
         seq, roles = self.ctx.contacts, [c.role for c in self.ctx.columns]
@@ -739,11 +747,74 @@ class VariationPlan:
                    and _same_lane(self.route, self.d0, ti, roles.index(struck))
                    and self.s0[roles.index(struck)] > self.s0[ti] for striking, struck, klass, *_ in seq[1:]):
             return
-        side = 1.0 if self.draws.spin[si] > 0 else -1.0
-        target = float(self.d0[ti]) + side * cascade.CORNER * self.width[ti]
+        drawn = 1.0 if self.draws.spin[si] > 0 else -1.0
+        side, corner = self._room_to_leave(si, ti, drawn)
+        target = float(self.d0[ti]) + side * corner * self.width[ti]
         self.drifted[si] += target - self.d0[si]
         self.d0[si] = target
         self.lateral_target[si] = target
+
+    def _room_to_leave(self, si: int, ti: int, drawn: float) -> tuple[float, float]:
+        """(side, corner) for the car knocked aside (ti, struck at that rear corner by si, its centre `corner` of
+        ti's width off ti's): it leaves its lane only over some distance (cascade.pushed_paths, and carried on by
+        a striker that keeps its driver), so the corner that takes it out of the way of the actors ahead of it in
+        its lane soonest (`_lane_motion`) is chosen (the `drawn` side and cascade.CORNER when nothing is ahead
+        in the way), and those actors start far enough further on that it is out of their lane before it reaches
+        them."""
+        cols = self.ctx.columns
+        lane = [b for b in range(len(cols)) if _same_lane(self.route, self.d0, ti, b) and self.s0[b] > self.s0[ti]]
+        default = (drawn, cascade.CORNER)
+        times = np.arange(0.0, KNOCK_HORIZON, cascade.DT)
+        s_s, _ = self._lane_motion(si, times)
+        s_t, v_t = self._lane_motion(ti, times)
+        hit = np.nonzero(s_s + (self.length[si] + self.length[ti]) / 2 >= s_t)[0]
+        if not lane or len(hit) == 0 or hit[0] == 0:
+            return default
+        k1 = int(hit[0])
+        choices = [default] + [(side, c) for side in (drawn, -drawn) for c in cascade.CORNERS if (side, c) != default]
+        fwd, left, yaw = cascade.pushed_paths(float(self.speeds[si]), float(v_t[k1]),
+                                              np.array([side * c for side, c in choices]), cols[si].limits.mass,
+                                              cols[ti].limits.mass, float(self.length[si]), float(self.width[si]),
+                                              float(self.length[ti]), float(self.width[ti]), self.ctx.friction)
+        # a striker that keeps its driver (a heavy one, impact.upsets) drives on and pushes it again: it is carried
+        # on at least at the striker's speed while it is in the lane
+        fwd = np.maximum(fwd, float(self.speeds[si]) * cascade.DT * np.arange(1, fwd.shape[1] + 1))
+        reach_along = self.length[ti] / 2 * np.abs(np.cos(yaw)) + self.width[ti] / 2 * np.abs(np.sin(yaw))
+        reach_across = self.length[ti] / 2 * np.abs(np.sin(yaw)) + self.width[ti] / 2 * np.abs(np.cos(yaw))
+        deficit = np.zeros(len(choices))
+        for b in lane:
+            # until it is clear of b's footprint across the lane, its front stays behind b's rear
+            clear = np.abs(left - (self.d0[b] - self.d0[ti])) - reach_across > self.width[b] / 2 + KNOCK_CLEAR
+            s_b, _ = self._lane_motion(b, times[k1:k1 + fwd.shape[1]])
+            rear_b = s_b - self.length[b] / 2 - s_t[k1]
+            n = len(rear_b)
+            short = fwd[:, :n] + reach_along[:, :n] + KNOCK_CLEAR - rear_b[None, :]
+            before = ~np.logical_or.accumulate(clear[:, :n], axis=1)
+            deficit = np.maximum(deficit, np.where(before, short, -np.inf).max(axis=1, initial=0.0))
+        best = int(np.argmin(deficit))
+        if deficit[best] > 0:
+            for b in sorted(lane, key=lambda b: -self.s0[b]):  # the front one first: each makes room for the next
+                placed = self.shift_start(b, float(deficit[best]))
+                if placed is None:
+                    break
+                self.s0[b] = placed
+                self.moved[b] = True
+        return choices[best]
+
+    def _lane_motion(self, a: int, times: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(station [m], speed [m/s]) of actor a at `times` [s] driving along its lane as its behaviour has it
+        (its planned speed; a decelerating or stopping driver brakes from its trigger on); no car following."""
+        v0, behavior = float(self.speeds[a]), self.ctx.columns[a].behavior
+        if behavior == "static":
+            return np.full(len(times), float(self.s0[a])), np.zeros(len(times))
+        end = {"decelerate": DECELERATE_TO * v0, "stop": 0.0}.get(behavior, v0)
+        rate = DECELERATE_RATE if behavior == "decelerate" else STOP_DECEL
+        trig = float(self.trigger[a]) if np.isfinite(self.trigger[a]) else math.inf
+        braking = np.clip(times - trig, 0.0, (v0 - end) / rate)
+        speed = v0 - rate * braking
+        s = self.s0[a] + v0 * np.minimum(times, trig) + (v0 * braking - rate * braking ** 2 / 2) \
+            + end * np.maximum(times - trig - (v0 - end) / rate, 0.0)
+        return s, speed
 
     def plan_cascade(self) -> None:
         """A written sequence that starts with an end-on contact (a rear-end into a stopped car, a head-on) and
