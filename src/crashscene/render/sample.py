@@ -126,9 +126,7 @@ def sample_scenes(program: Path, n: int, seed: int, first: int = 0, scenario: An
         raise SampleError(f"sampler {sampler!r} is not allowed; allowed: {', '.join(SAMPLERS)}")
     if not program.is_file():
         raise SampleError(f"program {program} not found (render it first: crashscene render FILE.yaml -o DIR)")
-    meta = _render_meta(program)
-    digest = meta.get("scenario_hash") or _program_hash(program)
-    map_file = str(map_path) if map_path is not None else str(program.parent / meta.get("map", "map.xodr"))
+    digest, map_file = program_identity(program, map_path)
     if sampler == "compiled" and scenario is None:
         from crashscene.render.compiled_sampler import CompiledSampler, PlanError
 
@@ -231,6 +229,14 @@ def _scalar(value: Any) -> float | int | str | bool | None:
     if isinstance(value, np.generic):
         return value.item()
     return str(value)
+
+
+def program_identity(program: Path, map_path: str | Path | None = None) -> tuple[str, str]:
+    """The scenario hash scenes of `program` carry, and the map they run on (`map_path`, else the rendered one)."""
+    meta = _render_meta(program)
+    digest = meta.get("scenario_hash") or _program_hash(program)
+    map_file = str(map_path) if map_path is not None else str(program.parent / meta.get("map", "map.xodr"))
+    return digest, map_file
 
 
 def _render_meta(program: Path) -> dict[str, Any]:

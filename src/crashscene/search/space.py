@@ -75,16 +75,14 @@ class PinnedScenes:
 
     def __init__(self, program: Path, space: ParameterSpace):
         from crashscene.render.compiled_sampler import CompiledSampler, PlanError
-        from crashscene.render.sample import _program_hash, _render_meta
+        from crashscene.render.sample import program_identity
 
         program = Path(program)
         try:
             self.sampler = CompiledSampler(program)
         except PlanError as exc:
             raise SearchError(str(exc)) from exc
-        meta = _render_meta(program)
-        self.digest = meta.get("scenario_hash") or _program_hash(program)
-        self.map_file = str(program.parent / meta.get("map", "map.xodr"))
+        self.digest, self.map_file = program_identity(program)
         order = {name: k for k, name in enumerate(self.sampler.param_names)}
         self.columns = np.array([order[name] for name in space.names], dtype=np.int64)
         self.fixed = {order[name]: value for name, value in space.constants}
