@@ -77,6 +77,25 @@ def test_touching_again_after_separation_is_a_second_contact():
     assert all((r["class"], r["area_a"], r["area_b"]) == ("rear_end", "front", "rear") for r in rows)
 
 
+def test_sides_slapping_together_right_after_a_first_impact_are_a_second_contact_of_their_own_class():
+    """The ego's front strikes the right side of npc1 (heading south) square on (t = 1.0 s); one step later the
+    two are apart, and the step after, the ego, turned by the impact, touches npc1 again with its left side,
+    nearly parallel (rules.md: a collision is footprints overlapping; its class is the relative heading)."""
+    steps = 20
+    half = 4.5 / 2 * np.sin(np.radians(10.0)) + 1.9 / 2 * np.cos(np.radians(10.0))  # [m] ego's x extent at -80 deg
+    ego = track(steps, speed=8.0)
+    ego["x"] = np.concatenate([-3.0 - 0.8 * (10 - np.arange(11)), [-3.7], np.full(steps - 12, -0.95 - half + 0.15)])
+    ego["yaw"] = np.concatenate([np.zeros(12), np.full(steps - 12, np.radians(-80.0))])
+    npc1 = track(steps, yaw=-np.pi / 2, speed=0.0)
+    rows = evaluate(tables({"ego": ego, "npc1": npc1}), None).collisions.to_pylist()
+    assert [(r["contact_index"], r["class"]) for r in rows] == [(0, "angle"), (1, "sideswipe")]
+    assert rows[0]["t"] == pytest.approx(1.0) and rows[1]["t"] == pytest.approx(1.2)
+    assert (rows[0]["area_a"], rows[0]["area_b"], rows[1]["area_b"]) == ("front", "right", "right")
+    reported = [contact("ego", "npc1", "angle", "front", "right"), contact("ego", "npc1", "sideswipe", "left", "right")]
+    seen = [(r["actor_a"], r["actor_b"], r["class"], r["area_a"], r["area_b"]) for r in rows]
+    assert match_sequence(seen, reported).sequence
+
+
 def test_verdicts_and_summary_judge_the_written_sequence():
     scenario = loads(SCENARIO_TEXT)  # npc1 front into the right side of the ego, angle; CVC_21803 by npc1
     crossing = {"ego": track(STEPS, x0=0.0, speed=10.0),

@@ -2,12 +2,15 @@
 
 Footprint overlap (oriented rectangles from x, y, yaw, length, width) is
 checked at every step, so traces from a backend without contact events still
-yield contacts. One row per *contact*: every onset of overlap of an actor pair
-(footprints apart for CONTACT_GAP or more end a contact; touching again later
-is a new one, e.g. a car pushed back into the vehicle that struck it), in time
-order with its `contact_index` in the variation. A simulator event of the same
-pair during a footprint contact (from SAME_CONTACT before its onset to
-CONTACT_GAP after it ends) is that contact.
+yield contacts. One row per *contact*: every onset of overlap of an actor pair.
+rules.md defines a collision as two footprints overlapping, nothing more, so a
+contact lasts while they overlap and ends at the first recorded step they are
+apart; touching again later is a new contact (a car pushed back into the vehicle
+that struck it, two bodies turned by a first impact whose sides slap together),
+classed, like any contact, from the relative heading at its own onset. Rows are
+in time order with their `contact_index` in the variation. A simulator event of
+the same pair during a footprint contact (from SAME_CONTACT before its onset to
+the step after it ends) is that contact.
 Classes follow rules.md: `rear_end` (relative heading under 30 deg, struck from
 behind), `head_on` (over 150 deg), `angle` (60-120 deg), `sideswipe` (otherwise,
 and same- or opposite-direction contact that is side to side). The area of
@@ -33,7 +36,6 @@ from crashscene.monitor.arrays import TraceArrays
 from crashscene.traces import COLLISION_SCHEMA
 
 COLLISION_CLASSES = ("rear_end", "head_on", "angle", "sideswipe")
-CONTACT_GAP = 0.5    # [s] footprints apart at least this long end a contact
 SAME_CONTACT = 0.3   # [s] a simulator event this close to a footprint onset of the same pair is that contact
 
 # The contract's contact columns (traces.COLLISION_SCHEMA; actor_a/actor_b in role order, ego first), then
@@ -73,12 +75,11 @@ def pair_overlaps(arrays: TraceArrays) -> tuple[np.ndarray, np.ndarray, np.ndarr
     return ia, ib, overlap
 
 
-def contact_onsets(overlap: np.ndarray, gap_steps: int) -> np.ndarray:
-    """(V, P, T) True where a contact begins: overlap after at least `gap_steps` steps without one."""
-    recent = np.zeros_like(overlap)
-    for k in range(1, max(gap_steps, 1) + 1):
-        recent[..., k:] |= overlap[..., :-k]
-    return overlap & ~recent
+def contact_onsets(overlap: np.ndarray) -> np.ndarray:
+    """(V, P, T) True where a contact begins: overlap where the footprints were apart at the step before."""
+    before = np.zeros_like(overlap)
+    before[..., 1:] = overlap[..., :-1]
+    return overlap & ~before
 
 
 def _simulator_events(arrays: TraceArrays, contacts: pa.Table | None,
@@ -114,14 +115,14 @@ def _merge_events(overlap: np.ndarray, onset_steps: np.ndarray, time: np.ndarray
                   sim: list[dict]) -> list[tuple[float, int, str, dict]]:
     """Footprint contacts (from each onset to its last overlapping step) and simulator events of one pair in one
     variation, as contacts: (t, footprint onset step or -1, source, simulator event or {}). A simulator event
-    that falls within a footprint contact (SAME_CONTACT before its onset to CONTACT_GAP after its end) is it."""
+    that falls within a footprint contact (SAME_CONTACT before its onset to the step after its end) is it."""
     out: list[tuple[float, int, str, dict]] = []
     unused = sorted(sim, key=lambda e: e["t"])
     touching = np.nonzero(overlap)[0]
     for k, step in enumerate(onset_steps):
         nxt = onset_steps[k + 1] if k + 1 < len(onset_steps) else len(overlap)
         end = touching[(touching >= step) & (touching < nxt)].max()
-        t0, t1 = float(time[step]) - SAME_CONTACT, float(time[end]) + CONTACT_GAP
+        t0, t1 = float(time[step]) - SAME_CONTACT, float(time[min(end + 1, len(time) - 1)])
         inside = [e for e in unused if t0 <= e["t"] <= t1]
         for e in inside:
             unused.remove(e)
@@ -141,7 +142,7 @@ def classify_collisions(arrays: TraceArrays, contacts: pa.Table | None, ads: np.
     n_var, _, n_steps = arrays.shape
     ia, ib, overlap = pair_overlaps(arrays)
     pair_of = {(int(a), int(b)): p for p, (a, b) in enumerate(zip(ia, ib))}
-    onsets = contact_onsets(overlap, round(CONTACT_GAP / arrays.dt)) if overlap.size else overlap
+    onsets = contact_onsets(overlap) if overlap.size else overlap
     sim = _simulator_events(arrays, contacts, pair_of)
     time = arrays.time()
     keys = sorted({(int(v), int(p)) for v, p in zip(*np.nonzero(onsets.any(axis=2)))} | set(sim))
