@@ -339,8 +339,8 @@ class VariationPlan:
                                                  limits.steer_max, self.ctx.skid_paths.dt)])[0]
 
     def _clip_on_path(self, a: int, partner: int, gap: float, lateral: float, contact: str, rate: float,
-                      t_reach: float, path: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
-                      ) -> ClipTiming | None:
+                      t_reach: float, path: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+                      shared: dict | None = None) -> ClipTiming | None:
         """The pull-out of actor a whose path (`_pull_out_path`, unless given) first touches the partner ahead (both
         at their planned speeds) with the written class, before a reaches it straight on (`t_reach` [s]): its
         trigger [s] and where they touch (`ClipTiming`); None if none."""
@@ -357,7 +357,7 @@ class VariationPlan:
                                         skid_plan.Body(float(self.length[a]), float(self.width[a])),
                                         skid_plan.Body(float(self.length[partner]), float(self.width[partner])),
                                         skid_plan.CLASS_HEADING[contact], wanted, dt, latest=t_reach - dt,
-                                        place=False, fine=CLIP_PARTS)
+                                        place=False, fine=CLIP_PARTS, shared=shared)
         if found is None:
             return None
         if found[3]:
@@ -386,7 +386,7 @@ class VariationPlan:
         best, best_score = None, (-1, -math.inf)
         saved = (self.scale[partner], self.speeds[partner], self.s0[partner], self.moved[partner])
         tried = []  # (scale, timing, the partner's shifted start) of each partner speed with a clip
-        path = None  # actor a's, the same at every partner speed
+        path, shared = None, {}  # actor a's, the same at every partner speed (and what first_contact keeps of it)
         for scale in np.linspace(float(self.scale[partner]), lo, CLIP_SPEEDS):
             self.scale[partner], self.speeds[partner] = scale, self.planned[partner] * scale
             closing = self.speeds[a] - self.speeds[partner]
@@ -396,7 +396,7 @@ class VariationPlan:
             other = self.scene.actors[partner]
             _, lateral = _relative(arrays, self.route[a], self.s0[a], other.x, other.y)
             path = self._pull_out_path(a, rate) if path is None else path
-            timed = self._clip_on_path(a, partner, gap, lateral, contact, rate, reach / closing, path)
+            timed = self._clip_on_path(a, partner, gap, lateral, contact, rate, reach / closing, path, shared)
             shifted = (self.s0[partner], self.moved[partner])
             self.s0[partner], self.moved[partner] = saved[2], saved[3]
             if timed is not None:
