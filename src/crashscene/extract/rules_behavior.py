@@ -90,6 +90,12 @@ _INTO_PATH = (r"(?:drift|veer|swerv|steer|travel|mov|cross|went|go)\w*\s+(?:[\w,
               r"(?:path|lane) of (V[1-9])\b")
 _INTO_LANE = (r"across the (?:north|south|east|west)bound (?:travel )?lanes?|(?:into|enter(?:ed|ing|s)?|in) the "
               r"(?:north|south|east|west)bound (?:travel )?lanes?(?! of)")
+# rules.md CVC_21650 "in a lane of the opposite direction", whatever qualifies the lane: named by its direction of
+# travel with qualifiers between ("into the adjacent northbound travel lane" while southbound) or by a vehicle that
+# travels the opposite way ("into V1's lane", "into the lane of V1"); the verb does not decide, the lane does
+_OPPOSITE_LANE_BY_DIRECTION = (r"\b(?:into|entered|entering|enters|in) the (?:(?!V[1-9]\b)[\w-]+\s+){1,2}?"
+                               r"(?:north|south|east|west)bound (?:travel )?lanes?\b(?! of)")
+_OPPOSITE_LANE_BY_VEHICLE = r"\b(?:in|into) (?:the (?:travel )?lane of (V[1-9])\b|(V[1-9])['’]s (?:travel )?lane\b)"
 _RAMP = r"\b(?:entrance|on)[- ]ramp\b|\bacceleration lane\b"
 _PARKED_NAMED = (r"\b(?:parked{unoccupied})\b[^.()]{{0,60}}\(\s*{label}\s*\)|"
                  r"\(\s*{label}\s*\)\s*(?:that|which)\s+was\s+(?:legally\s+)?(?:parked{unoccupied})|"
@@ -116,6 +122,8 @@ PHRASES = (
     ("rules_behavior.slowing_words", _DECEL, "decelerate"),
     ("rules_behavior.centre_line_crossing_words", _INTO_LANE, "into_lane"),
     ("rules_behavior.centre_line_crossing_words", _INTO_PATH, "into_path"),
+    ("rules_behavior.lane_of_the_opposite_direction", _OPPOSITE_LANE_BY_DIRECTION, "into_lane"),
+    ("rules_behavior.lane_of_the_opposite_direction", _OPPOSITE_LANE_BY_VEHICLE, "into_path"),
 )
 # general phrasings of the same manoeuvres (dsl.md convention 8), each a recorded switch (rule_sources)
 MORE_PHRASES = (
@@ -283,7 +291,7 @@ def _event(vehicle: Vehicle, token: str, match: re.Match, state: RulesState) -> 
     if token == "into_path":
         if not state.uses("rules_behavior.into_oncoming_path"):
             return None
-        other = state.vehicles.get(match.group(1))
+        other = state.vehicles.get(next((g for g in match.groups() if g), ""))
         oncoming = other is not None and other.direction is not None and _opposite(vehicle, other.direction)
         return "cross_centerline" if oncoming else None
     if token in ("lose_control", "cross_centerline", "leave_road", "overtake"):

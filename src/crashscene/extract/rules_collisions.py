@@ -34,6 +34,8 @@ _BARE = r"(?P<label>V[1-9])\b"
 _SPEC_VERBS = r"struck|strikes?|striking|sideswiped"  # dsl.md convention 11's formula ("the front of V2 struck ...")
 _MORE_VERBS = (r"impacted|impacting|contacted|contacting|hit|hitting|rear-ended|collided\s+with|crashed\s+into|"
                r"ran\s+into")  # read in the reports
+# dsl.md's class token rear_end as a verb, up to hyphenation and inflection ("V1 rear-ended V2", "was rear-ended by")
+_REAR_END_VERB = r"rear[- ]end(?:ed|ing|s)"
 _VERB = rf"\b(?:{_SPEC_VERBS}|{_MORE_VERBS})\b"
 _CLASS_WORDS = (
     ("head_on", r"head[- ]on|offset[- ]frontal|frontal[- ](?:to[- ]frontal|offset)|front[- ]to[- ]front"),
@@ -119,9 +121,13 @@ def _contacts(state: RulesState) -> list[Contact]:
     verbs = [_SPEC_VERBS] if state.uses("rules_collisions.spec_impact_formula") else []
     if state.uses("rules_collisions.impact_formula"):
         verbs.append(_MORE_VERBS)
+    elif state.uses("rules_collisions.rear_end_as_a_verb"):
+        verbs.append(_REAR_END_VERB)  # split from impact_formula's verbs: the class token, inflected
     possessive = state.uses("rules_collisions.possessive_and_with_its")
-    # "The impact pushed V1 forward": the noun names the first contact again, not a new one
-    if verbs and not state.uses("rules_collisions.noun_impact_is_not_a_contact"):
+    # "The impact pushed V1 forward": the noun names the first contact again, not a new one. Switched off, the
+    # noun is read again as the first round read it: with the reports' other verbs (impact_formula), never with
+    # convention 11's own formula alone
+    if state.uses("rules_collisions.impact_formula") and not state.uses("rules_collisions.noun_impact_is_not_a_contact"):
         verbs.append(r"impacts?")  # the noun too: the switched-off form of one rule
     for match in re.finditer(rf"\b(?:{'|'.join(verbs)})\b", text, re.I) if verbs else ():
         contact = _active_or_passive(text, match, possessive)

@@ -27,10 +27,17 @@ def count_lanes(state: RulesState, road_text: str, ways: int) -> int:
             quote = quote or around(road_text, match)
 
     # "two lanes northbound ... two lanes southbound", "three northbound lanes and four southbound lanes"
-    for match in () if not state.uses("rules_lanes.lanes_per_direction_phrases") else re.finditer(
-            rf"\b{NUM}\s+(?:straight\s+)?(?:through\s+)?(?:travel\s+)?(?:lanes?\s+)?{DIR}bound"
-                             rf"(?:\s+(?:through\s+|travel\s+)?lanes?)?|\b{NUM}\s+(?:travel\s+)?lanes?\s+{DIR}bound",
-                             road_text, re.I):
+    if state.uses("rules_lanes.lanes_per_direction_phrases"):
+        per_direction_count = (rf"\b{NUM}\s+(?:straight\s+)?(?:through\s+)?(?:travel\s+)?(?:lanes?\s+)?{DIR}bound"
+                               rf"(?:\s+(?:through\s+|travel\s+)?lanes?)?|\b{NUM}\s+(?:travel\s+)?lanes?\s+{DIR}bound")
+    elif state.uses("rules_lanes.through_lanes_per_direction"):
+        # the specs' words alone (dsl.md section 3: "counts the through lanes of that roadway in both directions"):
+        # a count of (through) lanes for one direction of travel, "two northbound lanes", "two lanes southbound"
+        per_direction_count = (rf"\b{NUM}\s+(?:through\s+)?{DIR}bound\s+(?:through\s+)?lanes?\b|"
+                               rf"\b{NUM}\s+(?:through\s+)?lanes?\s+{DIR}bound\b")
+    else:
+        per_direction_count = None
+    for match in () if per_direction_count is None else re.finditer(per_direction_count, road_text, re.I):
         groups = [g for g in match.groups() if g]
         put(groups[1].lower(), count_word(groups[0]), match)
     # "the southbound traffic-way consisted of a six-lane roadway", "the westbound roadway has three travel lanes"

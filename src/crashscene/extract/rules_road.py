@@ -30,6 +30,10 @@ def decide_road_network(state: RulesState) -> dict:
         divided_pattern = r"(?!)"
     if state.uses("rules_road.freeway_is_divided"):
         divided_pattern += r"|interstate|\bfreeway\b"
+    if state.uses("rules_road.separated_by_a_barrier"):
+        # dsl.md section 3's "seven lanes separated by a barrier", convention 3's "divided roadway (median or
+        # barrier)": the directions separated by a barrier or median, whatever qualifies it
+        divided_pattern += r"|\bseparat(?:ed|ing)\b[^.]{0,60}?\bby (?:an?|the) (?:[\w-]+ ){0,3}?(?:barrier|median)\b"
     if state.uses("rules_road.divided_by_a_line_is_not_divided"):
         # "a two-way road divided by a solid yellow line": a painted line divides the directions, not a median
         divided_pattern = divided_pattern.replace("(?! by (?:a )?(?:double|painted|yellow))", _BY_A_LINE)

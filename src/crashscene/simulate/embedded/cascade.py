@@ -10,6 +10,7 @@ ahead while pulling out, so that the plan can place a third vehicle where the cl
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -140,50 +141,96 @@ def to_world(x0: float, y0: float, yaw0: float, fwd: np.ndarray, left: np.ndarra
     return x0 + fwd * c - left * s, y0 + fwd * s + left * c
 
 
+@dataclass(frozen=True)
+class Clip:
+    """A car clipping a car driving straight on ahead of it (`clip_slides`). rows: its path (x, y, yaw every dt
+    [s] from the start of its manoeuvre, turning left; mirrored when `sign` is -1; swerve.path or a skid's); it
+    starts at `speed` [m/s], `lateral` [m] from its route's centre line, the partner's centre `partner_ahead` [m]
+    ahead of it at `partner_lateral` [m], driving at `partner_speed` [m/s]; `t_meet` [s] the step they overlap
+    first. me, partner: (length, width [m], mass [kg], wheelbase ratio [-]); friction [-] the road's."""
+
+    rows: tuple[np.ndarray, np.ndarray, np.ndarray]
+    sign: float
+    speed: float
+    lateral: float
+    partner_ahead: float
+    partner_speed: float
+    partner_lateral: float
+    t_meet: float
+    dt: float
+    me: tuple[float, float, float, float]
+    partner: tuple[float, float, float, float]
+    friction: float
+
+
 def clip_slide(rows: tuple[np.ndarray, np.ndarray, np.ndarray], sign: float, speed: float, lateral: float,
                partner_ahead: float, partner_speed: float, partner_lateral: float, t_meet: float, dt: float,
                me: tuple[float, float, float, float], partner: tuple[float, float, float, float], friction: float
                ) -> tuple[float, tuple[np.ndarray, np.ndarray, np.ndarray]] | None:
-    """The slide of a car after it clips a car driving straight on ahead of it, as the simulator gives it
+    """The slide of a car after it clips a car driving straight on ahead of it (`Clip` for the arguments), as the
+    simulator gives it: `clip_slides` of that one clip."""
+    return clip_slides([Clip(rows, sign, speed, lateral, partner_ahead, partner_speed, partner_lateral, t_meet, dt,
+                             me, partner, friction)])[0]
+
+
+def clip_slides(clips: list[Clip]) -> list[tuple[float, tuple[np.ndarray, np.ndarray, np.ndarray]] | None]:
+    """The slide of each car after it clips a car driving straight on ahead of it, as the simulator gives it
     (impact.exchange, then tyre_slide): (time [s] from the start of its manoeuvre to the touch, (along, across,
-    yaw) every DT after it). rows: its path (x, y, yaw every dt [s] from the start of the manoeuvre, turning
-    left; mirrored when `sign` is -1; swerve.path or a skid's); it starts at `speed` [m/s], `lateral` [m] from
-    its route's centre line, the partner's centre `partner_ahead` [m] ahead of it at `partner_lateral` [m],
-    driving at `partner_speed` [m/s]; `t_meet` [s] the step they overlap first. me, partner: (length, width [m],
-    mass [kg], wheelbase ratio [-]). The frame: along the road from where the manoeuvre starts, across from the
-    centre line. None when the rows do not reach t_meet."""
-    x, y, yaw = rows
-    k = int(round(t_meet / dt)) - 1
-    if k < 0 or k >= len(x):
-        return None
+    yaw) every DT after it); the frame: along the road from where the manoeuvre starts, across from the centre
+    line. None for a clip whose rows do not reach t_meet. All clips are integrated at once, each element by
+    element as it would be alone."""
+    out: list = [None] * len(clips)
+    live, before, after, t_before = [], [], [], []
+    for i, c in enumerate(clips):
+        x, y, yaw = c.rows
+        k = int(round(c.t_meet / c.dt)) - 1
+        if k < 0 or k >= len(x):
+            continue
 
-    def pose_at(i: int) -> tuple[float, float, float]:
-        if i < 0:
-            return 0.0, lateral, 0.0
-        return float(x[i]), lateral + sign * float(y[i]), sign * float(yaw[i])
+        def pose_at(j: int, c: Clip = c, x=x, y=y, yaw=yaw) -> tuple[float, float, float]:
+            if j < 0:
+                return 0.0, c.lateral, 0.0
+            return float(x[j]), c.lateral + c.sign * float(y[j]), c.sign * float(yaw[j])
 
-    before, after = pose_at(k - 1), pose_at(k)
-    t_before = k * dt
-    one = np.ones(1)
+        live.append(i)
+        before.append(pose_at(k - 1))
+        after.append(pose_at(k))
+        t_before.append(k * c.dt)
+    if not live:
+        return out
+    n = len(live)
+    sel = [clips[i] for i in live]
+
+    def column(values) -> np.ndarray:
+        return np.array(list(values), dtype=float)
+
+    b = [column(p[j] for p in before) for j in range(3)]
+    a = [column(p[j] for p in after) for j in range(3)]
+    step = [column(p[j] - q[j] for p, q in zip(after, before)) for j in range(3)]
+    dt, t0 = column(c.dt for c in sel), column(t_before)
+    ahead, p_speed = column(c.partner_ahead for c in sel), column(c.partner_speed for c in sel)
+    p_lateral = column(c.partner_lateral for c in sel)
+    la, wa, ma, ra = (column(c.me[j] for c in sel) for j in range(4))
+    lb, wb, mb = (column(c.partner[j] for c in sel) for j in range(3))
+    friction = column(c.friction for c in sel)
 
     def mine(f):
-        return tuple(one * (b + f * (a - b)) for b, a in zip(before, after))
+        return tuple(bj + f * dj for bj, dj in zip(b, step))
 
     def theirs(f):
-        return partner_ahead + partner_speed * (t_before + f * dt), partner_lateral * one, 0.0 * one
+        return ahead + p_speed * (t0 + f * dt), p_lateral, np.zeros(n)
 
-    f = touch_fraction(mine, theirs, me[0] * one, me[1] * one, partner[0] * one, partner[1] * one, 1)
+    f = touch_fraction(mine, theirs, la, wa, lb, wb, n)
     xa, ya, yaw_a = mine(f)
     xb, yb, yaw_b = theirs(f)
-    la, wa, ma = (q * one for q in me[:3])
-    lb, wb, mb = (q * one for q in partner[:3])
-    v_a = np.hypot(after[0] - before[0], after[1] - before[1]) / dt
+    v_a = np.hypot(step[0], step[1]) / dt
     va = np.stack([v_a * np.cos(yaw_a), v_a * np.sin(yaw_a)])  # along its heading, as the simulator has it
-    vb = np.stack([partner_speed * one, 0.0 * one])
+    vb = np.stack([p_speed, np.zeros(n)])
     nx, ny, px, py = impact.contact_frame(xa, ya, yaw_a, la, wa, xb, yb, yaw_b, lb, wb)
-    va, w_a, _, _, _ = impact.exchange(nx, ny, px, py, xa, ya, va, (after[2] - before[2]) / dt * one, ma,
-                                       impact.yaw_inertia(ma, la, wa), xb, yb, vb, 0.0 * one, mb,
-                                       impact.yaw_inertia(mb, lb, wb))
+    va, w_a, _, _, _ = impact.exchange(nx, ny, px, py, xa, ya, va, step[2] / dt, ma, impact.yaw_inertia(ma, la, wa),
+                                       xb, yb, vb, np.zeros(n), mb, impact.yaw_inertia(mb, lb, wb))
     along, across, turn = slide_path(xa, ya, yaw_a, va[0], va[1], w_a, friction, la, wa, DT, int(HORIZON / DT),
-                                     me[3] * la)
-    return t_before + float(f[0]) * dt, (along[0], across[0], turn[0])
+                                     ra * la)
+    for j, i in enumerate(live):
+        out[i] = t_before[j] + float(f[j]) * clips[i].dt, (along[j], across[j], turn[j])
+    return out

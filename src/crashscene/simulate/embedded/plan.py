@@ -27,7 +27,7 @@ from crashscene.simulate.drivers.behaviors import (
     SPEEDING_CODES,
     speed_factor,
 )
-from crashscene.simulate.embedded import cascade, signals, swerve, timing
+from crashscene.simulate.embedded import cascade, lockstep, signals, swerve, timing
 from crashscene.simulate.embedded import skid as skid_plan
 from crashscene.simulate.embedded.control import entry_before
 from crashscene.simulate.embedded.world import RouteArrays
@@ -330,18 +330,25 @@ class VariationPlan:
         self.trigger[a] = max(0.0, reach / closing - across / rate)
         return True
 
-    def _clip_on_path(self, a: int, partner: int, gap: float, lateral: float, contact: str, rate: float,
-                      t_reach: float) -> ClipTiming | None:
-        """The pull-out of actor a whose path first touches the partner ahead (both at their planned speeds) with
-        the written class, before a reaches it straight on (`t_reach` [s]): its trigger [s] and where they touch
-        (`ClipTiming`); None if none."""
+    def _pull_out_path(self, a: int, rate: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Actor a's path steering to its lateral target (swerve.path), with other variations' (lockstep.run)."""
         limits = self.ctx.columns[a].limits
+        offset = float(self.lateral_target[a] - self.d0[a])
+        return lockstep.together(swerve.paths, [(float(self.speeds[a]), abs(offset), rate,
+                                                 float(self.length[a]) * limits.wheelbase_ratio, limits.steer_rate,
+                                                 limits.steer_max, self.ctx.skid_paths.dt)])[0]
+
+    def _clip_on_path(self, a: int, partner: int, gap: float, lateral: float, contact: str, rate: float,
+                      t_reach: float, path: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+                      ) -> ClipTiming | None:
+        """The pull-out of actor a whose path (`_pull_out_path`, unless given) first touches the partner ahead (both
+        at their planned speeds) with the written class, before a reaches it straight on (`t_reach` [s]): its
+        trigger [s] and where they touch (`ClipTiming`); None if none."""
         other = self.scene.actors[partner]
         gap, lateral = _relative(self.ctx.arrays, self.route[a], self.s0[a], other.x, other.y, exact=True)
         offset = float(self.lateral_target[a] - self.d0[a])
         dt = self.ctx.skid_paths.dt
-        path = swerve.path(float(self.speeds[a]), abs(offset), rate, float(self.length[a]) * limits.wheelbase_ratio,
-                           limits.steer_rate, limits.steer_max, dt)
+        path = self._pull_out_path(a, rate) if path is None else path
         wanted = skid_plan.Wanted(contact, self.contact_area(a, partner), self.contact_area(partner, a),
                                   skidder_first=a < partner)
         sign = 1.0 if offset >= 0 else -1.0
@@ -378,6 +385,8 @@ class VariationPlan:
         lo = timing.SPEED_SCALE[0]
         best, best_score = None, (-1, -math.inf)
         saved = (self.scale[partner], self.speeds[partner], self.s0[partner], self.moved[partner])
+        tried = []  # (scale, timing, the partner's shifted start) of each partner speed with a clip
+        path = None  # actor a's, the same at every partner speed
         for scale in np.linspace(float(self.scale[partner]), lo, CLIP_SPEEDS):
             self.scale[partner], self.speeds[partner] = scale, self.planned[partner] * scale
             closing = self.speeds[a] - self.speeds[partner]
@@ -386,18 +395,21 @@ class VariationPlan:
                 continue
             other = self.scene.actors[partner]
             _, lateral = _relative(arrays, self.route[a], self.s0[a], other.x, other.y)
-            timed = self._clip_on_path(a, partner, gap, lateral, contact, rate, reach / closing)
+            path = self._pull_out_path(a, rate) if path is None else path
+            timed = self._clip_on_path(a, partner, gap, lateral, contact, rate, reach / closing, path)
             shifted = (self.s0[partner], self.moved[partner])
             self.s0[partner], self.moved[partner] = saved[2], saved[3]
-            if timed is None:
-                continue
-            slide = cascade.clip_slide(timed.rows, timed.sign, float(self.speeds[a]), float(self.d0[a]), timed.ahead,
-                                       float(self.speeds[partner]), timed.lateral, timed.t_meet, dt,
-                                       (float(self.length[a]), float(self.width[a]), cols[a].limits.mass,
-                                        cols[a].limits.wheelbase_ratio),
-                                       (float(self.length[partner]), float(self.width[partner]),
-                                        cols[partner].limits.mass, cols[partner].limits.wheelbase_ratio),
-                                       ctx.friction)
+            if timed is not None:
+                tried.append((scale, timed, shifted))
+        me = (float(self.length[a]), float(self.width[a]), cols[a].limits.mass, cols[a].limits.wheelbase_ratio)
+        them = (float(self.length[partner]), float(self.width[partner]), cols[partner].limits.mass,
+                cols[partner].limits.wheelbase_ratio)
+        # every partner speed's slide at once, with every other variation's (lockstep.run)
+        slides = lockstep.together(cascade.clip_slides, [
+            cascade.Clip(timed.rows, timed.sign, float(self.speeds[a]), float(self.d0[a]), timed.ahead,
+                         float(self.planned[partner] * scale), timed.lateral, timed.t_meet, dt, me, them, ctx.friction)
+            for scale, timed, _ in tried])
+        for (scale, timed, shifted), slide in zip(tried, slides):
             if slide is None:
                 continue
             t_touch, path = slide
@@ -963,18 +975,17 @@ class VariationPlan:
         wx, wy = cascade.to_world(px, py, pyaw, fwd, left)
         r = self.route[xi]
         xy = arrays.xy[r]
-        # the nearest route point of each path point, among those near the impact: a path point further than
-        # NEAR_ROUTE from them is too far from xi's path to meet it, and any nearer one has its nearest among them
-        reach = float(np.max(np.hypot(wx - px, wy - py))) + 2 * NEAR_ROUTE
-        near = np.nonzero(np.hypot(xy[:, 0] - px, xy[:, 1] - py) <= reach)[0]
+        # the nearest route point of each path point, among those within NEAR_ROUTE of the path's box: a path point
+        # further than NEAR_ROUTE from xi's route cannot meet it, and any nearer one has its nearest among them
+        near = np.nonzero((xy[:, 0] >= wx.min() - NEAR_ROUTE) & (xy[:, 0] <= wx.max() + NEAR_ROUTE)
+                          & (xy[:, 1] >= wy.min() - NEAR_ROUTE) & (xy[:, 1] <= wy.max() + NEAR_ROUTE))[0]
         if len(near) == 0:
             return None
-        dist = np.hypot(xy[None, near, 0] - wx[:, None], xy[None, near, 1] - wy[:, None])
-        nearest = np.argmin(dist, axis=1)
+        nearest, dist = _nearest(xy[near], wx, wy)
         k_route = near[nearest]
         ryaw = arrays.yaw[r, k_route]
         lat = -np.sin(ryaw) * (wx - xy[k_route, 0]) + np.cos(ryaw) * (wy - xy[k_route, 1])
-        lat = np.where(dist[np.arange(len(wx)), nearest] <= NEAR_ROUTE, lat, np.inf)
+        lat = np.where(dist <= NEAR_ROUTE, lat, np.inf)
         gap = k_route * ROUTE_DS - self.s0[xi]
         yaw_x = arrays.point(np.full(len(gap), r), self.s0[xi] + gap)[2]
         rel = pyaw + yaw - yaw_x
@@ -992,11 +1003,12 @@ class VariationPlan:
         # and what the prediction does not foresee shifts the moment of contact
         # (then those where its centre is in xi's lane: it is in the path it meets xi in, not just reaching into it)
         inside = np.abs(lat[hit] - self.d0[xi]) < self.lane_width / 2
-        group = [(klass[h] != later[0], area[h] != later[1], not inside[h]) for h in range(len(hit))]
-        best = min(group)
-        central = max(margin[h] for h in range(len(hit)) if group[h] == best) - CASCADE_CENTRAL
+        # (class, area, inside) misses as one number ordered as the tuples are
+        group = 4 * (klass != later[0]) + 2 * (area != later[1]) + ~inside
+        best = group.min()
+        central = margin[group == best].max() - CASCADE_CENTRAL
         want = hit[0] + self.draws.cascade[xi] * CASCADE_WINDOW / cascade.DT
-        i = min(range(len(hit)), key=lambda h: (group[h], margin[h] < central, abs(hit[h] - want)))
+        i = int(np.lexsort((np.abs(hit - want), margin < central, group))[0])  # the first of the smallest keys
         k = int(hit[i])
         return k, float(gap[k]), str(klass[i]), str(area[i]), float(extent[k]), float(margin[i])
 
@@ -1098,6 +1110,24 @@ def prepare_skids(ctx: PlanContext, route: np.ndarray, s0: np.ndarray, speed: np
     skidding = [a for a in range(n_a) if any(skids_toward(ctx, a, b) for b in range(n_a) if b != a)]
     ctx.skid_paths.prepare([_planned_speed(ctx.arrays, route[v, a], s0[v, a], speed[v, a], ctx.columns[a], ctx.cond,
                                            ctx.default_limit) for v in range(route.shape[0]) for a in skidding])
+
+
+def _nearest(xy: np.ndarray, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(index, distance [m]) of the nearest of the points `xy` (K, 2) to each point (x, y) (N,): the first of
+    the smallest `np.hypot` distances, as `argmin` over them all gives it. Only the few points whose squared
+    distance is within rounding of the smallest are measured with `hypot` (a squared distance is off by a few
+    ulps at most, so the nearest is always among them)."""
+    dx, dy = xy[None, :, 0] - x[:, None], xy[None, :, 1] - y[:, None]
+    squared = dx * dx + dy * dy
+    rows, cols = np.nonzero(squared <= squared.min(axis=1, keepdims=True) * (1.0 + 1e-9) + 1e-300)
+    dist = np.hypot(dx[rows, cols], dy[rows, cols])
+    first = np.lexsort((cols, dist, rows))  # by point, then distance, then index
+    take = first[np.r_[True, rows[first][1:] != rows[first][:-1]]] if len(rows) else rows  # each point's first
+    if len(take) != len(x):  # a NaN point: every distance, as argmin takes them
+        full = np.hypot(dx, dy)
+        nearest = np.argmin(full, axis=1)
+        return nearest, full[np.arange(len(x)), nearest]
+    return cols[take], dist[take]
 
 
 def _matches(meeting: tuple[int, float, str, str, float, float], later: tuple[str, str]) -> int:

@@ -7,6 +7,7 @@ chunk of a campaign it is simulated in.
 """
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -19,7 +20,7 @@ from crashscene.geometry import LANE_WIDTH
 from crashscene.scene import SampledActor, SampledScene
 from crashscene.simulate.backend import SimulationError, SimulationSettings
 from crashscene.simulate.drivers.behaviors import NO_YIELD_CODES
-from crashscene.simulate.embedded import skid, timing
+from crashscene.simulate.embedded import lockstep, skid, timing
 from crashscene.simulate.embedded.control import control_tables, entry_before, priorities
 from crashscene.simulate.embedded.plan import (
     PlanContext,
@@ -345,10 +346,20 @@ def _timing_plans(scenario: Scenario, scenes: list[SampledScene], columns: list[
                       skid_paths=skid.SkidPaths(mu, settings.dt), contacts=contact_sequence(scenario))
     prepare_skids(ctx, layout.route, start.s0, start.speed)
     plans = _TimingPlans.empty(*start.x.shape)
-    for v, scene in enumerate(scenes):
-        plan = VariationPlan.build(ctx, scene, variation_rng(scene.seed, scene.index), layout.route[v], start.s0[v],
+
+    def build(v: int) -> VariationPlan:
+        scene = scenes[v]
+        return VariationPlan.build(ctx, scene, variation_rng(scene.seed, scene.index), layout.route[v], start.s0[v],
                                    start.d0[v], start.speed[v], start.length[v], start.width[v], tables[v][0],
                                    layout.lateral_target[v], float(np.median(lane_width[v])))
+
+    # a reproduce plan of a crash sequence may integrate slides: the variations' plans in lockstep, so that their
+    # slides are integrated at once (each plan reads only its own variation's rows)
+    if ctx.reproduce and len(ctx.contacts) > 1:
+        built = lockstep.run([functools.partial(build, v) for v in range(len(scenes))])
+    else:
+        built = map(build, range(len(scenes)))
+    for v, plan in enumerate(built):
         start.s0[v], start.d0[v], layout.lateral_target[v] = plan.s0, plan.d0, plan.lateral_target
         plans.put(v, plan)
     return plans

@@ -25,7 +25,7 @@ from crashscene.geometry import (
     heading_difference,
     touch_fraction,
 )
-from crashscene.simulate.embedded import impact
+from crashscene.simulate.embedded import impact, lockstep
 
 SPIN_RATES = np.array([0.05, 0.15, 0.25, 0.35, 0.5, 0.7, 0.9, 1.2])  # [rad/s] candidate yaw rates of a car out of control
 DRIFT_ANGLES = np.array([0.08, 0.15, 0.25, 0.35])  # [rad] candidate veer of the velocity at the loss of control
@@ -264,11 +264,7 @@ def _best(full, lo, hi, offsets, me: Body, partner: Body, rotation: float, wante
     if wanted.area is not None or wanted.partner_area is not None:
         # the areas at the point the simulator's impact takes (the corners inside the other body, close to
         # the centre of the overlap the monitor takes at a first contact)
-        n = len(cc)
-        zero, oyaw = np.zeros(n), np.full(n, other_yaw)
-        ml, mw, pl, pw = (np.full(n, v) for v in (me.length, me.width, partner.length, partner.width))
-        _, _, qx, qy = impact.contact_frame(px, py, pyaw, ml, mw, zero, zero, oyaw, pl, pw)
-        mine, theirs = contact_areas(px, py, pyaw, ml, mw, zero, zero, oyaw, pl, pw, qx, qy)
+        mine, theirs = lockstep.together(_areas, [(px, py, pyaw, me, partner, other_yaw)])[0]
         fits = ((mine == wanted.area) | (wanted.area is None)) & ((theirs == wanted.partner_area)
                                                                   | (wanted.partner_area is None))
         miss = miss + np.where(fits, 0.0, AREA_COST)
@@ -279,6 +275,28 @@ def _best(full, lo, hi, offsets, me: Body, partner: Body, rotation: float, wante
         run = run[np.argsort(jj[run], kind="stable")]
         i = int(run[len(run) // 2])
     return int(cc[i]), int(jj[i]), int(kk[i])
+
+
+def _areas(items: list) -> list[tuple[np.ndarray, np.ndarray]]:
+    """(my areas, the partner's areas) of each item's contacts (my poses px, py, pyaw, me, partner, the partner's
+    yaw; the partner at the origin), at the point the simulator's impact takes (impact.contact_frame: the corners
+    inside the other body, close to the centre of the overlap the monitor takes at a first contact); all at
+    once, each element as it would be alone."""
+    if not items:
+        return []
+    sizes = [len(item[0]) for item in items]
+    px, py, pyaw = (np.concatenate([item[j] for item in items]) for j in range(3))
+
+    def per_item(values) -> np.ndarray:
+        return np.repeat(np.array(list(values), dtype=float), sizes)
+
+    ml, mw = per_item(item[3].length for item in items), per_item(item[3].width for item in items)
+    pl, pw = per_item(item[4].length for item in items), per_item(item[4].width for item in items)
+    zero, oyaw = np.zeros(len(px)), per_item(item[5] for item in items)
+    _, _, qx, qy = impact.contact_frame(px, py, pyaw, ml, mw, zero, zero, oyaw, pl, pw)
+    mine, theirs = contact_areas(px, py, pyaw, ml, mw, zero, zero, oyaw, pl, pw, qx, qy)
+    ends = np.cumsum(sizes)
+    return [(mine[e - m:e], theirs[e - m:e]) for e, m in zip(ends, sizes)]
 
 
 def _first_steps(along: np.ndarray, lo: np.ndarray, hi: np.ndarray, offsets: np.ndarray
@@ -326,18 +344,38 @@ def _may_be(contact_class: str | None, yaw0: np.ndarray, yaw1: np.ndarray, other
 
 def _touch(full, offset, cc, kk, me: Body, partner: Body, other_yaw: float) -> tuple[np.ndarray, ...]:
     """My pose (along, across, yaw) where candidates cc first touch the partner during step kk, moved back
-    along the step as the simulator does (`simulator._back_to_contact`: `geometry.touch_fraction`, linear poses)."""
+    along the step as the simulator does (`simulator._back_to_contact`: `geometry.touch_fraction`, linear poses);
+    with other variations' touches at once (`_touches`, lockstep.run)."""
     before = [q[cc, kk] for q in full]
     after = [q[cc, kk + 1] for q in full]
     before[0], after[0] = before[0] - offset, after[0] - offset
-    n = len(cc)
-    zero, oyaw = np.zeros(n), np.full(n, other_yaw)
+    return lockstep.together(_touches, [(before, after, me, partner, other_yaw)])[0]
+
+
+def _touches(items: list) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """`_touch` of each item (my poses before and after the step (3 arrays), me, partner, the partner's yaw),
+    bisected at once, each element as it would be alone."""
+    if not items:
+        return []
+    sizes = [len(item[0][0]) for item in items]
+    before = [np.concatenate([item[0][j] for item in items]) for j in range(3)]
+    after = [np.concatenate([item[1][j] for item in items]) for j in range(3)]
+
+    def per_item(values) -> np.ndarray:
+        return np.repeat(np.array(list(values), dtype=float), sizes)
+
+    ml, mw = per_item(item[2].length for item in items), per_item(item[2].width for item in items)
+    pl, pw = per_item(item[3].length for item in items), per_item(item[3].width for item in items)
+    n = len(ml)
+    zero, oyaw = np.zeros(n), per_item(item[4] for item in items)
 
     def pose(f):
         return [b + f * (a - b) for b, a in zip(before, after)]
 
-    hi = touch_fraction(pose, lambda f: (zero, zero, oyaw), me.length, me.width, partner.length, partner.width, n)
-    return tuple(pose(hi))
+    hi = touch_fraction(pose, lambda f: (zero, zero, oyaw), ml, mw, pl, pw, n)
+    px, py, pyaw = pose(hi)
+    ends = np.cumsum(sizes)
+    return [(px[e - m:e], py[e - m:e], pyaw[e - m:e]) for e, m in zip(ends, sizes)]
 
 
 def _classify(px, py, pyaw, other_yaw: float, me: Body, partner: Body, skidder_first: bool) -> np.ndarray:

@@ -33,18 +33,33 @@ def path(speed: float, offset: float, rate: float, wheelbase: float, steer_rate:
          dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(x, y, yaw) (1, n_steps) [m, m, rad] every dt [s] after a car driving straight along x at `speed` [m/s]
     is commanded to the lateral `offset` [m] (left positive), its reference moving there at `rate` [m/s]."""
+    return paths([(speed, offset, rate, wheelbase, steer_rate, steer_max, dt)])[0]
+
+
+def paths(requests: list[tuple[float, float, float, float, float, float, float]]
+          ) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """`path` of each request (speed, offset, rate, wheelbase, steer_rate, steer_max, dt), integrated at once,
+    each element by element as it would be alone (requests of one dt)."""
+    if not requests:
+        return []
+    speed, offset, rate, wheelbase, steer_rate, steer_max, dts = (np.array(q, dtype=float) for q in zip(*requests))
+    dt = float(dts[0])
+    if np.any(dts != dt):
+        raise ValueError("swerve.paths: requests with different steps")
     steps = int(round(HORIZON / dt))
-    x = y = yaw = steer = d_ref = 0.0
-    look = float(lookahead(np.array(speed)))
-    out = np.zeros((3, 1, steps))
+    n = len(requests)
+    x, y, yaw, steer, d_ref = (np.zeros(n) for _ in range(5))
+    look = lookahead(speed)
+    rate_dt = rate * dt
+    out = np.zeros((3, n, steps))
     for k in range(steps):
-        d_ref += float(np.clip(offset - d_ref, -rate * dt, rate * dt))
-        alpha = wrap_angle(np.asarray(np.arctan2(d_ref - y, look) - yaw))  # as the simulator wraps arrays
-        steer = float(steer_step(np.array(steer), alpha, look, wheelbase, steer_rate, steer_max, dt))
+        d_ref = d_ref + np.minimum(np.maximum(offset - d_ref, -rate_dt), rate_dt)
+        alpha = wrap_angle(np.arctan2(d_ref - y, look) - yaw)  # as the simulator wraps arrays
+        steer = steer_step(steer, alpha, look, wheelbase, steer_rate, steer_max, dt)
         yaw_rate = speed / wheelbase * np.tan(steer)
         heading = yaw + 0.5 * yaw_rate * dt
-        x += speed * np.cos(heading) * dt
-        y += speed * np.sin(heading) * dt
-        yaw += yaw_rate * dt
-        out[:, 0, k] = x, y, yaw
-    return out[0], out[1], out[2]
+        x = x + speed * np.cos(heading) * dt
+        y = y + speed * np.sin(heading) * dt
+        yaw = yaw + yaw_rate * dt
+        out[:, :, k] = x, y, yaw
+    return [(out[0, i:i + 1], out[1, i:i + 1], out[2, i:i + 1]) for i in range(n)]
