@@ -11,6 +11,7 @@ from crashscene.monitor.arrays import TraceArrays, build_arrays
 from crashscene.monitor.collisions import classify_collisions, first_contact_steps
 from crashscene.monitor.context import EvalContext
 from crashscene.monitor.errors import MonitorError
+from crashscene.monitor.judging import judged_until, upset_steps
 from crashscene.monitor.result import MonitorResult, rule_results_table
 from crashscene.monitor.rulebook import Rulebook
 from crashscene.monitor.verdicts import (
@@ -34,9 +35,10 @@ def evaluate(tables: dict[str, pa.Table], scenario: Scenario | None, rulebook: R
     the DSL's `collisions` when written, else derived from its actors; None:
     none).
     With `stop_at_collision`, an actor's rules see its trace up to
-    `after_collision` [s] past its first collision only: what a backend without
-    contact physics does afterwards (vehicles passing through each other) is
-    not driving.
+    `after_collision` [s] past its first collision that takes it out of its
+    driver's control (`crashscene.monitor.judging`): what an upset vehicle does
+    afterwards is not driving. A driver a light contact leaves in control is
+    judged on.
     `arrays`: `build_arrays(tables)` when the caller has built them already (they are truncated in place).
     """
     rulebook = rulebook or Rulebook()
@@ -46,10 +48,12 @@ def evaluate(tables: dict[str, pa.Table], scenario: Scenario | None, rulebook: R
     collisions = classify_collisions(arrays, tables.get("collisions"), under_test)
     contact = first_contact_steps(arrays, collisions)
     invalid = invalid_reasons(arrays, ads, contact >= 0)   # on whole traces, before truncation
+    upset = None
     if stop_at_collision:
         grace = round(after_collision / arrays.dt)
-        arrays.truncate(np.where(contact >= 0, contact + grace, -1))
-    ctx = EvalContext(arrays=arrays, scenario=scenario, collisions=collisions)
+        upset = upset_steps(arrays, collisions, grace)
+        arrays.truncate(judged_until(upset, grace))
+    ctx = EvalContext(arrays=arrays, scenario=scenario, collisions=collisions, driven_until=upset)
     outcomes = []
     for rule in rulebook.rules():
         try:

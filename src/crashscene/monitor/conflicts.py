@@ -10,13 +10,15 @@ A path is the recorded trajectory, sampled every `stride` steps, extended
 straight ahead of its last position by `extension` [m]: a vehicle that braked
 to a stop short of the crossing (because another cut in front of it) still has
 a conflict point, so its time to reach it can be measured.
+A path ends at `last_step` when given (the step an impact took the vehicle out
+of its driver's control: what it does afterwards is no path it chose).
 A pair whose paths touch at a heading difference below `min_angle` or above
 pi - `min_angle` (car-following, oncoming traffic in its own lane) has no
 crossing conflict: those are the following and wrong-side rules' business.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -69,12 +71,17 @@ def relevant_steps(arrays: TraceArrays, stride: int, around: float) -> np.ndarra
 
 
 def path_conflicts(arrays: TraceArrays, stride: int = 2, extension: float = 20.0, extension_step: float = 2.0,
-                   min_angle: float = np.radians(20.0), around: float = 3.0, chunk: int = 256) -> PathConflicts:
+                   min_angle: float = np.radians(20.0), around: float = 3.0, chunk: int = 256,
+                   last_step: np.ndarray | None = None) -> PathConflicts:
     """Conflict geometry of every ordered actor pair, vectorised in chunks of variations.
 
     Paths are compared over the samples within `around` [s] of each actor's
-    time in a junction, plus the straight extension.
+    time in a junction, plus the straight extension. `last_step` (V, A; -1 = none) ends each path there.
     """
+    if last_step is not None and (last_step >= 0).any():
+        steps = np.arange(arrays.shape[2])
+        ended = (last_step[..., None] >= 0) & (steps > last_step[..., None])
+        arrays = replace(arrays, alive=arrays.alive & ~ended)
     n_var, n_act, n_steps = arrays.shape
     s_full = arc_length(arrays)
     shape = (n_var, n_act, n_act)

@@ -35,6 +35,8 @@ class EvalContext:
     arrays: TraceArrays
     scenario: Scenario | None
     collisions: pa.Table | None = None  # classified collisions (crashscene.monitor.collisions.CLASSIFIED_SCHEMA)
+    driven_until: np.ndarray | None = None  # (V, A) step an impact upset the actor (judging.upset_steps), -1 never:
+    # its path as a driver (the conflicts) ends there
     conflict_stride: int = 2
     lane_half_width: float = 1.6       # [m] lateral offset still counted as the same lane
     leader_range: float = 150.0        # [m] farthest leader considered
@@ -70,7 +72,7 @@ class EvalContext:
 
     @cached_property
     def conflicts(self) -> PathConflicts:
-        return path_conflicts(self.arrays, stride=self.conflict_stride)
+        return path_conflicts(self.arrays, stride=self.conflict_stride, last_step=self.driven_until)
 
     @cached_property
     def junction_entry(self) -> np.ndarray:

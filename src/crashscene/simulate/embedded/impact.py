@@ -9,8 +9,8 @@ on both rigid bodies (mass by vehicle type, yaw inertia of a uniform box),
 normal restitution RESTITUTION, and a tangential impulse that makes the contact
 points stick when that needs no more than MU_CONTACT times the normal impulse,
 else slides at that ratio (Coulomb). Linear and angular momentum are conserved;
-no energy is created. A vehicle the impact upsets (`upsets`) is from then on out of its driver's control:
-each axle slides on its tyres with Coulomb friction against its contact patch's
+no energy is created. A vehicle the impact upsets (`upsets`, thresholds shared with the monitor in
+`crashscene.upset`) is from then on out of its driver's control: each axle slides on its tyres with Coulomb friction against its contact patch's
 velocity (mu across the body, ROLL_FRACTION of it along), so a vehicle sliding
 sideways keeps spinning, one rolling on stops turning, until it is at rest
 (`tyre_slide`). A second contact is exchanged the same way. `slide` is the
@@ -22,6 +22,7 @@ from __future__ import annotations
 import numpy as np
 
 from crashscene.units import G
+from crashscene.upset import CONTROL_DELTA_V, CONTROL_YAW_RATE, upsets  # noqa: F401  (the simulator's side of them)
 
 RESTITUTION = 0.15  # [-] vehicle-to-vehicle impacts are nearly plastic (reconstruction practice: 0.1-0.3)
 MU_CONTACT = 0.4  # [-] limiting ratio of tangential to normal impulse between two vehicle bodies (Brach's
@@ -31,16 +32,7 @@ REST_SPEED = 0.15  # [m/s] below this (and REST_YAW_RATE) a sliding vehicle is a
 REST_YAW_RATE = 0.05  # [rad/s]
 INSIDE_TOLERANCE = 0.02  # [m] a corner this close to the other body counts as inside it
 FACE_TOLERANCE = 0.15  # [m] corners this close to the deepest one form a face lying against the other
-CONTROL_DELTA_V = 2.5  # [m/s] an impact changing a vehicle's velocity by less (about the 5 mph a bumper is built
-# to take, FMVSS 581's former test speed) and its yaw rate by less than CONTROL_YAW_RATE leaves its driver in control
-CONTROL_YAW_RATE = 0.5  # [rad/s]
 TYRE_SWEEPS = 4  # [-] Gauss-Seidel sweeps of the two axles' friction impulses per step (tyre_slide)
-
-
-def upsets(dv: np.ndarray, dw: np.ndarray) -> np.ndarray:
-    """Whether an impact that changed a vehicle's velocity by dv [m/s] and its yaw rate by dw [rad/s] takes it out
-    of its driver's control (else the driver drives on: a heavy truck that barely slowed, a light touch)."""
-    return (np.asarray(dv) >= CONTROL_DELTA_V) | (np.abs(np.asarray(dw)) >= CONTROL_YAW_RATE)
 
 
 def yaw_inertia(mass: np.ndarray, length: np.ndarray, width: np.ndarray) -> np.ndarray:
