@@ -1,5 +1,7 @@
 """Session 6's rules that pass `rule_sources.THE_TEST`: the lane of the opposite direction however it is qualified
-or named (rules.md CVC_21650), and a count of through lanes per direction of travel (dsl.md section 3). Each cites
+or named (rules.md CVC_21650), a count of through lanes per direction of travel (dsl.md section 3), lanes separated
+by a barrier (dsl.md convention 3), 'rear-ended' as the class token rear_end, a lane change into a named vehicle
+(dsl.md convention 9), and the noun 'impact' read only with the verbs it came with. Each cites
 the specs verbatim (checked against the copy in `tests/data/spec/`) and decides its field on a synthetic narrative
 written for the test in NHTSA's formulaic style; none is copied from a bundled case.
 """
@@ -148,3 +150,28 @@ def test_rear_ended_is_the_class_token_as_a_verb(sentence):
             for c in s.collisions] == [("ego", "npc1", "front", "rear", "rear_end")]
     assert ("CVC_21703", "ego") in _oracle(s)  # convention 9: striking a moving vehicle ahead
     assert _extract(SAME_WAY + sentence, off=[*off, REAR_END]).collisions == []
+
+
+INTO_A_VEHICLE = "rules_behavior.lane_change_into_a_vehicle"
+TWO_LANES_NORTH = ("The crash occurred on a four-lane divided highway. V1 was traveling north in the right northbound "
+                   "lane. V2 was traveling north in the left northbound lane. ")
+
+
+@pytest.mark.parametrize("sentence", [
+    "V2 changed lanes into the path of V1 and the front of V1 struck the left side of V2.",
+    "V2 made an unsafe lane change into V1's lane and the right side of V2 struck the left side of V1.",
+    "V2 merged into the lane of V1 and the right side of V2 struck the left side of V1.",
+])
+def test_a_lane_change_into_a_named_vehicle_takes_the_side_of_that_vehicle_s_lane(sentence):
+    s = _extract(TWO_LANES_NORTH + sentence)
+    assert s.actors["npc1"].behavior.value == "change_lane_right"
+    assert s.actors["npc1"].position.relation.value == "left"
+    assert ("CVC_22107", "npc1") in _oracle(s)  # convention 9: a lane change into another vehicle
+    off = _extract(TWO_LANES_NORTH + sentence, off=[INTO_A_VEHICLE])
+    assert off.actors["npc1"].behavior.value == "go_forward" and ("CVC_22107", "npc1") not in _oracle(off)
+
+
+def test_no_side_is_guessed_when_the_lanes_are_not_stated():
+    narrative = ("V1 was traveling north. V2 was traveling north. V2 changed lanes into the path of V1 and the front "
+                 "of V1 struck V2.")
+    assert _extract(narrative).actors["npc1"].behavior.value == "go_forward"

@@ -356,6 +356,11 @@ SESSION_6_CONVENTIONS: dict[str, str] = {
         'dsl.md section 3 (class): "front into rear, same direction -> '
         'rear_end"; rules.md: "rear_end (relative heading under 30°, struck from behind)"; dsl.md convention 11: '
         '"keep the report\'s wording (V1 striking)"',
+    "rules_behavior.lane_change_into_a_vehicle":
+        'dsl.md convention 9: "lane change or merge into another vehicle -> CVC_22107"; dsl.md section 3: '
+        '"change_lane_left|right"; dsl.md convention 8: "merging -> a lane change"; dsl.md section 3 position: '
+        '"left|right = in the adjacent lane or on that side". A lane change or merge into a named vehicle\'s lane '
+        "or path takes the side from the changer's stated lane to that vehicle's",
 }
 
 RULE_SOURCES: dict[str, tuple[str, ...]] = {**ROUND_ONE_SOURCES, **{rule: () for rule in CONVENTION_RULES},

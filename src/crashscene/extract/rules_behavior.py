@@ -96,6 +96,10 @@ _INTO_LANE = (r"across the (?:north|south|east|west)bound (?:travel )?lanes?|(?:
 _OPPOSITE_LANE_BY_DIRECTION = (r"\b(?:into|entered|entering|enters|in) the (?:(?!V[1-9]\b)[\w-]+\s+){1,2}?"
                                r"(?:north|south|east|west)bound (?:travel )?lanes?\b(?! of)")
 _OPPOSITE_LANE_BY_VEHICLE = r"\b(?:in|into) (?:the (?:travel )?lane of (V[1-9])\b|(V[1-9])['’]s (?:travel )?lane\b)"
+# dsl.md convention 9's "lane change or merge into another vehicle": a lane change (section 3, convention 8's
+# merging) into a named vehicle's lane or path; the side is the way from the changer's lane to that vehicle's
+_INTO_A_VEHICLE = (r"\b(?:chang(?:e|ed|es|ing) lanes?|lane change|merg(?:e|ed|es|ing))\b[^.]{0,30}?\binto "
+                   r"(?:the (?:travel )?(?:path|lane) of (V[1-9])\b|(V[1-9])['’]s (?:travel )?(?:path|lane)\b)")
 _RAMP = r"\b(?:entrance|on)[- ]ramp\b|\bacceleration lane\b"
 _PARKED_NAMED = (r"\b(?:parked{unoccupied})\b[^.()]{{0,60}}\(\s*{label}\s*\)|"
                  r"\(\s*{label}\s*\)\s*(?:that|which)\s+was\s+(?:legally\s+)?(?:parked{unoccupied})|"
@@ -124,6 +128,7 @@ PHRASES = (
     ("rules_behavior.centre_line_crossing_words", _INTO_PATH, "into_path"),
     ("rules_behavior.lane_of_the_opposite_direction", _OPPOSITE_LANE_BY_DIRECTION, "into_lane"),
     ("rules_behavior.lane_of_the_opposite_direction", _OPPOSITE_LANE_BY_VEHICLE, "into_path"),
+    ("rules_behavior.lane_change_into_a_vehicle", _INTO_A_VEHICLE, "lane_change_into"),
 )
 # general phrasings of the same manoeuvres (dsl.md convention 8), each a recorded switch (rule_sources)
 MORE_PHRASES = (
@@ -141,7 +146,7 @@ MORE_PHRASES = (
 )
 # manoeuvres where the first one stated is the primary one (convention 8: crossed first -> cross_centerline)
 _EVENTS = ("lose_control", "cross_centerline", "leave_road", "overtake", "lane_change", "lane_change_side",
-           "ramp_merge", "into_lane", "into_path")
+           "ramp_merge", "into_lane", "into_path", "lane_change_into")
 
 Phrase = tuple[int, str, re.Match]  # position in the pre-crash text, token, match
 
@@ -307,6 +312,15 @@ def _event(vehicle: Vehicle, token: str, match: re.Match, state: RulesState) -> 
                 state.uses("rules_behavior.merging_from_a_ramp_is_to_the_left"):
             side = "left"  # "merged into the right lane" from an on-ramp: ramps join from the right
         return f"change_lane_{side}" if side in ("left", "right") else None
+    if token == "lane_change_into":
+        other = state.vehicles.get(next((g for g in match.groups() if g), ""))
+        if other is None or other is vehicle or (other.direction and _opposite(vehicle, other.direction)):
+            return None  # into an oncoming vehicle's lane is the opposing lanes, read by the crossing rules
+        order = {"left": 0, "middle": 1, "right": 2}
+        mine, theirs = order.get(vehicle.lane_side or ""), order.get(other.lane_side or "")
+        if mine is None or theirs is None or mine == theirs:
+            return None  # the side is not stated: no manoeuvre guessed
+        return "change_lane_right" if theirs > mine else "change_lane_left"
     if token == "ramp_merge":
         return "change_lane_left"
     if token == "lane_change_side":
