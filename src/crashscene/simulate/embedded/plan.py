@@ -343,9 +343,15 @@ class VariationPlan:
                       shared: dict | None = None) -> ClipTiming | None:
         """The pull-out of actor a whose path (`_pull_out_path`, unless given) first touches the partner ahead (both
         at their planned speeds) with the written class, before a reaches it straight on (`t_reach` [s]): its
-        trigger [s] and where they touch (`ClipTiming`); None if none."""
-        other = self.scene.actors[partner]
-        gap, lateral = _relative(self.ctx.arrays, self.route[a], self.s0[a], other.x, other.y, exact=True)
+        trigger [s] and where they touch (`ClipTiming`); None if none. `shared`: a dict the caller keeps across calls
+        for one actor, partner and start (other partner speeds)."""
+        if shared is not None and "relative" in shared:
+            gap, lateral = shared["relative"]
+        else:
+            other = self.scene.actors[partner]
+            gap, lateral = _relative(self.ctx.arrays, self.route[a], self.s0[a], other.x, other.y, exact=True)
+            if shared is not None:
+                shared["relative"] = (gap, lateral)
         offset = float(self.lateral_target[a] - self.d0[a])
         dt = self.ctx.skid_paths.dt
         path = self._pull_out_path(a, rate) if path is None else path
@@ -387,14 +393,16 @@ class VariationPlan:
         saved = (self.scale[partner], self.speeds[partner], self.s0[partner], self.moved[partner])
         tried = []  # (scale, timing, the partner's shifted start) of each partner speed with a clip
         path, shared = None, {}  # actor a's, the same at every partner speed (and what first_contact keeps of it)
+        lateral = None  # the partner's sampled position across actor a's route: the same at every partner speed
         for scale in np.linspace(float(self.scale[partner]), lo, CLIP_SPEEDS):
             self.scale[partner], self.speeds[partner] = scale, self.planned[partner] * scale
             closing = self.speeds[a] - self.speeds[partner]
             reach = gap - (self.length[a] + self.length[partner]) / 2
             if closing < 0.5 or reach <= 0:
                 continue
-            other = self.scene.actors[partner]
-            _, lateral = _relative(arrays, self.route[a], self.s0[a], other.x, other.y)
+            if lateral is None:
+                other = self.scene.actors[partner]
+                _, lateral = _relative(arrays, self.route[a], self.s0[a], other.x, other.y)
             path = self._pull_out_path(a, rate) if path is None else path
             timed = self._clip_on_path(a, partner, gap, lateral, contact, rate, reach / closing, path, shared)
             shifted = (self.s0[partner], self.moved[partner])
