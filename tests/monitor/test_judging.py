@@ -98,3 +98,16 @@ def test_a_conflict_path_ends_where_the_impact_upset_the_vehicle():
     ended = path_conflicts(arrays, last_step=np.array([[-1, 12]]))
     assert not free.crossing[0, 1, 0]
     assert ended.crossing[0, 1, 0] and ended.s_enter[0, 1, 0] == pytest.approx(12.0 + 8.0 - 4.5 / 2, abs=2.1)
+
+
+def test_a_conflict_path_keeps_its_last_step():
+    # npc1's trace ends at step 17 (odd: between the stride's samples), when its front has just reached the ego's
+    # path: that is where it entered it, not a point of the straight extension past it (which has no step)
+    n = 18
+    k = np.arange(n)
+    npc = {"x": np.zeros(n), "y": -20.5 + k * 1.0, "yaw": np.full(n, np.pi / 2), "speed": np.full(n, 10.0),
+           "in_junction": np.ones(n, dtype=bool)}
+    ego = track(n, x0=-10.0, speed=1.0, in_junction=np.ones(n, dtype=bool))
+    arrays = build_arrays(tables({"ego": ego, "npc1": npc}))
+    conflicts = path_conflicts(arrays, stride=2)
+    assert conflicts.crossing[0, 1, 0] and conflicts.enter[0, 1, 0] == 17

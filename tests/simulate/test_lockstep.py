@@ -1,4 +1,4 @@
-"""Plans run in lockstep (simulate.embedded.lockstep) compute exactly what they compute alone, and the costly steps
+"""Plans run in lockstep (simulate.embedded.lockstep, greenlets) compute exactly what they compute alone, and the costly steps
 they batch (a clip's slide, a pull-out's path, the touch and areas of a skid's contacts) give each element the
 bits it has when computed by itself."""
 from __future__ import annotations
@@ -139,3 +139,16 @@ def test_nearest_is_argmin_of_every_distance(seed):
     got, got_dist = _nearest(points, x, y)
     assert np.array_equal(got, want)
     assert np.array_equal(got_dist, dist[np.arange(n), want], equal_nan=True)
+
+
+def test_jobs_run_with_the_callers_numpy_error_state():
+    def job():
+        lockstep.together(_doubled, [(0, 0)])
+        return np.array([1.0]) / np.array([0.0])
+
+    _doubled.calls = []
+    with np.errstate(divide="raise"):
+        with pytest.raises(FloatingPointError):
+            lockstep.run([job])
+    with np.errstate(divide="ignore"):
+        assert lockstep.run([job])[0][0] == np.inf

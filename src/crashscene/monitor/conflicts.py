@@ -51,7 +51,8 @@ def arc_length(arrays: TraceArrays) -> np.ndarray:
 
 
 def relevant_steps(arrays: TraceArrays, stride: int, around: float) -> np.ndarray:
-    """(V, A, K) steps (every `stride`-th) within `around` [s] of the actor being in a junction; -1 pads.
+    """(V, A, K) steps (every `stride`-th, and the last) within `around` [s] of the actor being in a junction;
+    -1 pads.
 
     Crossing conflicts only matter at junctions, so paths are compared there
     only: a few dozen samples per actor instead of the whole trace.
@@ -64,7 +65,10 @@ def relevant_steps(arrays: TraceArrays, stride: int, around: float) -> np.ndarra
     hi = np.minimum(steps + k + 1, n_steps)
     lo = np.maximum(steps - k, 0)
     near = (csum[..., hi] - csum[..., lo]) > 0
-    keep = near & arrays.alive & (steps % max(1, stride) == 0)
+    alive = arrays.alive
+    last = np.where(alive.any(axis=2), n_steps - 1 - np.argmax(alive[..., ::-1], axis=2), -1)
+    # every `stride`-th step, and the last one: where a path ends (an impact upset the vehicle) is part of it
+    keep = near & alive & ((steps % max(1, stride) == 0) | (steps == last[..., None]))
     n_keep = int(keep.sum(axis=2).max()) if keep.size else 0
     order = np.argsort(~keep, axis=2, kind="stable")[..., :n_keep]
     return np.where(np.take_along_axis(keep, order, axis=2), order, -1)

@@ -339,8 +339,8 @@ class VariationPlan:
                                                  limits.steer_max, self.ctx.skid_paths.dt)])[0]
 
     def _clip_on_path(self, a: int, partner: int, gap: float, lateral: float, contact: str, rate: float,
-                      t_reach: float, path: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
-                      ) -> ClipTiming | None:
+                      t_reach: float, path: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+                      shared: dict | None = None) -> ClipTiming | None:
         """The pull-out of actor a whose path (`_pull_out_path`, unless given) first touches the partner ahead (both
         at their planned speeds) with the written class, before a reaches it straight on (`t_reach` [s]): its
         trigger [s] and where they touch (`ClipTiming`); None if none."""
@@ -357,7 +357,7 @@ class VariationPlan:
                                         skid_plan.Body(float(self.length[a]), float(self.width[a])),
                                         skid_plan.Body(float(self.length[partner]), float(self.width[partner])),
                                         skid_plan.CLASS_HEADING[contact], wanted, dt, latest=t_reach - dt,
-                                        place=False, fine=CLIP_PARTS)
+                                        place=False, fine=CLIP_PARTS, shared=shared)
         if found is None:
             return None
         if found[3]:
@@ -386,7 +386,7 @@ class VariationPlan:
         best, best_score = None, (-1, -math.inf)
         saved = (self.scale[partner], self.speeds[partner], self.s0[partner], self.moved[partner])
         tried = []  # (scale, timing, the partner's shifted start) of each partner speed with a clip
-        path = None  # actor a's, the same at every partner speed
+        path, shared = None, {}  # actor a's, the same at every partner speed (and what first_contact keeps of it)
         for scale in np.linspace(float(self.scale[partner]), lo, CLIP_SPEEDS):
             self.scale[partner], self.speeds[partner] = scale, self.planned[partner] * scale
             closing = self.speeds[a] - self.speeds[partner]
@@ -396,7 +396,7 @@ class VariationPlan:
             other = self.scene.actors[partner]
             _, lateral = _relative(arrays, self.route[a], self.s0[a], other.x, other.y)
             path = self._pull_out_path(a, rate) if path is None else path
-            timed = self._clip_on_path(a, partner, gap, lateral, contact, rate, reach / closing, path)
+            timed = self._clip_on_path(a, partner, gap, lateral, contact, rate, reach / closing, path, shared)
             shifted = (self.s0[partner], self.moved[partner])
             self.s0[partner], self.moved[partner] = saved[2], saved[3]
             if timed is not None:
@@ -409,13 +409,14 @@ class VariationPlan:
             cascade.Clip(timed.rows, timed.sign, float(self.speeds[a]), float(self.d0[a]), timed.ahead,
                          float(self.planned[partner] * scale), timed.lateral, timed.t_meet, dt, me, them, ctx.friction)
             for scale, timed, _ in tried])
-        for (scale, timed, shifted), slide in zip(tried, slides):
-            if slide is None:
-                continue
-            t_touch, path = slide
-            pose = tuple(float(q) for q in arrays.point(np.array(self.route[a]),
-                                                         np.array(self.s0[a] + self.speeds[a] * timed.t_step)))
-            meeting = self._pushed_meeting(a, third, path, (pose[0], pose[1], pose[2]), later)
+        slid = [(scale, timed, shifted, slide) for (scale, timed, shifted), slide in zip(tried, slides)
+                if slide is not None]
+        # where each slide starts: the striker's route at the clip's step
+        px, py, pyaw = arrays.point(np.full(len(slid), self.route[a]),
+                                    np.array([self.s0[a] + self.speeds[a] * timed.t_step for _, timed, _, _ in slid]))
+        meetings = self._pushed_meetings(a, third, [slide[1] for *_, slide in slid],
+                                         [(float(x), float(y), float(yaw)) for x, y, yaw in zip(px, py, pyaw)], later)
+        for (scale, timed, shifted, (t_touch, _)), meeting in zip(slid, meetings):
             if meeting is None:
                 continue
             score = (_matches(meeting, later), meeting[5])
@@ -969,48 +970,69 @@ class VariationPlan:
         its half extent across xi's path [m], how far [deg] its heading is inside the written class's range): the
         step where that contact has the `later` (class, area) written, else the one nearest a drawn moment in the
         window after ti enters xi's path."""
+        return self._pushed_meetings(ti, xi, [path], [pose], later)[0]
+
+    def _pushed_meetings(self, ti: int, xi: int, paths: list[tuple[np.ndarray, np.ndarray, np.ndarray]],
+                         poses: list[tuple[float, float, float]], later: tuple[str, str]
+                         ) -> list[tuple[int, float, str, str, float, float] | None]:
+        """`_pushed_meeting` of each (path, pose), measured at once (each point as it would be alone)."""
         arrays = self.ctx.arrays
-        px, py, pyaw = pose
-        fwd, left, yaw = path
-        wx, wy = cascade.to_world(px, py, pyaw, fwd, left)
+        if not paths:
+            return []
+        world = [cascade.to_world(px, py, pyaw, fwd, left) for (px, py, pyaw), (fwd, left, _) in zip(poses, paths)]
+        sizes = [len(w[0]) for w in world]
+        ends = np.cumsum(sizes)
+        wx, wy = np.concatenate([w[0] for w in world]), np.concatenate([w[1] for w in world])
+        yaw = np.concatenate([p[2] for p in paths])
+        pyaw = np.repeat(np.array([p[2] for p in poses], dtype=float), sizes)
         r = self.route[xi]
         xy = arrays.xy[r]
-        # the nearest route point of each path point, among those within NEAR_ROUTE of the path's box: a path point
+        # the nearest route point of each path point, among those within NEAR_ROUTE of its path's box: a path point
         # further than NEAR_ROUTE from xi's route cannot meet it, and any nearer one has its nearest among them
-        near = np.nonzero((xy[:, 0] >= wx.min() - NEAR_ROUTE) & (xy[:, 0] <= wx.max() + NEAR_ROUTE)
-                          & (xy[:, 1] >= wy.min() - NEAR_ROUTE) & (xy[:, 1] <= wy.max() + NEAR_ROUTE))[0]
-        if len(near) == 0:
-            return None
-        nearest, dist = _nearest(xy[near], wx, wy)
-        k_route = near[nearest]
+        k_route, dist = np.zeros(len(wx), dtype=np.intp), np.full(len(wx), np.inf)
+        for end, size, (px, py) in zip(ends, sizes, world):
+            near = np.nonzero((xy[:, 0] >= px.min() - NEAR_ROUTE) & (xy[:, 0] <= px.max() + NEAR_ROUTE)
+                              & (xy[:, 1] >= py.min() - NEAR_ROUTE) & (xy[:, 1] <= py.max() + NEAR_ROUTE))[0]
+            if len(near):  # else no point is near xi's route: it has no hit
+                nearest, dist[end - size:end] = _nearest(xy[near], px, py)
+                k_route[end - size:end] = near[nearest]
         ryaw = arrays.yaw[r, k_route]
         lat = -np.sin(ryaw) * (wx - xy[k_route, 0]) + np.cos(ryaw) * (wy - xy[k_route, 1])
         lat = np.where(dist <= NEAR_ROUTE, lat, np.inf)
         gap = k_route * ROUTE_DS - self.s0[xi]
         yaw_x = arrays.point(np.full(len(gap), r), self.s0[xi] + gap)[2]
-        rel = pyaw + yaw - yaw_x
+        turned = pyaw + yaw
+        rel = turned - yaw_x
         extent = self.length[ti] / 2 * np.abs(np.sin(rel)) + self.width[ti] / 2 * np.abs(np.cos(rel))
         # on its route far enough from its start for it to be placed further back to meet there
-        hit = np.nonzero((np.abs(lat - self.d0[xi]) < self.width[xi] / 2 + extent - 0.3)
-                         & (k_route * ROUTE_DS > START_MARGIN + self.length[xi]))[0]
-        if len(hit) == 0:
-            return None
-        klass = cascade.contact_class(rel[hit])
-        area = cascade.facing_area(pyaw + yaw[hit], yaw_x[hit])
-        margin = cascade.class_margin(rel[hit], later[0])
-        # the steps with the written class and area (else the nearest to them), and among those the ones whose
-        # heading is near the most central one: a struck car that spins fast is in the class's range only briefly,
-        # and what the prediction does not foresee shifts the moment of contact
-        # (then those where its centre is in xi's lane: it is in the path it meets xi in, not just reaching into it)
-        inside = np.abs(lat[hit] - self.d0[xi]) < self.lane_width / 2
-        # (class, area, inside) misses as one number ordered as the tuples are
-        group = 4 * (klass != later[0]) + 2 * (area != later[1]) + ~inside
-        best = group.min()
-        central = margin[group == best].max() - CASCADE_CENTRAL
-        want = hit[0] + self.draws.cascade[xi] * CASCADE_WINDOW / cascade.DT
-        i = int(np.lexsort((np.abs(hit - want), margin < central, group))[0])  # the first of the smallest keys
-        k = int(hit[i])
-        return k, float(gap[k]), str(klass[i]), str(area[i]), float(extent[k]), float(margin[i])
+        hits = (np.abs(lat - self.d0[xi]) < self.width[xi] / 2 + extent - 0.3) \
+            & (k_route * ROUTE_DS > START_MARGIN + self.length[xi])
+        out: list = []
+        for end, size, (px, py, one_yaw) in zip(ends, sizes, poses):
+            lo = end - size
+            hit = np.nonzero(hits[lo:end])[0]
+            if len(hit) == 0:
+                out.append(None)
+                continue
+            at = lo + hit
+            klass = cascade.contact_class(rel[at])
+            area = cascade.facing_area(turned[at], yaw_x[at])
+            margin = cascade.class_margin(rel[at], later[0])
+            # the steps with the written class and area (else the nearest to them), and among those the ones whose
+            # heading is near the most central one: a struck car that spins fast is in the class's range only
+            # briefly, and what the prediction does not foresee shifts the moment of contact
+            # (then those where its centre is in xi's lane: it is in the path it meets xi in, not just reaching
+            # into it)
+            inside = np.abs(lat[at] - self.d0[xi]) < self.lane_width / 2
+            # (class, area, inside) misses as one number ordered as the tuples are
+            group = 4 * (klass != later[0]) + 2 * (area != later[1]) + ~inside
+            best = group.min()
+            central = margin[group == best].max() - CASCADE_CENTRAL
+            want = hit[0] + self.draws.cascade[xi] * CASCADE_WINDOW / cascade.DT
+            i = int(np.lexsort((np.abs(hit - want), margin < central, group))[0])  # the first of the smallest keys
+            k = int(hit[i])
+            out.append((k, float(gap[lo + k]), str(klass[i]), str(area[i]), float(extent[lo + k]), float(margin[i])))
+        return out
 
     def _cascade_actors(self) -> tuple[int, int, int, int, str, tuple[str, str]] | None:
         """(striker, struck, the one of them that meets a third actor next, the third actor, first class, (later

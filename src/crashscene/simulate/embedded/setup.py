@@ -531,6 +531,11 @@ def _meeting(scenario: Scenario, columns: list[ActorColumn], arrays: RouteArrays
             stop = stop_dist(arrays, route[v, l_], s0[v, l_], tables[v][0], columns[l_])
             if stop is not None:
                 meeting.leader_stop[v] = s0[v, l_] + stop
+            # the sharpest curve on the leader's way to the conflict point: the speed it slows to for its turn
+            k0 = int(s0[v, l_] / ROUTE_DS)
+            k1 = max(k0 + 1, min(int(meeting.cs_leader[v] / ROUTE_DS) + 1, arrays.curvature.shape[1]))
+            kappa = float(np.abs(arrays.curvature[route[v, l_], k0:k1]).max())
+            meeting.leader_turn_speed[v] = math.sqrt(columns[l_].limits.lat_accel_comfort / max(kappa, 1e-4))
             break
     return meeting
 

@@ -189,24 +189,34 @@ def plan(paths: tuple[np.ndarray, np.ndarray, np.ndarray], speed: float, gap: fl
 def first_contact(paths: tuple[np.ndarray, np.ndarray, np.ndarray], sign: float, speed: float, gap: float,
                   partner_speed: float, opposite: bool, partner_lateral: float, me: Body, partner: Body,
                   rotation: float, wanted: Wanted, dt: float, boundary: float | None = None,
-                  latest: float = LATEST, place: bool = True, fine: int = 1) -> tuple[int, float, float, float] | None:
+                  latest: float = LATEST, place: bool = True, fine: int = 1, shared: dict | None = None
+                  ) -> tuple[int, float, float, float] | None:
     """(path, trigger [s], time from the trigger to the contact [s], the partner's shift [m]) of the best of
     `paths` (x, y, yaw (C, K) every dt after the trigger, turning left; mirrored when `sign` is -1) started on
     a simulator step by `latest` [s], or (when `place`) a second after the start with the partner placed:
     its first contact with the partner has the wanted class (`plan` for the rest). With `fine` > 1 the partner
     may also start up to a step's closing further ahead, in `fine` parts, and the middle of the best run of
-    such starts is taken (a narrow window: a glancing contact)."""
+    such starts is taken (a narrow window: a glancing contact). `shared`: a dict the caller keeps for calls on
+    one path with one partner's lateral offset and bodies (other partner speeds), which holds what depends
+    only on those."""
     x, y, yaw = paths
     n_cand, n_steps = x.shape
     tau = dt * np.arange(1, n_steps + 1)
     sigma = -1.0 if opposite else 1.0
     closing = speed - sigma * partner_speed
     along = x - sigma * partner_speed * tau[None, :]  # my centre along the road from the partner's, + its start
-    dy = sign * y - partner_lateral
-    lo, hi = overlap_interval(dy, sign * yaw, me, partner)
-    # the poses from the trigger on (its first column: at the trigger)
-    full = [np.concatenate([np.full((n_cand, 1), first), q], axis=1)
-            for first, q in ((0.0, along), (-partner_lateral, dy), (0.0, sign * yaw))]
+    key = (sign, partner_lateral, me, partner)
+    if shared is None or shared.get("key") != key:
+        dy = sign * y - partner_lateral
+        lo, hi = overlap_interval(dy, sign * yaw, me, partner)
+        # the poses from the trigger on (its first column: at the trigger), across and turned
+        fixed = [np.concatenate([np.full((n_cand, 1), first), q], axis=1)
+                 for first, q in ((-partner_lateral, dy), (0.0, sign * yaw))]
+        if shared is not None:
+            shared.update(key=key, lo=lo, hi=hi, fixed=fixed)
+    else:
+        lo, hi, fixed = shared["lo"], shared["hi"], shared["fixed"]
+    full = [np.concatenate([np.zeros((n_cand, 1)), along], axis=1), *fixed]
     n_trig = int(latest / dt + 1e-9) + 1
     parts = closing * dt * np.arange(fine) / fine  # [m] finer starts of the partner within a step's closing
     starts = ((gap - closing * dt * np.arange(n_trig))[:, None] + parts[None, :]).ravel()  # its offset at each trigger
