@@ -175,3 +175,18 @@ def test_no_side_is_guessed_when_the_lanes_are_not_stated():
     narrative = ("V1 was traveling north. V2 was traveling north. V2 changed lanes into the path of V1 and the front "
                  "of V1 struck V2.")
     assert _extract(narrative).actors["npc1"].behavior.value == "go_forward"
+
+
+@pytest.mark.parametrize("sentence,expected", [
+    ("V1's left side plane struck V2's right side plane.", ("ego", "npc1", "left", "right", "sideswipe")),
+    ("V1's left side plane struck the back plane of V2.", ("ego", "npc1", "left", "rear", "angle")),
+    ("V2's right side plane was struck by V1's left side plane.", ("ego", "npc1", "left", "right", "sideswipe")),
+])
+def test_the_genitive_is_the_impact_formula(sentence, expected):
+    off = ["rules_collisions.possessive_and_with_its"]  # its 'with its frontal plane' stays case-written
+    s = _extract(SAME_WAY + sentence, off=off)
+    got = [(c.striking, c.struck, c.striking_area.value, c.struck_area.value, c.class_.value) for c in s.collisions]
+    assert got == [expected]
+    without = _extract(SAME_WAY + sentence, off=[*off, "rules_collisions.genitive_impact_formula"])
+    assert [(c.striking, c.struck, c.striking_area.value, c.struck_area.value, c.class_.value)
+            for c in without.collisions] != [expected]

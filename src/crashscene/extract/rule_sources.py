@@ -346,6 +346,10 @@ SESSION_6_DECISIONS: dict[str, str] = {
         "split again: 'rear-ended' (and 'rear-ending', 'rear-ends') is dsl.md's class token rear_end up to hyphenation "
         "and inflection, the contact rules.md calls 'struck from behind': moved to rules_collisions.rear_end_as_a_verb; "
         "the other verbs (impacted, contacted, hit, collided with, crashed into, ran into) and the noun 'impact' stay",
+    "rules_collisions.possessive_and_with_its":
+        "split: the genitive ('V3's frontal plane struck V4's back plane', 'V1's left side was struck by') is convention "
+        "11's formula up to inflection (the genitive 's) and articles: moved to rules_collisions.genitive_impact_formula; "
+        "'with its frontal plane' (the striker's area in a trailing phrase) is not the formula's words and stays",
 }
 SESSION_6_CONVENTIONS: dict[str, str] = {
     "rules_lanes.through_lanes_per_direction":
@@ -361,6 +365,9 @@ SESSION_6_CONVENTIONS: dict[str, str] = {
         '"change_lane_left|right"; dsl.md convention 8: "merging -> a lane change"; dsl.md section 3 position: '
         '"left|right = in the adjacent lane or on that side". A lane change or merge into a named vehicle\'s lane '
         "or path takes the side from the changer's stated lane to that vehicle's",
+    "rules_collisions.genitive_impact_formula":
+        'dsl.md convention 11: "the front of V2 struck the right side of V1", "Read the impact from the narrative\'s '
+        'formula"; the genitive ("V2\'s front struck V1\'s right side") is the same formula up to inflection',
 }
 
 RULE_SOURCES: dict[str, tuple[str, ...]] = {**ROUND_ONE_SOURCES, **{rule: () for rule in CONVENTION_RULES},

@@ -123,14 +123,16 @@ def _contacts(state: RulesState) -> list[Contact]:
         verbs.append(_MORE_VERBS)
     elif state.uses("rules_collisions.rear_end_as_a_verb"):
         verbs.append(_REAR_END_VERB)  # split from impact_formula's verbs: the class token, inflected
-    possessive = state.uses("rules_collisions.possessive_and_with_its")
+    with_its = state.uses("rules_collisions.possessive_and_with_its")
+    # "V3's frontal plane struck V4's back plane": convention 11's formula with the genitive (split from with_its)
+    possessive = with_its or state.uses("rules_collisions.genitive_impact_formula")
     # "The impact pushed V1 forward": the noun names the first contact again, not a new one. Switched off, the
     # noun is read again as the first round read it: with the reports' other verbs (impact_formula), never with
     # convention 11's own formula alone
     if state.uses("rules_collisions.impact_formula") and not state.uses("rules_collisions.noun_impact_is_not_a_contact"):
         verbs.append(r"impacts?")  # the noun too: the switched-off form of one rule
     for match in re.finditer(rf"\b(?:{'|'.join(verbs)})\b", text, re.I) if verbs else ():
-        contact = _active_or_passive(text, match, possessive)
+        contact = _active_or_passive(text, match, possessive, with_its)
         if contact is not None:
             found.append(contact)
     two = len(state.vehicles) == 2 and state.uses("rules_collisions.the_two_vehicles_collided")
@@ -167,7 +169,7 @@ def _contacts(state: RulesState) -> list[Contact]:
     return found
 
 
-def _active_or_passive(text: str, verb: re.Match, possessive: bool = True) -> Contact | None:
+def _active_or_passive(text: str, verb: re.Match, possessive: bool = True, with_its: bool = True) -> Contact | None:
     """The contact an impact verb states, or None when it names no second vehicle (a pole, a tree)."""
     start = max(text.rfind(". ", 0, verb.start()) + 2, 0)
     head = text[start:verb.start()]
@@ -199,7 +201,7 @@ def _active_or_passive(text: str, verb: re.Match, possessive: bool = True) -> Co
     rest = tail[struck_end:200]
     with_area = re.search(rf"\bwith\s+(?:its|his|her|the)\s+(?P<area>{AREA})(?:\s+of\s+(?P<label>V[1-9]))?", rest,
                           re.I)
-    if possessive and with_area and (with_area.group("label") in (None, striker.label)) and not striker.words:
+    if with_its and with_area and (with_area.group("label") in (None, striker.label)) and not striker.words:
         striker.words = with_area.group("area")
     contact = _finish(text, verb, striker, struck, verb.end())
     contact.pushed = bool(re.search(_PUSHED + r"[^.]{0,40}$", head[-60:], re.I))
