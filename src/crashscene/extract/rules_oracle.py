@@ -123,7 +123,7 @@ def _manoeuvre_oracle(state: RulesState, road: dict, oracle: _Oracle) -> None:
             if road["road_marker"] == "double_solid_line":
                 oracle.add("CVC_21460", role, f"{label} crossed the double solid centre line.",
                            quote)
-        # a vehicle that lost control or crossed into the lane changer's path is the one at fault
+        # convention 9: a lane change or merge into another vehicle
         if behavior.startswith("change_lane"):
             oracle.add("CVC_22107", role,
                        f"{label} changed lanes into the path of another vehicle.", quote)
