@@ -253,7 +253,7 @@ class VariationPlan:
         contact = ctx.classes.get(frozenset((col.role, p_col.role)))
         if not opposite and contact in ("rear_end", "sideswipe") and col.behavior in VEER_BEHAVIORS \
                 and self.contact_area(a, partner) in ("front", "left", "right") \
-                and self._clip(a, partner, gap, lateral, contact, rate):
+                and self._clip(a, partner, gap, contact, rate):
             return
         if contact == "sideswipe" and not opposite and col.behavior in ("change_lane_left", "change_lane_right") \
                 and self._place_alongside(a, partner, gap, dist):
@@ -301,7 +301,7 @@ class VariationPlan:
                 return striking_area if striking == ra else struck_area
         return None
 
-    def _clip(self, a: int, partner: int, gap: float, lateral: float, contact: str, rate: float) -> bool:
+    def _clip(self, a: int, partner: int, gap: float, contact: str, rate: float) -> bool:
         """Pulling out around the vehicle ahead and clipping it (a written rear-end or sideswipe with it): the
         manoeuvre is only partly done when it reaches the partner's rear, timed on its path (swerve.path) so that
         where they first touch the contact has the written class (skid.first_contact); when no start does,
@@ -320,7 +320,7 @@ class VariationPlan:
             return False
         if self.ctx.reproduce and self._clip_then_meet(a, partner, gap, contact, rate):
             return True
-        timed = self._clip_on_path(a, partner, gap, lateral, contact, rate, reach / closing)
+        timed = self._clip_on_path(a, partner, contact, rate, reach / closing)
         if timed is not None:
             self.trigger[a] = timed.trigger
             return True
@@ -338,40 +338,54 @@ class VariationPlan:
                                                  float(self.length[a]) * limits.wheelbase_ratio, limits.steer_rate,
                                                  limits.steer_max, self.ctx.skid_paths.dt)])[0]
 
-    def _clip_on_path(self, a: int, partner: int, gap: float, lateral: float, contact: str, rate: float,
-                      t_reach: float, path: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
-                      shared: dict | None = None) -> ClipTiming | None:
-        """The pull-out of actor a whose path (`_pull_out_path`, unless given) first touches the partner ahead (both
-        at their planned speeds) with the written class, before a reaches it straight on (`t_reach` [s]): its
-        trigger [s] and where they touch (`ClipTiming`); None if none. `shared`: a dict the caller keeps across calls
-        for one actor, partner and start (other partner speeds)."""
-        if shared is not None and "relative" in shared:
-            gap, lateral = shared["relative"]
-        else:
-            other = self.scene.actors[partner]
-            gap, lateral = _relative(self.ctx.arrays, self.route[a], self.s0[a], other.x, other.y, exact=True)
-            if shared is not None:
-                shared["relative"] = (gap, lateral)
+    def _clip_on_path(self, a: int, partner: int, contact: str, rate: float, t_reach: float) -> ClipTiming | None:
+        """The pull-out of actor a whose path (`_pull_out_path`) first touches the partner ahead (both at their
+        planned speeds) with the written class, before a reaches it straight on (`t_reach` [s]): its trigger [s]
+        and where they touch (`ClipTiming`); None if none."""
+        found, path, relative = self._clip_searches(a, partner, contact, rate, [float(self.speeds[partner])],
+                                                    [t_reach])
+        return self._clip_timing(a, partner, found[0], path, relative)
+
+    def _clip_searches(self, a: int, partner: int, contact: str, rate: float, partner_speeds: list[float],
+                       t_reaches: list[float]) -> tuple[list, tuple[np.ndarray, np.ndarray, np.ndarray],
+                                                        tuple[float, float]]:
+        """The first contacts (skid.first_contacts) of actor a's pull-out with the partner ahead at each of
+        `partner_speeds` [m/s], each before a reaches it straight on (`t_reaches` [s]), searched at once; with
+        a's path and the partner's place (gap, lateral [m]) relative to a's start."""
+        other = self.scene.actors[partner]
+        gap, lateral = _relative(self.ctx.arrays, self.route[a], self.s0[a], other.x, other.y, exact=True)
         offset = float(self.lateral_target[a] - self.d0[a])
         dt = self.ctx.skid_paths.dt
-        path = self._pull_out_path(a, rate) if path is None else path
+        path = self._pull_out_path(a, rate)
         wanted = skid_plan.Wanted(contact, self.contact_area(a, partner), self.contact_area(partner, a),
                                   skidder_first=a < partner)
         sign = 1.0 if offset >= 0 else -1.0
-        found = skid_plan.first_contact(path, sign, float(self.speeds[a]), gap,
-                                        float(self.speeds[partner]), False, lateral - float(self.d0[a]),
-                                        skid_plan.Body(float(self.length[a]), float(self.width[a])),
-                                        skid_plan.Body(float(self.length[partner]), float(self.width[partner])),
-                                        skid_plan.CLASS_HEADING[contact], wanted, dt, latest=t_reach - dt,
-                                        place=False, fine=CLIP_PARTS, shared=shared)
+        found = skid_plan.first_contacts(path, sign, float(self.speeds[a]), gap, partner_speeds, False,
+                                         lateral - float(self.d0[a]),
+                                         skid_plan.Body(float(self.length[a]), float(self.width[a])),
+                                         skid_plan.Body(float(self.length[partner]), float(self.width[partner])),
+                                         skid_plan.CLASS_HEADING[contact], wanted, dt,
+                                         latests=[t_reach - dt for t_reach in t_reaches], place=False,
+                                         fine=CLIP_PARTS)
+        return found, path, (gap, lateral)
+
+    def _clip_timing(self, a: int, partner: int, found: tuple[int, float, float, float] | None,
+                     path: tuple[np.ndarray, np.ndarray, np.ndarray], relative: tuple[float, float]
+                     ) -> ClipTiming | None:
+        """The `ClipTiming` of a first contact `found` by `_clip_searches` at the partner's present speed (its
+        start moved as the contact needs); None if none or the partner cannot start there."""
         if found is None:
             return None
+        gap, lateral = relative
         if found[3]:
             placed = self.shift_start(partner, found[3])
             if placed is None:
                 return None
             self.s0[partner] = placed
             self.moved[partner] = True
+        dt = self.ctx.skid_paths.dt
+        offset = float(self.lateral_target[a] - self.d0[a])
+        sign = 1.0 if offset >= 0 else -1.0
         t_step = found[1] + dt / 2 if found[1] > 0 else 0.0  # the simulator step the pull-out starts on
         ahead = gap + found[3] - (self.speeds[a] - self.speeds[partner]) * t_step
         return ClipTiming(found[1], t_step, found[2], tuple(q[0] for q in path), sign, float(ahead), float(lateral))
@@ -392,19 +406,21 @@ class VariationPlan:
         best, best_score = None, (-1, -math.inf)
         saved = (self.scale[partner], self.speeds[partner], self.s0[partner], self.moved[partner])
         tried = []  # (scale, timing, the partner's shifted start) of each partner speed with a clip
-        path, shared = None, {}  # actor a's, the same at every partner speed (and what first_contact keeps of it)
-        lateral = None  # the partner's sampled position across actor a's route: the same at every partner speed
+        scales, t_reaches = [], []  # the partner speeds that close in, and when actor a reaches the partner
         for scale in np.linspace(float(self.scale[partner]), lo, CLIP_SPEEDS):
-            self.scale[partner], self.speeds[partner] = scale, self.planned[partner] * scale
-            closing = self.speeds[a] - self.speeds[partner]
+            closing = self.speeds[a] - self.planned[partner] * scale
             reach = gap - (self.length[a] + self.length[partner]) / 2
             if closing < 0.5 or reach <= 0:
                 continue
-            if lateral is None:
-                other = self.scene.actors[partner]
-                _, lateral = _relative(arrays, self.route[a], self.s0[a], other.x, other.y)
-            path = self._pull_out_path(a, rate) if path is None else path
-            timed = self._clip_on_path(a, partner, gap, lateral, contact, rate, reach / closing, path, shared)
+            scales.append(scale)
+            t_reaches.append(reach / closing)
+        # every partner speed's first contact at once (actor a's path and the partner's place are the same)
+        found, path, relative = (self._clip_searches(a, partner, contact, rate,
+                                                     [float(self.planned[partner] * scale) for scale in scales],
+                                                     t_reaches) if scales else ([], None, None))
+        for scale, one in zip(scales, found):
+            self.scale[partner], self.speeds[partner] = scale, self.planned[partner] * scale
+            timed = self._clip_timing(a, partner, one, path, relative)
             shifted = (self.s0[partner], self.moved[partner])
             self.s0[partner], self.moved[partner] = saved[2], saved[3]
             if timed is not None:

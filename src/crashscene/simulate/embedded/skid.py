@@ -189,37 +189,36 @@ def plan(paths: tuple[np.ndarray, np.ndarray, np.ndarray], speed: float, gap: fl
 def first_contact(paths: tuple[np.ndarray, np.ndarray, np.ndarray], sign: float, speed: float, gap: float,
                   partner_speed: float, opposite: bool, partner_lateral: float, me: Body, partner: Body,
                   rotation: float, wanted: Wanted, dt: float, boundary: float | None = None,
-                  latest: float = LATEST, place: bool = True, fine: int = 1, shared: dict | None = None
+                  latest: float = LATEST, place: bool = True, fine: int = 1
                   ) -> tuple[int, float, float, float] | None:
     """(path, trigger [s], time from the trigger to the contact [s], the partner's shift [m]) of the best of
     `paths` (x, y, yaw (C, K) every dt after the trigger, turning left; mirrored when `sign` is -1) started on
     a simulator step by `latest` [s], or (when `place`) a second after the start with the partner placed:
     its first contact with the partner has the wanted class (`plan` for the rest). With `fine` > 1 the partner
     may also start up to a step's closing further ahead, in `fine` parts, and the middle of the best run of
-    such starts is taken (a narrow window: a glancing contact). `shared`: a dict the caller keeps for calls on
-    one path with one partner's lateral offset and bodies (other partner speeds), which holds what depends
-    only on those."""
+    such starts is taken (a narrow window: a glancing contact)."""
+    return first_contacts(paths, sign, speed, gap, [partner_speed], opposite, partner_lateral, me, partner,
+                          rotation, wanted, dt, boundary, [latest], place, fine)[0]
+
+
+def first_contacts(paths: tuple[np.ndarray, np.ndarray, np.ndarray], sign: float, speed: float, gap: float,
+                   partner_speeds: list[float], opposite: bool, partner_lateral: float, me: Body, partner: Body,
+                   rotation: float, wanted: Wanted, dt: float, boundary: float | None = None,
+                   latests: list[float] | None = None, place: bool = True, fine: int = 1
+                   ) -> list[tuple[int, float, float, float] | None]:
+    """`first_contact` at each of `partner_speeds` [m/s] (with its `latests` [s], LATEST by default), searched
+    at once (what depends only on the path, the partner's lateral offset and the bodies is measured once): each
+    result is the one `first_contact` gives for that speed alone."""
     x, y, yaw = paths
     n_cand, n_steps = x.shape
+    latests = [LATEST] * len(partner_speeds) if latests is None else latests
     tau = dt * np.arange(1, n_steps + 1)
     sigma = -1.0 if opposite else 1.0
-    closing = speed - sigma * partner_speed
-    along = x - sigma * partner_speed * tau[None, :]  # my centre along the road from the partner's, + its start
-    key = (sign, partner_lateral, me, partner)
-    if shared is None or shared.get("key") != key:
-        dy = sign * y - partner_lateral
-        lo, hi = overlap_interval(dy, sign * yaw, me, partner)
-        # the poses from the trigger on (its first column: at the trigger), across and turned
-        fixed = [np.concatenate([np.full((n_cand, 1), first), q], axis=1)
-                 for first, q in ((-partner_lateral, dy), (0.0, sign * yaw))]
-        if shared is not None:
-            shared.update(key=key, lo=lo, hi=hi, fixed=fixed)
-    else:
-        lo, hi, fixed = shared["lo"], shared["hi"], shared["fixed"]
-    full = [np.concatenate([np.zeros((n_cand, 1)), along], axis=1), *fixed]
-    n_trig = int(latest / dt + 1e-9) + 1
-    parts = closing * dt * np.arange(fine) / fine  # [m] finer starts of the partner within a step's closing
-    starts = ((gap - closing * dt * np.arange(n_trig))[:, None] + parts[None, :]).ravel()  # its offset at each trigger
+    dy = sign * y - partner_lateral
+    lo, hi = overlap_interval(dy, sign * yaw, me, partner)
+    # the poses from the trigger on (its first column: at the trigger), across and turned
+    fixed = [np.concatenate([np.full((n_cand, 1), first), q], axis=1)
+             for first, q in ((-partner_lateral, dy), (0.0, sign * yaw))]
     t0 = round(PLACED_TRIGGER / dt) * dt
     shifts = np.arange(-PLACE_RANGE, PLACE_RANGE + PLACE_STEP / 2, PLACE_STEP)
     cross = abs(partner_lateral) / 2 if boundary is None or not np.isfinite(boundary) else abs(boundary)
@@ -228,47 +227,65 @@ def first_contact(paths: tuple[np.ndarray, np.ndarray, np.ndarray], sign: float,
         return (sign * (py + partner_lateral) >= cross + CROSS_MARGIN) \
             & (np.abs(py) <= abs(partner_lateral) - cross - CROSS_MARGIN)
 
-    passes = ((starts, False), (gap - closing * t0 + shifts, True)) if place else ((starts, False),)
-    for offsets, placed in passes:
-        best = _best(full, lo, hi, offsets, me, partner, rotation, wanted, sigma, tau, crossed,
-                     np.abs(shifts) if placed else None, central=fine > 1)
-        if best is None:
-            continue
-        c, j, k = best
-        trigger = t0 if placed else (j // fine) * dt
-        shift = float(shifts[j]) if placed else float(parts[j % fine])
-        # triggered half a step before the simulator step it is planned on
-        return c, max(trigger - dt / 2, 0.0), float(tau[k]), shift
-    return None
+    alongs, passes = [], []  # each speed's poses along the road, and its (offsets, placed) to try in turn
+    for partner_speed, latest in zip(partner_speeds, latests):
+        closing = speed - sigma * partner_speed
+        along = x - sigma * partner_speed * tau[None, :]  # my centre along the road from the partner's, + its start
+        alongs.append(np.concatenate([np.zeros((n_cand, 1)), along], axis=1))
+        n_trig = int(latest / dt + 1e-9) + 1
+        parts = closing * dt * np.arange(fine) / fine  # [m] finer starts of the partner within a step's closing
+        starts = ((gap - closing * dt * np.arange(n_trig))[:, None] + parts[None, :]).ravel()  # its offset then
+        passes.append(((starts, False, parts), (gap - closing * t0 + shifts, True, parts)) if place
+                      else ((starts, False, parts),))
+    out: list[tuple[int, float, float, float] | None] = [None] * len(partner_speeds)
+    for attempt in range(2 if place else 1):
+        todo = [g for g in range(len(partner_speeds)) if out[g] is None]
+        if not todo:
+            break
+        placed = attempt == 1
+        bests = _best_each([alongs[g] for g in todo], fixed, lo, hi, [passes[g][attempt][0] for g in todo], me,
+                           partner, rotation, wanted, sigma, tau, crossed, np.abs(shifts) if placed else None,
+                           central=fine > 1)
+        for g, best in zip(todo, bests):
+            if best is None:
+                continue
+            c, j, k = best
+            trigger = t0 if placed else (j // fine) * dt
+            shift = float(shifts[j]) if placed else float(passes[g][attempt][2][j % fine])
+            # triggered half a step before the simulator step it is planned on
+            out[g] = (c, max(trigger - dt / 2, 0.0), float(tau[k]), shift)
+    return out
 
 
-def _best(full, lo, hi, offsets, me: Body, partner: Body, rotation: float, wanted: Wanted,
-          sigma: float, tau: np.ndarray, crossed, shift_cost: np.ndarray | None, central: bool = False
-          ) -> tuple[int, int, int] | None:
+def _best_each(alongs, fixed, lo, hi, offsets_each, me: Body, partner: Body, rotation: float, wanted: Wanted,
+               sigma: float, tau: np.ndarray, crossed, shift_cost: np.ndarray | None, central: bool = False
+               ) -> list[tuple[int, int, int] | None]:
     """(candidate, offset index, step) of the best first contact over the partner's offsets (O,) at the loss
-    of control: the written class; ranked by the miss of the rotation, my centre in the partner's lane
-    (`crossed` of my offset across from the partner, CROSS_COST), the written areas (AREA_COST) and the
-    placement's cost; with `central`, the middle of the run of offsets about as good as the best. full: my
-    poses (along the road from the partner's centre less its offset, across from it, yaw) (C, K + 1) from
-    the loss of control on."""
-    found = _first_steps(full[0][:, 1:], lo, hi, offsets)
+    of control, for each (my poses along the road, the partner's offsets) pair (`alongs`, `offsets_each`),
+    measured at once (each element as it would be alone): the written class; ranked by the miss of the
+    rotation, my centre in the partner's lane (`crossed` of my offset across from the partner, CROSS_COST), the
+    written areas (AREA_COST) and the placement's cost; with `central`, the middle of the run of offsets about
+    as good as the best. alongs: my poses along the road from the partner's centre less its offset (C, K + 1)
+    from the loss of control on; fixed: the same across from it and my yaw, the same for every pair."""
+    out: list[tuple[int, int, int] | None] = [None] * len(alongs)
+    found = _first_steps([along[:, 1:] for along in alongs], lo, hi, offsets_each)
     if found is None:
-        return None
-    cc, jj, kk = found
+        return out
+    group, cc, jj, kk = found
     other_yaw = 0.0 if sigma > 0 else math.pi
     # only contacts whose heading within their step admits the written class are moved back to the touch
-    may = _may_be(wanted.contact_class, full[2][cc, kk], full[2][cc, kk + 1], other_yaw)
+    may = _may_be(wanted.contact_class, fixed[1][cc, kk], fixed[1][cc, kk + 1], other_yaw)
     if not may.any():
-        return None
-    cc, jj, kk = cc[may], jj[may], kk[may]
-    px, py, pyaw = _touch(full, offsets[jj], cc, kk, me, partner, other_yaw)
+        return out
+    group, cc, jj, kk = group[may], cc[may], jj[may], kk[may]
+    px, py, pyaw = _touch(alongs, fixed, offsets_each, group, jj, cc, kk, me, partner, other_yaw)
     klass = _classify(px, py, pyaw, other_yaw, me, partner, wanted.skidder_first)
     ok = klass == wanted.contact_class if wanted.contact_class is not None else np.ones(len(cc), dtype=bool)
     if not ok.any():
-        return None
-    cc, jj, kk, px, py, pyaw = cc[ok], jj[ok], kk[ok], px[ok], py[ok], pyaw[ok]
+        return out
+    group, cc, jj, kk, px, py, pyaw = group[ok], cc[ok], jj[ok], kk[ok], px[ok], py[ok], pyaw[ok]
     # in the partner's lane a step before they touch (a recorded step before the contact)
-    miss = np.abs(np.abs(pyaw) - rotation) + 0.02 * tau[kk] + np.where(crossed(full[1][cc, kk]), 0.0, CROSS_COST)
+    miss = np.abs(np.abs(pyaw) - rotation) + 0.02 * tau[kk] + np.where(crossed(fixed[0][cc, kk]), 0.0, CROSS_COST)
     if shift_cost is not None:
         miss = miss + PLACE_COST + 0.005 * shift_cost[jj]
     if wanted.area is not None or wanted.partner_area is not None:
@@ -278,13 +295,20 @@ def _best(full, lo, hi, offsets, me: Body, partner: Body, rotation: float, wante
         fits = ((mine == wanted.area) | (wanted.area is None)) & ((theirs == wanted.partner_area)
                                                                   | (wanted.partner_area is None))
         miss = miss + np.where(fits, 0.0, AREA_COST)
-    order = np.argsort(miss, kind="stable")
-    i = int(order[0])
-    if central:  # the middle of the run of offsets about as good as the best
-        run = np.nonzero((cc == cc[i]) & (miss <= miss[i] + CENTRAL_TOLERANCE))[0]
-        run = run[np.argsort(jj[run], kind="stable")]
-        i = int(run[len(run) // 2])
-    return int(cc[i]), int(jj[i]), int(kk[i])
+    bounds = np.searchsorted(group, np.arange(len(alongs) + 1))  # each pair's contacts: a run of them
+    for g in range(len(alongs)):
+        b0, b1 = int(bounds[g]), int(bounds[g + 1])
+        if b0 == b1:
+            continue
+        g_miss, g_cc, g_jj = miss[b0:b1], cc[b0:b1], jj[b0:b1]
+        order = np.argsort(g_miss, kind="stable")
+        i = int(order[0])
+        if central:  # the middle of the run of offsets about as good as the best
+            run = np.nonzero((g_cc == g_cc[i]) & (g_miss <= g_miss[i] + CENTRAL_TOLERANCE))[0]
+            run = run[np.argsort(g_jj[run], kind="stable")]
+            i = int(run[len(run) // 2])
+        out[g] = (int(g_cc[i]), int(g_jj[i]), int(kk[b0 + i]))
+    return out
 
 
 def _areas(items: list) -> list[tuple[np.ndarray, np.ndarray]]:
@@ -309,27 +333,45 @@ def _areas(items: list) -> list[tuple[np.ndarray, np.ndarray]]:
     return [(mine[e - m:e], theirs[e - m:e]) for e, m in zip(ends, sizes)]
 
 
-def _first_steps(along: np.ndarray, lo: np.ndarray, hi: np.ndarray, offsets: np.ndarray
-                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
-    """(candidate, offset index, step) of every first overlap: candidate c with the partner at offsets[o]
-    overlaps it first at step k, when my centre (along (C, K) less the offset) is within [lo, hi] (C, K);
-    sorted by candidate, then offset. None when nothing overlaps. Each step's overlapping offsets are a run of
-    the sorted offsets, so only those runs are listed."""
+def _first_steps(alongs: list[np.ndarray], lo: np.ndarray, hi: np.ndarray, offsets_each: list[np.ndarray]
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
+    """(pair, candidate, offset index, step) of every first overlap, for each pair (along, offsets) of
+    `alongs` (C, K) and `offsets_each` (O,) at once: candidate c with the partner at offsets[o] overlaps it
+    first at step k, when my centre (along less the offset) is within [lo, hi] (C, K); sorted by pair, then
+    candidate, then offset. None when nothing overlaps. Each step's overlapping offsets are a run of the
+    sorted offsets, so only those runs are listed."""
     pc, pk = np.nonzero(lo <= hi)
     if not len(pc):
         return None
-    order = np.argsort(offsets, kind="stable")
-    ranked = offsets[order]
-    first_at = np.searchsorted(ranked, along[pc, pk] - hi[pc, pk], side="left")
-    n = np.maximum(np.searchsorted(ranked, along[pc, pk] - lo[pc, pk], side="right") - first_at, 0)
-    if not n.any():
+    n_pairs, n_cand = len(alongs), lo.shape[0]
+    width = max(len(offsets) for offsets in offsets_each)
+    at = np.stack([along[pc, pk] for along in alongs])  # (pairs, P) my centre along at each overlapping pose
+    below, above = at - hi[pc, pk], at - lo[pc, pk]
+    first_at, end, order = [], [], []
+    for offsets, b, a in zip(offsets_each, below, above):
+        rank = np.argsort(offsets, kind="stable")
+        ranked = offsets[rank]
+        first_at.append(np.searchsorted(ranked, b, side="left"))
+        end.append(np.searchsorted(ranked, a, side="right"))
+        order.append(rank)
+    first_at, end = np.stack(first_at), np.stack(end)
+    n = np.maximum(end - first_at, 0).ravel()
+    total = int(n.sum())
+    if not total:
         return None
-    pos = np.repeat(first_at, n) + np.arange(n.sum()) - np.repeat(np.cumsum(n) - n, n)
+    # each pair's sorted offsets one after the other: a pair's rank r is at base + r
+    base = np.cumsum([0] + [len(rank) for rank in order[:-1]])
+    start = (first_at + base[:, None]).ravel()
+    pos = np.repeat(start, n) + np.arange(total) - np.repeat(np.cumsum(n) - n, n)
+    pair = np.repeat(np.arange(n_pairs), len(pc))
+    cand, step = np.tile(pc, n_pairs), np.tile(pk, n_pairs)
     never = np.iinfo(np.int64).max
-    first = np.full((along.shape[0], len(offsets)), never)
-    np.minimum.at(first, (np.repeat(pc, n), order[pos]), np.repeat(pk, n))
-    cc, jj = np.nonzero(first < never)
-    return cc, jj, first[cc, jj]
+    first = np.full(n_pairs * n_cand * width, never)
+    cell = (np.repeat(pair, n) * n_cand + np.repeat(cand, n)) * width + np.concatenate(order)[pos]
+    np.minimum.at(first, cell, np.repeat(step, n))
+    first = first.reshape(n_pairs, n_cand, width)
+    gg, cc, jj = np.nonzero(first < never)
+    return gg, cc, jj, first[gg, cc, jj]
 
 
 def _may_be(contact_class: str | None, yaw0: np.ndarray, yaw1: np.ndarray, other_yaw: float) -> np.ndarray:
@@ -352,13 +394,17 @@ def _may_be(contact_class: str | None, yaw0: np.ndarray, yaw1: np.ndarray, other
     return hi_deg > HEAD_ON_MIN
 
 
-def _touch(full, offset, cc, kk, me: Body, partner: Body, other_yaw: float) -> tuple[np.ndarray, ...]:
-    """My pose (along, across, yaw) where candidates cc first touch the partner during step kk, moved back
-    along the step as the simulator does (`simulator._back_to_contact`: `geometry.touch_fraction`, linear poses);
-    with other variations' touches at once (`_touches`, lockstep.run)."""
-    before = [q[cc, kk] for q in full]
-    after = [q[cc, kk + 1] for q in full]
-    before[0], after[0] = before[0] - offset, after[0] - offset
+def _touch(alongs, fixed, offsets_each, group, jj, cc, kk, me: Body, partner: Body, other_yaw: float
+           ) -> tuple[np.ndarray, ...]:
+    """My pose (along, across, yaw) where candidates cc first touch the partner (at offsets_each[group][jj])
+    during step kk, moved back along the step as the simulator does (`simulator._back_to_contact`:
+    `geometry.touch_fraction`, linear poses); with other variations' touches at once (`_touches`, lockstep.run)."""
+    bounds = np.searchsorted(group, np.arange(len(alongs) + 1))
+    runs = [(g, int(bounds[g]), int(bounds[g + 1])) for g in range(len(alongs)) if bounds[g + 1] > bounds[g]]
+    before = [np.concatenate([alongs[g][cc[b0:b1], kk[b0:b1]] - offsets_each[g][jj[b0:b1]] for g, b0, b1 in runs]),
+              *(q[cc, kk] for q in fixed)]
+    after = [np.concatenate([alongs[g][cc[b0:b1], kk[b0:b1] + 1] - offsets_each[g][jj[b0:b1]]
+                             for g, b0, b1 in runs]), *(q[cc, kk + 1] for q in fixed)]
     return lockstep.together(_touches, [(before, after, me, partner, other_yaw)])[0]
 
 
