@@ -63,15 +63,15 @@ def test_drac_closing_on_a_stopped_car():
 
 
 def test_delta_v_of_a_known_collision():
-    # a 1,500 kg car at 15 m/s runs into a stopped 9,000 kg truck: common velocity 15 * 1500 / 10500;
-    # delta-v car = 9000 / 10500 * 15 = 12.857 m/s, truck = 1500 / 10500 * 15 = 2.143 m/s
+    # a 1,500 kg car at 15 m/s runs into a stopped 15,000 kg truck (the simulator's masses): common velocity
+    # 15 * 1500 / 16500; delta-v car = 15000 / 16500 * 15 = 13.636 m/s, truck = 1500 / 16500 * 15 = 1.364 m/s
     row = _row(tables({"ego": track(steps=30, x0=0.0, speed=15.0, length=4.0, width=2.0, type="car"),
                        "npc1": track(steps=30, x0=20.0, speed=0.0, length=10.0, width=2.5, type="truck")}))
     assert row["collided"]
     assert row["min_ttc"] == 0.0
     assert row["impact_speed"] == pytest.approx(15.0)
-    assert row["delta_v_a"] == pytest.approx(9000 / 10500 * 15.0)
-    assert row["delta_v_b"] == pytest.approx(1500 / 10500 * 15.0)
+    assert row["delta_v_a"] == pytest.approx(15000 / 16500 * 15.0)
+    assert row["delta_v_b"] == pytest.approx(1500 / 16500 * 15.0)
     assert row["delta_v_source"] == "momentum"
 
 
@@ -163,3 +163,11 @@ def test_crossing_point_tests_only_near_segments_and_equals_every_pair():
     assert np.isfinite(want[0]).sum() > 50  # the walks do cross
     for a, b in zip(got, want):
         assert np.array_equal(a, b, equal_nan=True)
+
+
+def test_delta_v_estimate_weighs_vehicles_as_the_simulator_does():
+    from crashscene.simulate.embedded.vehicles import limits_for
+    from crashscene.vehicle_mass import mass_of
+
+    for actor_type in ("car", "truck", "motorcycle", "unknown"):
+        assert mass_of(actor_type) == limits_for(actor_type).mass

@@ -29,7 +29,7 @@ For every unordered pair of actors (a, b) of every variation:
   velocity change. Delta-v is what the simulator recorded (`delta_v_a/b` in
   the collisions table) when it did; otherwise the perfectly plastic
   (common-velocity) estimate of crash reconstruction, momentum conserved:
-  delta_v_a = m_b / (m_a + m_b) * impact_speed, with masses by actor type.
+  delta_v_a = m_b / (m_a + m_b) * impact_speed, with masses by actor type (`crashscene.vehicle_mass`, the simulator's).
 
 Everything is vectorised over (variation, step); the only Python loops are
 over actor pairs and chunks of variations.
@@ -44,9 +44,8 @@ from crashscene.geometry import footprint_separation, heading_difference, relati
 from crashscene.monitor.arrays import TraceArrays
 from crashscene.monitor.collisions import pair_overlaps
 from crashscene.monitor.timeseries import first_index, last_index
+from crashscene.vehicle_mass import mass_of
 
-MASS = {"car": 1500.0, "truck": 9000.0, "motorcycle": 250.0}  # [kg] by DSL actor type, for delta-v
-DEFAULT_MASS = 1500.0  # [kg]
 CROSSING_MIN_ANGLE = np.radians(20.0)  # [rad] paths meeting flatter than this follow or oppose, not cross
 FOLLOW_MAX_ANGLE = np.radians(30.0)  # [rad] heading difference of a car-following pair
 MIN_FOLLOWER_SPEED = 0.1  # [m/s] slower followers have no meaningful headway
@@ -94,7 +93,7 @@ def time_to_collision(pa_: np.ndarray, pb_: np.ndarray, yaw_a: np.ndarray, yaw_b
         radius = (half_a[..., 0] * np.abs(ca * ax + sa * ay) + half_a[..., 1] * np.abs(-sa * ax + ca * ay)
                   + half_b[..., 0] * np.abs(cb * ax + sb * ay) + half_b[..., 1] * np.abs(-sb * ax + cb * ay))
         gap, s = dx * ax + dy * ay, wx * ax + wy * ay   # overlap on this axis while |gap + s t| <= radius
-        with np.errstate(divide="ignore", invalid="ignore"):
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # s near 0: never enters, +-inf
             lo, hi = (-radius - gap) / s, (radius - gap) / s
         still = s == 0
         inside = np.abs(gap) <= radius
@@ -193,7 +192,7 @@ def _pair_thw(arrays: TraceArrays, cols: _Columns, a: int, b: int) -> np.ndarray
         half_w = ((arrays.width[sl, me] + arrays.width[sl, other]) / 2)[:, None]
         gap = lon - ((arrays.length[sl, me] + arrays.length[sl, other]) / 2)[:, None]
         speed = f["speed"][sl, me]
-        with np.errstate(invalid="ignore", divide="ignore"):
+        with np.errstate(invalid="ignore", divide="ignore", over="ignore"):  # masked where not following
             following = same_way & (np.abs(lat) < half_w) & (gap > 0) & (speed > MIN_FOLLOWER_SPEED)
             thw = np.where(following, gap / speed, np.inf)
         best = np.minimum(best, thw.min(axis=1))
@@ -358,7 +357,7 @@ def _recorded_delta_v(arrays: TraceArrays, collisions: pa.Table | None) -> dict:
 
 
 def _mass(types: np.ndarray) -> np.ndarray:
-    return np.array([MASS.get(str(t), DEFAULT_MASS) for t in types])
+    return np.array([mass_of(t) for t in types])
 
 
 def _impact(arrays: TraceArrays, a: int, b: int, contact: np.ndarray, recorded: dict | None):

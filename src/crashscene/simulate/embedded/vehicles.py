@@ -5,6 +5,9 @@ import math
 
 from pydantic import BaseModel, ConfigDict, Field
 
+from crashscene.dsl.tokens import ActorType
+from crashscene.vehicle_mass import MASS
+
 
 class VehicleLimits(BaseModel):
     """Physical limits of one vehicle type (the body size comes from the sampled scene)."""
@@ -19,18 +22,17 @@ class VehicleLimits(BaseModel):
     steer_rate: float = Field(math.radians(60), gt=0, description="[rad/s] front wheel angle rate")
     lat_accel_comfort: float = Field(2.5, gt=0, description="[m/s2] lateral acceleration a driver accepts in turns")
     speed_max: float = Field(60.0, gt=0, description="[m/s]")
-    mass: float = Field(1500.0, gt=0, description="[kg] curb mass plus occupants (impulse exchange at contact)")
+    mass: float = Field(MASS[ActorType.CAR], gt=0, description="[kg] impulse exchange at contact (vehicle_mass)")
 
 
 VEHICLE_LIMITS: dict[str, VehicleLimits] = {
     "car": VehicleLimits(),
     "truck": VehicleLimits(wheelbase_ratio=0.55, accel_max=1.5, brake_max=6.0, brake_comfort=2.5,
                            steer_max=math.radians(30), steer_rate=math.radians(40), lat_accel_comfort=2.0,
-                           speed_max=35.0, mass=15000.0),  # dsl.md's heavy truck: a semi or tractor-trailer (about 15 t
-    # empty, 36 t loaded at the US 80,000 lb limit), a bus (12-18 t), a box truck
+                           speed_max=35.0, mass=MASS[ActorType.TRUCK]),
     "motorcycle": VehicleLimits(wheelbase_ratio=0.65, accel_max=4.5, brake_max=7.0, brake_comfort=3.5,
                                 steer_max=math.radians(30), steer_rate=math.radians(90), lat_accel_comfort=3.0,
-                                speed_max=60.0, mass=300.0),
+                                speed_max=60.0, mass=MASS[ActorType.MOTORCYCLE]),
 }
 
 
