@@ -99,13 +99,36 @@ def test_a_loss_of_control_into_oncoming_traffic_meets_it_as_written(klass):
 
 def test_the_first_overlaps_are_those_found_step_by_step_for_every_offset():
     rng = np.random.default_rng(3)
-    along = np.cumsum(rng.uniform(-0.5, 1.5, (5, 40)), axis=1) - 10.0
     lo = rng.uniform(-6.0, -1.0, (5, 40))
     hi = lo + rng.uniform(-1.0, 8.0, (5, 40))  # some steps overlap for no offset (lo > hi)
-    offsets = rng.uniform(-20.0, 40.0, 50)
-    rel = along[:, None, :] - offsets[None, :, None]
-    touch = (rel >= lo[:, None, :]) & (rel <= hi[:, None, :])
-    cc, jj = np.nonzero(touch.any(axis=2))
-    want = (cc, jj, touch[cc, jj].argmax(axis=1))
-    got = skid._first_steps(along, lo, hi, offsets)
-    assert all(np.array_equal(g, w) for g, w in zip(got, want))
+    alongs = [np.cumsum(rng.uniform(-0.5, 1.5, (5, 40)), axis=1) - 10.0 for _ in range(3)]
+    offsets_each = [rng.uniform(-20.0, 40.0, 50), rng.uniform(-20.0, 40.0, 7), rng.uniform(300.0, 400.0, 20)]
+    want = []  # (pair, candidate, offset, step), pair by pair
+    for g, (along, offsets) in enumerate(zip(alongs, offsets_each)):
+        rel = along[:, None, :] - offsets[None, :, None]
+        touch = (rel >= lo[:, None, :]) & (rel <= hi[:, None, :])
+        cc, jj = np.nonzero(touch.any(axis=2))
+        want.append((np.full(len(cc), g), cc, jj, touch[cc, jj].argmax(axis=1)))
+    assert len(want[0][0]) and len(want[1][0]) and not len(want[2][0])  # the last pair never overlaps
+    got = skid._first_steps(alongs, lo, hi, offsets_each)
+    assert all(np.array_equal(g, np.concatenate(w)) for g, w in zip(got, zip(*want)))
+    assert skid._first_steps(alongs[2:], lo, hi, offsets_each[2:]) is None
+
+
+@pytest.mark.parametrize("opposite, gap, lateral, wanted, fine, place", [
+    (False, -2.0, 3.5, skid.Wanted("angle", "left", "front"), 1, True),
+    (False, 12.0, -1.8, skid.Wanted("sideswipe", "front", "rear", skidder_first=False), 5, False),
+    (True, 90.0, 3.5, skid.Wanted("head_on"), 1, True),
+])
+def test_a_search_at_many_partner_speeds_finds_what_each_finds_alone(opposite, gap, lateral, wanted, fine, place):
+    speed = 28.0
+    paths = skid.SkidPaths(0.8, DT).get(speed)
+    rotation = skid.rotation_for(wanted.contact_class, opposite, 0.4)
+    sign = 1.0 if lateral >= 0 else -1.0
+    partner_speeds, latests = [27.0, 20.0, 12.5, 27.0, 5.0], [12.0, 3.0, 6.0, 0.5, 9.0]
+    together = skid.first_contacts(paths, sign, speed, gap, partner_speeds, opposite, lateral, CAR, TRUCK,
+                                   rotation, wanted, DT, latests=latests, place=place, fine=fine)
+    alone = [skid.first_contact(paths, sign, speed, gap, v, opposite, lateral, CAR, TRUCK, rotation, wanted, DT,
+                                latest=t, place=place, fine=fine) for v, t in zip(partner_speeds, latests)]
+    assert together == alone
+    assert sum(found is not None for found in alone) >= 2  # the case finds contacts (the test can fail)
