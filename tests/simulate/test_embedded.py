@@ -231,3 +231,10 @@ def test_user_ads_plugs_in_and_bad_spec_is_clear(four_way_map):
         run(YIELD_CASE, scenes, four_way_map, mode="test", ads="tests.simulate.user_ads:Nope")
     with pytest.raises(SimulationError, match="reaction_time"):
         run(YIELD_CASE, scenes, four_way_map, mode="test", ads_params={"reaction_time": -1})
+
+
+def test_the_default_pull_out_time_lies_in_the_range_a_search_samples():
+    from crashscene.render.plan import PULL_OUT_TTA_RANGE
+    from crashscene.simulate.embedded.pullout import PULL_OUT_TTA
+
+    assert PULL_OUT_TTA_RANGE[0] <= PULL_OUT_TTA <= PULL_OUT_TTA_RANGE[1]

@@ -53,7 +53,7 @@ STOP_DURATION = (2.0, 4.0)  # [s] how long a stopping actor stays stopped before
 LEAD_TIME = (0.8, 2.0)  # [s] a lateral manoeuvre aimed at another vehicle is under way this long before they meet
 SIGNAL_GREEN = (3.0, 15.0)  # [s] green left for the anchor's axis (test mode: the ADS's) at its junction
 SKID_ROTATION = (0.0, 1.0)  # [-] where in its range a planned skid's rotation at contact falls
-PULL_OUT_TTA = (1.5, 4.0)  # [s] test mode: the ADS's time to the conflict point when a stop- or yield-controlled
+PULL_OUT_TTA_RANGE = (1.5, 4.0)  # [s] test mode: the ADS's time to the conflict point when a stop- or yield-controlled
 # NPC that does not yield pulls out (never below the ADS's reaction plus braking time: simulate.embedded.pullout)
 LATERAL_BEHAVIORS = frozenset({Behavior.CHANGE_LANE_LEFT, Behavior.CHANGE_LANE_RIGHT, Behavior.CROSS_CENTERLINE,
                                Behavior.OVERTAKE, Behavior.LOSE_CONTROL, Behavior.LEAVE_ROAD})
@@ -415,7 +415,7 @@ def search_parameters(plan: RenderPlan, actor: ActorPlan, prefix: str,
                     "[-] where in its range the skid's rotation at contact falls"))
     if actor.controlled_by in (Sign.STOP_SIGN.value, Sign.YIELD_SIGN.value) and behavior in PULL_OUT_BEHAVIORS \
             and Disposition.NO_YIELD in dispositions_of(actor.dispositions) and not is_ads:
-        out.append((f"{prefix}_PULL_OUT_TTA", Range(low=PULL_OUT_TTA[0], high=PULL_OUT_TTA[1]),
+        out.append((f"{prefix}_PULL_OUT_TTA", Range(low=PULL_OUT_TTA_RANGE[0], high=PULL_OUT_TTA_RANGE[1]),
                     "[s] test mode: pulls out when the ADS is this far in time from the conflict point"))
     if len(actor.blueprints) > 1:
         out.append((f"{prefix}_MODEL_INDEX", Range(low=0.0, high=float(len(actor.blueprints))),
