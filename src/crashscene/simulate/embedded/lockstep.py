@@ -16,6 +16,7 @@ from collections.abc import Callable, Sequence
 from typing import Any, TypeVar
 
 import greenlet
+import numpy as np
 
 T = TypeVar("T")
 
@@ -53,6 +54,19 @@ def together(fn: Callable[[list], list], items: list) -> list:
     if isinstance(answer, _Failed):
         raise answer.error
     return answer
+
+
+def per_element(values, sizes: Sequence[int]) -> np.ndarray:
+    """A batched step's inputs: one value per item, repeated over that item's `sizes` elements (the items'
+    elements concatenated in item order)."""
+    return np.repeat(np.array(list(values), dtype=float), sizes)
+
+
+def per_item(arrays: Sequence[np.ndarray], sizes: Sequence[int]) -> list[tuple[np.ndarray, ...]]:
+    """A batched step's results back by item: each item's `sizes` elements of every one of `arrays` (the items'
+    elements concatenated in item order)."""
+    ends = np.cumsum(sizes)
+    return [tuple(a[e - m:e] for a in arrays) for e, m in zip(ends, sizes)]
 
 
 def run(jobs: Sequence[Callable[[], T]]) -> list[T]:

@@ -1008,7 +1008,7 @@ class VariationPlan:
         ends = np.cumsum(sizes)
         wx, wy = np.concatenate([w[0] for w in world]), np.concatenate([w[1] for w in world])
         yaw = np.concatenate([p[2] for p in paths])
-        pyaw = np.repeat(np.array([p[2] for p in poses], dtype=float), sizes)
+        pyaw = lockstep.per_element((p[2] for p in poses), sizes)
         r = self.route[xi]
         xy = arrays.xy[r]
         # the nearest route point of each path point, among those within NEAR_ROUTE of its path's box: a path point

@@ -320,17 +320,12 @@ def _areas(items: list) -> list[tuple[np.ndarray, np.ndarray]]:
         return []
     sizes = [len(item[0]) for item in items]
     px, py, pyaw = (np.concatenate([item[j] for item in items]) for j in range(3))
-
-    def per_item(values) -> np.ndarray:
-        return np.repeat(np.array(list(values), dtype=float), sizes)
-
-    ml, mw = per_item(item[3].length for item in items), per_item(item[3].width for item in items)
-    pl, pw = per_item(item[4].length for item in items), per_item(item[4].width for item in items)
-    zero, oyaw = np.zeros(len(px)), per_item(item[5] for item in items)
+    each = lockstep.per_element
+    ml, mw = each((item[3].length for item in items), sizes), each((item[3].width for item in items), sizes)
+    pl, pw = each((item[4].length for item in items), sizes), each((item[4].width for item in items), sizes)
+    zero, oyaw = np.zeros(len(px)), each((item[5] for item in items), sizes)
     _, _, qx, qy = impact.contact_frame(px, py, pyaw, ml, mw, zero, zero, oyaw, pl, pw)
-    mine, theirs = contact_areas(px, py, pyaw, ml, mw, zero, zero, oyaw, pl, pw, qx, qy)
-    ends = np.cumsum(sizes)
-    return [(mine[e - m:e], theirs[e - m:e]) for e, m in zip(ends, sizes)]
+    return lockstep.per_item(contact_areas(px, py, pyaw, ml, mw, zero, zero, oyaw, pl, pw, qx, qy), sizes)
 
 
 def _first_steps(alongs: list[np.ndarray], lo: np.ndarray, hi: np.ndarray, offsets_each: list[np.ndarray]
@@ -416,22 +411,17 @@ def _touches(items: list) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
     sizes = [len(item[0][0]) for item in items]
     before = [np.concatenate([item[0][j] for item in items]) for j in range(3)]
     after = [np.concatenate([item[1][j] for item in items]) for j in range(3)]
-
-    def per_item(values) -> np.ndarray:
-        return np.repeat(np.array(list(values), dtype=float), sizes)
-
-    ml, mw = per_item(item[2].length for item in items), per_item(item[2].width for item in items)
-    pl, pw = per_item(item[3].length for item in items), per_item(item[3].width for item in items)
+    each = lockstep.per_element
+    ml, mw = each((item[2].length for item in items), sizes), each((item[2].width for item in items), sizes)
+    pl, pw = each((item[3].length for item in items), sizes), each((item[3].width for item in items), sizes)
     n = len(ml)
-    zero, oyaw = np.zeros(n), per_item(item[4] for item in items)
+    zero, oyaw = np.zeros(n), each((item[4] for item in items), sizes)
 
     def pose(f):
         return [b + f * (a - b) for b, a in zip(before, after)]
 
     hi = touch_fraction(pose, lambda f: (zero, zero, oyaw), ml, mw, pl, pw, n)
-    px, py, pyaw = pose(hi)
-    ends = np.cumsum(sizes)
-    return [(px[e - m:e], py[e - m:e], pyaw[e - m:e]) for e, m in zip(ends, sizes)]
+    return lockstep.per_item(pose(hi), sizes)
 
 
 def _classify(px, py, pyaw, other_yaw: float, me: Body, partner: Body, skidder_first: bool) -> np.ndarray:
