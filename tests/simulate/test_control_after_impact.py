@@ -1,13 +1,14 @@
-"""Who keeps control after an impact (embedded.impact.upsets): a vehicle the impulse barely changes drives on
+"""Who keeps control after an impact (crashscene.upset.upsets): a vehicle the impulse barely changes drives on
 (in its lane's centre), one it upsets slides out of its driver's control."""
 from __future__ import annotations
 
 import numpy as np
 
+from crashscene import upset
 from crashscene.dsl import load_file
 from crashscene.scene import SampledScene
 from crashscene.simulate.backend import SimulationSettings
-from crashscene.simulate.embedded import impact, setup
+from crashscene.simulate.embedded import setup
 from crashscene.simulate.embedded.record import Recorder
 from crashscene.simulate.embedded.simulator import run_batch
 from crashscene.simulate.roads import RoadMap
@@ -17,9 +18,9 @@ from .test_embedded import actor_trace, run
 
 
 def test_upsets_at_the_declared_delta_v_and_yaw_rate():
-    dv = np.array([0.0, impact.CONTROL_DELTA_V - 0.01, impact.CONTROL_DELTA_V, 1.0, 1.0])
-    dw = np.array([0.0, 0.0, 0.0, impact.CONTROL_YAW_RATE, -impact.CONTROL_YAW_RATE])
-    assert impact.upsets(dv, dw).tolist() == [False, False, True, True, True]
+    dv = np.array([0.0, upset.CONTROL_DELTA_V - 0.01, upset.CONTROL_DELTA_V, 1.0, 1.0])
+    dw = np.array([0.0, 0.0, 0.0, upset.CONTROL_YAW_RATE, -upset.CONTROL_YAW_RATE])
+    assert upset.upsets(dv, dw).tolist() == [False, False, True, True, True]
 
 
 def test_a_heavy_striker_barely_upset_by_the_impact_drives_on_and_the_car_it_hits_slides(straight_map):
@@ -39,7 +40,7 @@ def test_a_heavy_striker_barely_upset_by_the_impact_drives_on_and_the_car_it_hit
         first.setdefault(r["variation"], r)
     assert len(first) >= 4
     for v, contact in first.items():
-        assert contact["delta_v_a"] < impact.CONTROL_DELTA_V < contact["delta_v_b"]
+        assert contact["delta_v_a"] < upset.CONTROL_DELTA_V < contact["delta_v_b"]
         truck_trace, car = actor_trace(tables, v, "ego"), actor_trace(tables, v, "npc1")
         assert (truck_trace["accel"][truck_trace["t"] > contact["t"] + 0.05] > 0.1).any()
         assert (car["accel"][car["t"] > contact["t"] + 0.05] <= 1e-9).all()

@@ -114,7 +114,7 @@ class Observation:
     others_yaw: np.ndarray  # (V, A) [rad]
     others_speed: np.ndarray  # (V, A) [m/s]
     collided: np.ndarray  # bool: this actor has already collided (it slides out of control unless the impact barely
-    # upset it, impact.upsets)
+    # upset it, crashscene.upset)
 
     def read_only(self) -> Observation:
         """A copy whose arrays are copies marked read-only: a driver cannot change the simulator's state."""

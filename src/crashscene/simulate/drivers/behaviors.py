@@ -185,7 +185,7 @@ class BehaviorDriver(Driver):
             accel = np.where(triggered, -3.0, accel)
         else:
             # settles onto its lane's centre after its start, or holds the offset its plan gives it; a driver still in
-            # control after a contact (impact.upsets) holds its lane's centre
+            # control after a contact (crashscene.upset) holds its lane's centre
             offset = np.where(obs.t < 2.0, ctx.initial_offset, ctx.lateral_target)
             offset = np.where(obs.collided, 0.0, offset)
         return Action(accel=accel, lateral_offset=offset, lose_control=lose, spin_rate=spin)

@@ -9,9 +9,9 @@ on both rigid bodies (mass by vehicle type, yaw inertia of a uniform box),
 normal restitution RESTITUTION, and a tangential impulse that makes the contact
 points stick when that needs no more than MU_CONTACT times the normal impulse,
 else slides at that ratio (Coulomb). Linear and angular momentum are conserved;
-no energy is created. A vehicle the impact upsets (`upsets`, thresholds shared with the monitor in
-`crashscene.upset`) is from then on out of its driver's control: each axle slides on its tyres with Coulomb friction against its contact patch's
-velocity (mu across the body, ROLL_FRACTION of it along), so a vehicle sliding
+no energy is created. A vehicle the impact upsets (`crashscene.upset.upsets`, thresholds shared with the
+monitor) is from then on out of its driver's control: each axle slides on its tyres with Coulomb friction against
+its contact patch's velocity (mu across the body, ROLL_FRACTION of it along), so a vehicle sliding
 sideways keeps spinning, one rolling on stops turning, until it is at rest
 (`tyre_slide`). A second contact is exchanged the same way. `slide` is the
 motion of a planned loss of control before any impact (skid), whose yaw the
@@ -22,7 +22,6 @@ from __future__ import annotations
 import numpy as np
 
 from crashscene.units import G
-from crashscene.upset import CONTROL_DELTA_V, CONTROL_YAW_RATE, upsets  # noqa: F401  (the simulator's side of them)
 
 RESTITUTION = 0.15  # [-] vehicle-to-vehicle impacts are nearly plastic (reconstruction practice: 0.1-0.3)
 MU_CONTACT = 0.4  # [-] limiting ratio of tangential to normal impulse between two vehicle bodies (Brach's

@@ -771,7 +771,7 @@ class VariationPlan:
         """A striker that rear-ends a vehicle and then, later in the written sequence, rear-ends another one
         ahead of it in the same lane went past the first: it hits the first at a rear corner (its centre a
         fraction of that car's width off the car's, `_room_to_leave`), so that the eccentric impulse and the
-        striker's continued push (a heavy striker keeps its driver, impact.upsets) turn that car out of the lane
+        striker's continued push (a heavy striker keeps its driver, crashscene.upset) turn that car out of the lane
         and leave the way on to the next one open."""
         seq, roles = self.ctx.contacts, [c.role for c in self.ctx.columns]
         if not seq or seq[0][2] != "rear_end" or not all(r in roles for r in seq[0][:2]):
@@ -813,7 +813,7 @@ class VariationPlan:
                                               np.array([side * c for side, c in choices]), cols[si].limits.mass,
                                               cols[ti].limits.mass, float(self.length[si]), float(self.width[si]),
                                               float(self.length[ti]), float(self.width[ti]), self.ctx.friction)
-        # a striker that keeps its driver (a heavy one, impact.upsets) drives on and pushes it again: it is carried
+        # a striker that keeps its driver (a heavy one, crashscene.upset) drives on and pushes it again: it is carried
         # on at least at the striker's speed while it is in the lane
         fwd = np.maximum(fwd, float(self.speeds[si]) * cascade.DT * np.arange(1, fwd.shape[1] + 1))
         reach_along = self.length[ti] / 2 * np.abs(np.cos(yaw)) + self.width[ti] / 2 * np.abs(np.sin(yaw))

@@ -41,6 +41,7 @@ from crashscene.simulate.embedded.swerve import lookahead as pursuit_lookahead
 from crashscene.simulate.embedded.swerve import steer_step
 from crashscene.simulate.embedded.record import Recorder
 from crashscene.simulate.roads import STOP_LINE_SETBACK, RoadMap
+from crashscene.upset import upsets
 
 ACTOR_VARIATIONS = 3000  # (variation, actor) pairs simulated together: bounds memory; results do not depend on it
 DEFAULT_DRIFT = 0.15  # [rad] veer of a skidding car's velocity when no plan sets it
@@ -539,7 +540,7 @@ def _exchange(batch: batch_setup.BatchSetup, state: State, recorder: Recorder, o
         state.vx[idx, k], state.vy[idx, k] = vel
         state.yaw_rate[idx, k] = w
         state.v[idx, k] = np.hypot(*vel)
-        state.free[idx, k] |= impact.upsets(np.hypot(*(vel - vel0)), w - w0)  # else its driver drives on
+        state.free[idx, k] |= upsets(np.hypot(*(vel - vel0)), w - w0)  # else its driver drives on
         state.collided[idx, k] = True
 
 
