@@ -75,3 +75,26 @@ def test_route_arrays_local_coordinates_inverts_point(four_way_map):
     got_s, got_d, got_yaw = arrays.local_coordinates(r, px, py, s + 1.5)
     assert got_s == pytest.approx(s, abs=0.05) and got_d == pytest.approx(d, abs=0.05)
     assert np.cos(got_yaw - yaw) == pytest.approx(1.0, abs=1e-3)
+
+
+@pytest.mark.parametrize("shape", ["wave", "spiral", "duplicates", "scatter"])
+def test_locate_on_line_gives_geos_own_floats(shape):
+    """`locate_on_line` prunes the segments it walks; its stations are still GEOS's, bit for bit: on curves,
+    on a spiral that comes back near itself, with repeated vertices, and for points on vertices and mid-segment."""
+    import shapely
+
+    from crashscene.simulate.roads import locate_on_line
+
+    rng = np.random.default_rng(["wave", "spiral", "duplicates", "scatter"].index(shape))
+    for _ in range(20):
+        k = int(rng.integers(2, 300))
+        t = np.cumsum(rng.uniform(0.0, 0.6, k))
+        xy = {"wave": lambda: np.stack([t, np.sin(t / 7) * 5], 1),
+              "spiral": lambda: np.stack([np.cos(t / 5) * (10 + t / 20), np.sin(t / 5) * (10 + t / 20)], 1),
+              "duplicates": lambda: np.stack([np.round(t, 1), np.zeros(k)], 1)[np.sort(rng.integers(0, k, k))],
+              "scatter": lambda: rng.normal(0.0, 5.0, (k, 2))}[shape]() + rng.normal(0.0, 300.0)
+        points = xy[rng.integers(0, k, 700)] + rng.normal(0.0, rng.choice([0.01, 0.5, 3.0, 30.0]), (700, 2))
+        points[:30] = xy[rng.integers(0, k, 30)]
+        points[30:60] = ((xy[:-1] + xy[1:]) / 2)[rng.integers(0, max(k - 1, 1), 30)]
+        want = shapely.line_locate_point(shapely.LineString(xy), shapely.points(points[:, 0], points[:, 1]))
+        np.testing.assert_array_equal(locate_on_line(xy, points[:, 0], points[:, 1]), want)
