@@ -7,6 +7,7 @@ gather over (V, A).
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -127,15 +128,14 @@ class RouteArrays:
         in curves, braking at `decel` before them and accelerating at `accel` after (and from `v0` at s0)."""
         if s1 <= s0:
             return 0.0
-        k0, k1 = int(s0 / ROUTE_DS), min(int(np.ceil(s1 / ROUTE_DS)), self.curvature.shape[1] - 1)
+        k0, k1 = int(s0 / ROUTE_DS), min(math.ceil(s1 / ROUTE_DS), self.curvature.shape[1] - 1)
         if k1 <= k0:
             return (s1 - s0) / max(speed, 0.5)
         speed = max(speed, 0.5)
-        if (v0 is None or v0 >= speed - 1e-9) and \
-                speed ** 2 * float(np.abs(self.curvature[r, k0:k1 + 1]).max()) <= lat_accel:
+        if (v0 is None or v0 >= speed - 1e-9) and speed ** 2 * self._abs_curvature_max(r, k0, k1) <= lat_accel:
             return (s1 - s0) / speed  # no curve to slow down for, already at speed
         step = 4  # every 2 m is enough for a speed profile
-        kappa = np.abs(self.curvature[r, k0:k1 + 1]).copy()
+        kappa = self._abs_curvature_levels()[0][r, k0:k1 + 1]
         if len(kappa) > step:
             pad = (-len(kappa)) % step
             kappa = np.concatenate([kappa, np.full(pad, kappa[-1])]).reshape(-1, step).max(axis=1)
@@ -144,17 +144,37 @@ class RouteArrays:
             ds = ROUTE_DS
         v_lim2 = np.minimum(max(speed, 0.5) ** 2, lat_accel / np.maximum(kappa, 1e-4))
         dist = np.arange(len(kappa)) * ds
-        gap = dist[None, :] - dist[:, None]  # s_j - s_i
-        # brake ahead of every later limit, and accelerate out of every earlier one (and from v0)
-        ahead = np.where(gap >= 0, v_lim2[None, :] + 2 * decel * gap, np.inf).min(axis=1)
-        behind = np.where(gap <= 0, ahead[None, :] - 2 * accel * gap, np.inf).min(axis=1)
-        v2 = np.minimum(ahead, behind)
+        if accel >= 0 and decel >= 0 and bool((v_lim2 == speed ** 2).all()):
+            v2 = v_lim2  # no limit below the cruise speed: the profile below is that speed throughout
+        else:
+            gap = dist[None, :] - dist[:, None]  # s_j - s_i
+            # brake ahead of every later limit, and accelerate out of every earlier one (and from v0)
+            ahead = np.where(gap >= 0, v_lim2[None, :] + 2 * decel * gap, np.inf).min(axis=1)
+            behind = np.where(gap <= 0, ahead[None, :] - 2 * accel * gap, np.inf).min(axis=1)
+            v2 = np.minimum(ahead, behind)
         if v0 is not None:
             v2 = np.minimum(v2, max(v0, 0.0) ** 2 + 2 * accel * dist)
         v = np.maximum(np.sqrt(v2), 1.0)
         if len(v) < 2:
             return (s1 - s0) / float(v[0])
         return float(np.sum(ds / (0.5 * (v[1:] + v[:-1])))) * (s1 - s0) / (dist[-1] if dist[-1] > 0 else 1.0)
+
+    def _abs_curvature_levels(self) -> list[np.ndarray]:
+        """|curvature| (R, K) and its sparse table: level j holds the largest value of samples [k, k + 2^j)."""
+        levels = self.__dict__.get("_kappa_levels")
+        if levels is None:
+            levels = [np.abs(self.curvature)]
+            while 2 ** len(levels) <= levels[0].shape[1]:
+                half = 2 ** (len(levels) - 1)
+                levels.append(np.maximum(levels[-1][:, :-half], levels[-1][:, half:]))
+            self._kappa_levels = levels
+        return levels
+
+    def _abs_curvature_max(self, r: int, k0: int, k1: int) -> float:
+        """Largest |curvature| [1/m] of samples k0..k1 of route r: two lookups in the sparse table."""
+        j = (k1 - k0 + 1).bit_length() - 1
+        row = self._abs_curvature_levels()[j][r]
+        return float(np.maximum(row[k0], row[k1 + 1 - 2 ** j]))
 
     def curve_speed(self, r: np.ndarray, s: np.ndarray, ahead: np.ndarray, lat_accel: float, decel: float,
                     n: int = 12) -> np.ndarray:
