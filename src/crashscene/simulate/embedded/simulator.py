@@ -227,6 +227,11 @@ class Fixed:
         routes, n_a = batch.routes, batch.n_actors
         self.entries = routes.entry_s[batch.route]  # (V, A, J)
         self.exits = routes.entry_exit[batch.route]
+        n_v, n_j = batch.route.shape[0], self.entries.shape[-1]
+        if not batch.entry_control.shape == batch.entry_group.shape == self.entries.shape:
+            raise AssertionError(f"junction entry tables disagree: {batch.entry_control.shape}, "
+                                 f"{batch.entry_group.shape}, {self.entries.shape}")
+        self.entry_rows = np.arange(n_v * n_a).reshape(n_v, n_a) * n_j  # flat index of each (v, a)'s first entry
         self.lateral_rate = batch.lateral_rate
         self.others = np.array([[b for b in range(n_a) if b != a] for a in range(n_a)],
                                dtype=np.intp).reshape(n_a, -1)
@@ -288,16 +293,17 @@ def _geometry(batch: batch_setup.BatchSetup, state: State, t: float, fixed: Fixe
     current = np.sum(exits <= rear[..., None], axis=-1)
     has = (current < n_j)
     cur = np.minimum(current, n_j - 1)
-    entry_s = np.take_along_axis(entries, cur[..., None], axis=-1)[..., 0]
+    at = (fixed.entry_rows if fixed is not None else np.arange(cur.size).reshape(cur.shape) * n_j) + cur
+    entry_s = entries.reshape(-1)[at]  # each (variation, actor)'s entry `cur` of its (V, A, J) entries
     has &= np.isfinite(entry_s)
     g.entry = np.where(has, cur, -1)
     g.junction_dist = np.where(has, entry_s - g.front, np.nan)
-    ctrl = np.take_along_axis(batch.entry_control, cur[..., None], axis=-1)[..., 0]
+    ctrl = batch.entry_control.reshape(-1)[at]
     g.control = np.where(has, ctrl, 0).astype(np.int8)
     g.stop_line_dist = np.where(has & (g.control > 0), entry_s - STOP_LINE_SETBACK - g.front, np.nan)
     g.maneuver = np.where(has, routes.entry_maneuver[r, cur], 0).astype(np.int8)
     g.junction = np.where(has, routes.entry_junction[r, cur], -1)
-    group = np.take_along_axis(batch.entry_group, cur[..., None], axis=-1)[..., 0]
+    group = batch.entry_group.reshape(-1)[at]
     sig = signals.signal_state(group, t, batch.phase[:, None])
     g.signal = np.where(g.control == CONTROL_SIGNAL, sig, SIGNAL_NONE).astype(np.int8)
     limit = routes.speed_limit[r, k]
