@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pyarrow as pa
 import pytest
 
 from tests.monitor.builders import tables, track
@@ -242,3 +243,19 @@ def test_oncoming_vehicle_seen_from_its_own_lane(check):
     ego["y"] = np.full(STEPS, 3.5)
     oncoming = track(STEPS, x0=45.0, y0=3.5, yaw=np.pi, speed=0.5)
     assert check(tables({"ego": ego, "npc1": oncoming}), "CVC_21650", "ego")["verdict"] == "violated"
+
+
+def test_a_stay_it_was_already_in_is_not_extended(check):
+    # on the wrong side from step 5 until the impact at step 20 (1.5 s), knocked out of that lane and back into it
+    # at step 22: the new stay does not begin from its own side of the road, so only what is judged counts
+    opposing_steps = np.zeros(80, dtype=bool)
+    opposing_steps[5:20] = True
+    opposing_steps[22:50] = True
+    t = _swerve_then_upset(1.0)
+    traces = t["traces"].to_pydict()
+    for k, (role, step) in enumerate(zip(traces["actor"], traces["step"])):
+        if role == "ego":
+            traces["opposing_lane"][k] = bool(opposing_steps[step])
+    t["traces"] = pa.Table.from_pydict(traces, schema=t["traces"].schema)
+    row = check(t, "CVC_21650", "ego")
+    assert row["verdict"] == "violated" and row["measured"] == pytest.approx(1.5)
