@@ -32,6 +32,11 @@ the specs under `tests/data/spec/`).
 Session 6 kept the test and added two records: rules that pass it but were written while reading bundled cases'
 texts name those cases (`SPEC_QUOTED_FROM_CASES`: held out like any case-written rule), and a split decided on a
 first-round rule's wording (`SESSION_6_DECISIONS`) whose spec-worded part rests on no case (`SESSION_6_CONVENTIONS`).
+
+Session 7 added deductions the integrator allowed (`SESSION_7_DEDUCTIONS`): a value the specs state, reached from facts
+already decided through a step that follows from the specs' own sentences (each cited verbatim), not from a report's
+phrasing. They rest on the specs (`DEDUCED_FROM_THE_SPECS`), and name the cases they were written for, which
+`--held-out` switches them off on.
 """
 from __future__ import annotations
 
@@ -370,11 +375,28 @@ SESSION_6_CONVENTIONS: dict[str, str] = {
         'formula"; the genitive ("V2\'s front struck V1\'s right side") is the same formula up to inflection',
 }
 
+# session 7: deductions the integrator allowed (issue 11): each reads only facts the extractor has already decided
+# and gives a value the specs state, through a step that follows from the specs' own sentences (cited verbatim,
+# checked like SPEC_QUOTED_CONVENTIONS) rather than from any report's phrasing; it was written for the cases
+# named, which `--held-out` switches it off on. Tested on synthetic narratives (tests/extract/test_session_7_rules.py)
+SESSION_7_DEDUCTIONS: dict[str, tuple[str, tuple[str, ...]]] = {
+    "rules_positions.struck_in_the_order_of_their_positions": (
+        'dsl.md section 1: "the contacts between actors, in the order they happen"; dsl.md section 3 collisions: '
+        '"every contact between two actors, first harmful event first"; dsl.md section 3 class: "front into rear, '
+        'same direction -> rear_end"; rules.md: "rear_end (relative heading under 30°, struck from behind)"; dsl.md '
+        'section 3 position: "front|behind = ahead of / behind it along its lane"; dsl.md convention 7: "Traffic in '
+        'the ego\'s lane, an adjacent lane or oncoming references ego (front/behind/left/right)". A striker keeping '
+        "one lane meets the vehicles in it in the order of their positions: of two it rear-ends, the one struck "
+        "earlier is behind the one struck later (the integrator's decision, session 7)",
+        ("3-C1-2018-003",)),
+}
+
 RULE_SOURCES: dict[str, tuple[str, ...]] = {**ROUND_ONE_SOURCES, **{rule: () for rule in CONVENTION_RULES},
                                             **LATER_SOURCES, **{rule: () for rule in FROM_THE_HELD_OUT_TABLE},
                                             **{rule: () for rule in SPEC_QUOTED_CONVENTIONS},
                                             **{rule: cases for rule, (_, cases) in SPEC_QUOTED_FROM_CASES.items()},
-                                            **{rule: () for rule in SESSION_6_CONVENTIONS}}
+                                            **{rule: () for rule in SESSION_6_CONVENTIONS},
+                                            **{rule: cases for rule, (_, cases) in SESSION_7_DEDUCTIONS.items()}}
 
 # sessions 2 and 3: written from dsl.md section 5 and synthetic narratives, not from bundled cases: they name no
 # case, or only the cases they were corrected on after `crashscene eval --held-out` showed a loss there (those
@@ -384,6 +406,9 @@ FROM_SYNTHETIC = frozenset(rule for rule, cases in LATER_SOURCES.items() if len(
 # every rule written from the spec rather than from a case: the first round's convention rules and FROM_SYNTHETIC
 FROM_CONVENTIONS = FROM_SYNTHETIC | frozenset(CONVENTION_RULES) | frozenset(FROM_THE_HELD_OUT_TABLE) | \
     frozenset(SPEC_QUOTED_CONVENTIONS) | frozenset(SESSION_6_CONVENTIONS)
+# rules resting on the specs' sentences, not on their source cases' phrasing, though written with those cases in
+# view (their sources are recorded and held out all the same)
+DEDUCED_FROM_THE_SPECS = frozenset(SESSION_7_DEDUCTIONS)
 # the first round's case-written rules that fire on no bundled case today: no bundled figure depends on them
 FIRES_ON_NO_BUNDLED_CASE = frozenset(rule for rule, cases in ROUND_ONE_SOURCES.items() if not cases)
 

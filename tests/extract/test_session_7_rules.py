@@ -1,0 +1,94 @@
+"""Session 7's rules (issue 11), each on synthetic narratives written for the test in NHTSA's formulaic style,
+none copied from a bundled case: places along one lane that a chain of rear-end contacts entails
+(`rules_positions.struck_in_the_order_of_their_positions`, a deduction from the specs' sentences cited verbatim).
+"""
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import pytest
+
+from crashscene.extract.case_input import Report
+from crashscene.extract.rule_sources import (
+    DEDUCED_FROM_THE_SPECS,
+    FROM_CONVENTIONS,
+    RULE_SOURCES,
+    SESSION_7_DEDUCTIONS,
+)
+from crashscene.extract.rules import extract_rules
+
+SPEC = Path(__file__).resolve().parents[1] / "data" / "spec"  # copies of ../shared/spec/{dsl,rules}.md
+IN_ORDER = "rules_positions.struck_in_the_order_of_their_positions"
+
+
+def _squash(text: str) -> str:
+    return " ".join(text.replace("`", "").split())
+
+
+def _relations(narrative: str, off: list[str] = ()) -> dict[str, str]:
+    scenario = extract_rules(Report(case_id="t", narrative=narrative, source=Path("t.txt")), [], off=off)
+    return {role: actor.position.relation.value for role, actor in scenario.actors.items() if role != "ego"}
+
+
+@pytest.mark.parametrize("rule", sorted(SESSION_7_DEDUCTIONS))
+def test_each_deduction_cites_words_the_specs_hold(rule):
+    specs = {name: _squash((SPEC / name).read_text(encoding="utf-8")) for name in ("dsl.md", "rules.md")}
+    citation, _ = SESSION_7_DEDUCTIONS[rule]
+    quotes = [(f"{m.group(1)}.md", q) for segment in citation.split(";")
+              for m in [re.match(r"\s*(dsl|rules)\.md\b", segment)] if m for q in re.findall(r'"([^"]+)"', segment)]
+    assert len(quotes) >= 3, rule
+    for spec, quote in quotes:
+        assert _squash(quote) in specs[spec], (rule, quote)
+
+
+def test_a_deduction_records_the_cases_it_was_written_for():
+    for rule, (_, cases) in SESSION_7_DEDUCTIONS.items():
+        assert RULE_SOURCES[rule] == cases and cases and rule in DEDUCED_FROM_THE_SPECS
+        assert rule not in FROM_CONVENTIONS  # held out on its cases like a case-written rule
+
+
+# V3 strikes V2 and then V1, all keeping the right lane: V2, struck first, is behind V1
+THREE = ("The crash occurred on a straight, three-lane, one-way road. V1, V2 and V3 were traveling north in the right "
+         "lane. V1 and V2 slowed for traffic. V3 did not slow and struck the rear of V2 with its front (Event 1). V3 "
+         "continued north and struck the rear of V1 with its front (Event 2).")
+# other labels, four vehicles: V4 strikes V3, V2, then V1
+FOUR = ("The crash occurred on a straight, two-lane, one-way road. V1, V2, V3 and V4 were traveling east in the left "
+        "lane. V1, V2 and V3 slowed for traffic. V4 did not slow and its front struck the rear of V3 (Event 1). V4 "
+        "then struck the rear of V2 (Event 2). V4 then struck the rear of V1 (Event 3).")
+# V2 strikes V1 first, then V3: V3 is ahead of V1 (the default, kept)
+AHEAD = ("The crash occurred on a straight, two-lane, one-way road. V1, V2 and V3 were traveling south in the right "
+         "lane. V1 and V3 slowed for traffic. V2 did not slow and struck the rear of V1 (Event 1). V2 then struck "
+         "the rear of V3 (Event 2).")
+
+
+@pytest.mark.parametrize("narrative, expected, without_the_rule", [
+    (THREE, {"npc1": "behind", "npc2": "behind"}, {"npc1": "front", "npc2": "behind"}),
+    (FOUR, {"npc1": "behind", "npc2": "behind", "npc3": "behind"},
+     {"npc1": "front", "npc2": "front", "npc3": "behind"}),
+    (AHEAD, {"npc1": "behind", "npc2": "front"}, {"npc1": "behind", "npc2": "front"}),
+])
+def test_a_striker_keeping_its_lane_meets_the_vehicles_in_the_order_of_their_positions(narrative, expected,
+                                                                                       without_the_rule):
+    assert _relations(narrative) == expected
+    assert _relations(narrative, off=[IN_ORDER]) == without_the_rule
+
+
+def test_a_position_the_text_states_is_kept():
+    stated = THREE.replace("V1 and V2 slowed for traffic.", "V1 and V2 slowed for traffic; V2 was ahead of V1.")
+    assert stated != THREE and _relations(stated)["npc1"] == "front"
+
+
+@pytest.mark.parametrize("change", [
+    # the striker changes lanes between the contacts: it does not keep one lane
+    ("V3 did not slow and struck", "V3 changed lanes to the left and struck"),
+    # the vehicles struck are in stated different lanes
+    ("V1, V2 and V3 were traveling north in the right lane.",
+     "V1 was traveling north in the left northbound lane. V2 was traveling north in the right northbound lane. V3 "
+     "was traveling north in the right northbound lane."),
+])
+def test_no_place_is_deduced_off_one_lane(change):
+    narrative = THREE.replace(*change)
+    assert narrative != THREE
+    assert _relations(narrative)["npc1"] != "behind"
+    assert _relations(narrative) == _relations(narrative, off=[IN_ORDER])
