@@ -92,3 +92,32 @@ def test_no_place_is_deduced_off_one_lane(change):
     assert narrative != THREE
     assert _relations(narrative)["npc1"] != "behind"
     assert _relations(narrative) == _relations(narrative, off=[IN_ORDER])
+
+
+OUT_OF_CONTROL = "rules_oracle.no_lane_change_into_a_vehicle_out_of_control"
+MERGE = ("The crash occurred on a four-lane divided highway. V1 was traveling north in the right northbound lane. V2 "
+         "was traveling north on the entrance ramp and changed lanes to the left to merge onto the highway. ")
+SPUN_INTO_THE_RAMP = "The roadway was wet and V1 lost control, rotated clockwise and entered the acceleration lane. "
+V2_STRUCK_V1 = "The front of V2 struck the left side of V1."
+
+
+def _oracle(narrative: str, off: list[str] = ()) -> set[tuple[str, str]]:
+    scenario = extract_rules(Report(case_id="t", narrative=narrative, source=Path("t.txt")), [], off=off)
+    return {(entry.code, entry.actor) for entry in scenario.oracle}
+
+
+def test_a_lane_changer_met_only_by_a_vehicle_out_of_control_is_not_charged():
+    narrative = MERGE + SPUN_INTO_THE_RAMP + V2_STRUCK_V1
+    assert _oracle(narrative) == {("CVC_22350", "ego")}
+    assert _oracle(narrative, off=[OUT_OF_CONTROL]) == {("CVC_22350", "ego"), ("CVC_22107", "npc1")}
+
+
+@pytest.mark.parametrize("narrative", [
+    MERGE + V2_STRUCK_V1,  # V1 under control: V2 merged into it
+    # V2 also strikes V3, under control, in the lane it moved into
+    MERGE.replace("V2 was", "V3 was traveling north in the right northbound lane ahead of V1. V2 was")
+    + SPUN_INTO_THE_RAMP + V2_STRUCK_V1 + " V2 then struck the rear of V3.",
+    MERGE + SPUN_INTO_THE_RAMP,  # no contact stated: the convention's code stays
+])
+def test_a_lane_changer_meeting_a_vehicle_under_control_is_charged(narrative):
+    assert ("CVC_22107", "npc1") in _oracle(narrative)

@@ -389,6 +389,13 @@ SESSION_7_DEDUCTIONS: dict[str, tuple[str, tuple[str, ...]]] = {
         "one lane meets the vehicles in it in the order of their positions: of two it rear-ends, the one struck "
         "earlier is behind the one struck later (the integrator's decision, session 7)",
         ("3-C1-2018-003",)),
+    "rules_oracle.no_lane_change_into_a_vehicle_out_of_control": (
+        'dsl.md convention 9: "lane change or merge into another vehicle -> CVC_22107", "losing control, or too fast '
+        'for conditions -> CVC_22350"; rules.md CVC_22107: "during a lane change, a vehicle in the target lane must '
+        'brake harder"; dsl.md section 3: "lose_control (skid, yaw, rotation)". A vehicle that lost control left its '
+        "own path: a lane changer whose every contact is with such a vehicle moved into no vehicle of its target "
+        "lane, and is not charged CVC_22107 (the integrator's decision, session 7)",
+        ("103341",)),
 }
 
 RULE_SOURCES: dict[str, tuple[str, ...]] = {**ROUND_ONE_SOURCES, **{rule: () for rule in CONVENTION_RULES},
