@@ -121,3 +121,23 @@ def test_a_lane_changer_met_only_by_a_vehicle_out_of_control_is_not_charged():
 ])
 def test_a_lane_changer_meeting_a_vehicle_under_control_is_charged(narrative):
     assert ("CVC_22107", "npc1") in _oracle(narrative)
+
+
+BETWEEN_THE_EDGES = "rules_road.a_centre_line_lies_between_the_edges"
+TWO_WAY = ("V1 was traveling east in the eastbound lane of a two-lane, two-way road. V2 was traveling west in the "
+           "westbound lane. V1 crossed the centerline and the front of V1 struck the front of V2.")
+
+
+def test_a_double_line_drawn_only_at_a_road_edge_is_no_centre_line():
+    from crashscene.extract.sketch import EDGE_ONLY, SketchFact
+
+    facts = [SketchFact(text="double solid line drawn", source="sketch:lines"),
+             SketchFact(text=EDGE_ONLY, source="sketch:lines")]
+    report = Report(case_id="t", narrative=TWO_WAY, source=Path("t.txt"))
+    on, off = extract_rules(report, facts), extract_rules(report, facts, off=[BETWEEN_THE_EDGES])
+    assert on.road_network.road_marker.value == "not_mentioned"
+    assert {e.code for e in on.oracle} == {"CVC_21650"}
+    assert off.road_network.road_marker.value == "double_solid_line"
+    assert {e.code for e in off.oracle} == {"CVC_21650", "CVC_21460"}
+    # a double line with drawn road on both sides stays the centre line
+    assert extract_rules(report, facts[:1]).road_network.road_marker.value == "double_solid_line"

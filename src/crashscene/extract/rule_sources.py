@@ -396,6 +396,14 @@ SESSION_7_DEDUCTIONS: dict[str, tuple[str, tuple[str, ...]]] = {
         "own path: a lane changer whose every contact is with such a vehicle moved into no vehicle of its target "
         "lane, and is not charged CVC_22107 (the integrator's decision, session 7)",
         ("103341",)),
+    "rules_road.a_centre_line_lies_between_the_edges": (
+        'dsl.md convention 5: "is the centre line of V1\'s road, as stated or clearly drawn", "nothing stated or '
+        'clearly drawn -> not_mentioned"; rules.md CVC_21650: "drive on the right half of a two-way roadway"; '
+        'rules.md CVC_21460: "never drive left of double solid centre lines". The centre line parts the two halves '
+        "of the roadway, so drawn road (its lanes, up to the edges) lies on both sides of it: a double stroke with "
+        "drawn road on one side only is a double-drawn road edge, not a clearly drawn centre line "
+        "(crashscene.extract.sketch, 'double line drawn only at a road edge')",
+        ("105203", "109525")),
 }
 
 RULE_SOURCES: dict[str, tuple[str, ...]] = {**ROUND_ONE_SOURCES, **{rule: () for rule in CONVENTION_RULES},

@@ -238,12 +238,15 @@ def speed_limit_mph(text: str) -> int | None:
 
 # ---------------------------------------------------------------- drawn lines (OpenCV)
 
-LINE_CACHE_VERSION = 1
+LINE_CACHE_VERSION = 2  # 2: centre_strokes
 _INK = 160  # grey level below which a pixel is drawn ink
 _LONG = 0.2  # a lane line runs over at least this share of the image's short side
 _DOUBLE_SHARE = 0.7  # share of cross-sections along a stroke that must show two thin parallel strokes
 MIN_DOUBLE_STROKES = 2  # long double strokes needed to call a double solid line drawn
 MIN_DASHES = 20  # collinear short dashes needed to call a broken line drawn
+EDGE_ONLY = "double line drawn only at a road edge"
+_ROAD_REACH = 0.3  # share of the image's short side searched on each side of a double stroke for drawn road
+_BOTH_SIDES_SHARE = 0.85  # share of cross-sections of a centre stroke with drawn road on both sides
 
 
 class LineSummary(BaseModel):
@@ -252,15 +255,20 @@ class LineSummary(BaseModel):
     long_strokes: int = 0
     double_strokes: int = 0
     collinear_dashes: int = 0
+    centre_strokes: int = 0  # double strokes with drawn road (lines, edges) on both sides: between the road's edges
 
 
 def line_facts(image: Path, use_cache: bool = True) -> list[SketchFact]:
-    """Facts about drawn lane lines: 'double solid line drawn', 'broken line drawn'."""
+    """Facts about drawn lane lines: 'double solid line drawn', 'broken line drawn', and 'double line drawn only
+    at a road edge' when no double stroke has drawn road on both sides (a centre line lies between the road's
+    edges: a double-drawn road edge has road on one side only)."""
     summary = line_summary(image, use_cache=use_cache)
     facts = []
     if summary.double_strokes >= MIN_DOUBLE_STROKES:
         facts.append(SketchFact(text="double solid line drawn", source="sketch:lines",
                                 confidence=min(1.0, 0.5 + 0.1 * summary.double_strokes)))
+        if not summary.centre_strokes:
+            facts.append(SketchFact(text=EDGE_ONLY, source="sketch:lines"))
     elif summary.collinear_dashes >= MIN_DASHES:
         facts.append(SketchFact(text="broken line drawn", source="sketch:lines",
                                 confidence=min(1.0, summary.collinear_dashes / 50)))
@@ -296,13 +304,17 @@ def _measure_lines(data: bytes, image: Path) -> LineSummary:
     side = min(grey.shape)
     found = cv2.HoughLinesP(ink * 255, 1, np.pi / 360, threshold=60, minLineLength=int(_LONG * side), maxLineGap=3)
     strokes = [] if found is None else [tuple(int(v) for v in s[0]) for s in found]
-    doubles = 0
+    doubles = centres = 0
     for x1, y1, x2, y2 in strokes:
         length = math.hypot(x2 - x1, y2 - y1)
         nx, ny = -(y2 - y1) / length, (x2 - x1) / length
-        hits = sum(_is_double_section(ink, x1 + (x2 - x1) * t, y1 + (y2 - y1) * t, nx, ny)
-                   for t in np.linspace(0.05, 0.95, 19))
-        doubles += hits >= _DOUBLE_SHARE * 19
+        sections = [(x1 + (x2 - x1) * t, y1 + (y2 - y1) * t) for t in np.linspace(0.05, 0.95, 19)]
+        if sum(_is_double_section(ink, x, y, nx, ny) for x, y in sections) >= _DOUBLE_SHARE * 19:
+            doubles += 1
+            reach = int(_ROAD_REACH * side)
+            both = sum(_ink_beyond(ink, x, y, nx, ny, reach) and _ink_beyond(ink, x, y, -nx, -ny, reach)
+                       for x, y in sections)
+            centres += both >= _BOTH_SIDES_SHARE * len(sections)
     found = cv2.HoughLinesP(ink * 255, 1, np.pi / 360, threshold=12, minLineLength=int(0.012 * side), maxLineGap=1)
     dashes = [] if found is None else [s[0] for s in found
                                        if math.hypot(s[0][2] - s[0][0], s[0][3] - s[0][1]) < 0.08 * side]
@@ -318,7 +330,21 @@ def _measure_lines(data: bytes, image: Path) -> LineSummary:
             along = abs(math.cos(angle) * (qx - mx) + math.sin(angle) * (qy - my))
             count += across < 2.5 and along > 0.03 * side
         best = max(best, count)
-    return LineSummary(long_strokes=len(strokes), double_strokes=int(doubles), collinear_dashes=best)
+    return LineSummary(long_strokes=len(strokes), double_strokes=int(doubles), collinear_dashes=best,
+                       centre_strokes=int(centres))
+
+
+def _ink_beyond(ink, x: float, y: float, nx: float, ny: float, reach: int, clear: int = 16) -> bool:
+    """Whether drawn ink lies along the normal (nx, ny) from (x, y), past the double stroke's own width (`clear`
+    [px], the span `_is_double_section` reads) and within `reach` [px]: another line of the road, or its edge."""
+    height, width = ink.shape
+    for k in range(clear, reach):
+        px, py = int(round(x + nx * k)), int(round(y + ny * k))
+        if not (0 <= px < width and 0 <= py < height):
+            return False
+        if ink[py, px]:
+            return True
+    return False
 
 
 def _is_double_section(ink, x: float, y: float, nx: float, ny: float, half: int = 14) -> bool:
