@@ -141,3 +141,33 @@ def test_a_double_line_drawn_only_at_a_road_edge_is_no_centre_line():
     assert {e.code for e in off.oracle} == {"CVC_21650", "CVC_21460"}
     # a double line with drawn road on both sides stays the centre line
     assert extract_rules(report, facts[:1]).road_network.road_marker.value == "double_solid_line"
+
+
+OWN_DIRECTION = "rules_behavior.into_another_lane_of_its_direction"
+VEERING = "rules_behavior.veering_into_a_lane"  # the reports' verbs, off: the lane decides, not the verb
+THREE_LANES_EAST = ("The crash occurred on a six-lane divided freeway. V1 was traveling east in the middle eastbound "
+                    "lane. V2 was traveling east in the right eastbound lane. ")
+
+
+@pytest.mark.parametrize("sentence, behavior", [
+    ("V1 swung into the right eastbound lane and the front of V2 struck the right side of V1.", "change_lane_right"),
+    ("V1 entered the left eastbound lane and struck the guardrail.", "change_lane_left"),
+    ("V1 went into the rightmost eastbound travel lane, where the front of V2 struck V1.", "change_lane_right"),
+])
+def test_going_into_another_lane_of_its_direction_is_a_lane_change(sentence, behavior):
+    narrative = THREE_LANES_EAST + sentence
+    scenario = extract_rules(Report(case_id="t", narrative=narrative, source=Path("t.txt")), [], off=[VEERING])
+    assert scenario.actors["ego"].behavior.value == behavior
+    off = extract_rules(Report(case_id="t", narrative=narrative, source=Path("t.txt")), [],
+                        off=[VEERING, OWN_DIRECTION])
+    assert off.actors["ego"].behavior.value == "go_forward"
+
+
+@pytest.mark.parametrize("narrative", [
+    THREE_LANES_EAST + "V1 stayed in the middle eastbound lane and V2 struck the right side of V1.",  # its own lane
+    # its own lane is not stated
+    "V1 was traveling east on a divided freeway. V1 moved into the left eastbound lane and struck V2.",
+])
+def test_no_lane_change_without_two_stated_lanes_of_one_direction(narrative):
+    scenario = extract_rules(Report(case_id="t", narrative=narrative, source=Path("t.txt")), [], off=[VEERING])
+    assert not scenario.actors["ego"].behavior.value.startswith("change_lane")
