@@ -171,3 +171,19 @@ def test_going_into_another_lane_of_its_direction_is_a_lane_change(sentence, beh
 def test_no_lane_change_without_two_stated_lanes_of_one_direction(narrative):
     scenario = extract_rules(Report(case_id="t", narrative=narrative, source=Path("t.txt")), [], off=[VEERING])
     assert not scenario.actors["ego"].behavior.value.startswith("change_lane")
+
+
+CURVED = "rules_road.a_curved_centre_line_in_short_runs"
+
+
+def test_a_double_line_drawn_along_a_curve_is_the_centre_line():
+    from crashscene.extract.sketch import CURVED_DOUBLE, EDGE_ONLY, SketchFact
+
+    report = Report(case_id="t", narrative=TWO_WAY, source=Path("t.txt"))
+    curved = [SketchFact(text=CURVED_DOUBLE, source="sketch:lines")]
+    assert extract_rules(report, curved).road_network.road_marker.value == "double_solid_line"
+    assert {e.code for e in extract_rules(report, curved).oracle} == {"CVC_21650", "CVC_21460"}
+    assert extract_rules(report, curved, off=[CURVED]).road_network.road_marker.value == "not_mentioned"
+    # drawn only at a road edge: no centre line
+    edge = curved + [SketchFact(text=EDGE_ONLY, source="sketch:lines")]
+    assert extract_rules(report, edge).road_network.road_marker.value == "not_mentioned"

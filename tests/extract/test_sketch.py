@@ -8,6 +8,7 @@ import pytest
 
 from crashscene.extract.errors import SketchError
 from crashscene.extract.sketch import (
+    CURVED_DOUBLE,
     EDGE_ONLY,
     OcrLine,
     cache_dir,
@@ -117,6 +118,36 @@ def test_double_drawn_road_edges_are_no_centre_line(tmp_path):
     # the same edges around a double centre line: the centre is found
     facts = [f.text for f in line_facts(_road(tmp_path / "both.png", [150, 247, 344], [], []))]
     assert facts == ["double solid line drawn"]
+
+
+def _curved_road(path: Path, doubles: list[int], singles: list[int], radius: int = 600) -> Path:
+    """A synthetic sketch of a road on an arc of `radius` [px]: double and single lines at the given offsets [px]."""
+    import cv2
+    import numpy as np
+
+    image = np.full((900, 900, 3), 255, np.uint8)
+    angles = np.linspace(-0.6, 0.6, 200)
+
+    def arc(r: int) -> None:
+        points = np.stack([450 - radius + r * np.cos(angles), 450 + r * np.sin(angles)], 1).astype(np.int32)
+        cv2.polylines(image, [points], False, (0, 0, 0), 2)
+
+    for offset in doubles:
+        arc(radius + offset)
+        arc(radius + offset + 6)
+    for offset in singles:
+        arc(radius + offset)
+    cv2.imwrite(str(path), image)
+    return path
+
+
+def test_a_double_line_along_a_curve_is_read_on_short_straight_runs(tmp_path):
+    assert [f.text for f in line_facts(_curved_road(tmp_path / "curve.png", [0], [-100, 100]))] == [CURVED_DOUBLE]
+    # the same curve with single lines only: nothing double is drawn
+    assert [f.text for f in line_facts(_curved_road(tmp_path / "single.png", [], [-100, 0, 100]))] == []
+    # double-drawn edges of a curve with a single centre line are no centre line
+    edges = [f.text for f in line_facts(_curved_road(tmp_path / "edges.png", [-100, 94], [0]))]
+    assert edges == [CURVED_DOUBLE, EDGE_ONLY]
 
 
 @pytest.mark.slow

@@ -412,6 +412,13 @@ SESSION_7_DEDUCTIONS: dict[str, tuple[str, tuple[str, ...]]] = {
         "northbound lane), changes lanes to that side whatever the verb; the same-direction sibling of "
         "rules_behavior.lane_of_the_opposite_direction",
         ("100343",)),
+    "rules_road.a_curved_centre_line_in_short_runs": (
+        'dsl.md convention 5: "is the centre line of V1\'s road, as stated or clearly drawn", "double solid -> '
+        'double_solid_line"; dsl.md convention 2: "on a stated or drawn curve". A line drawn along a curve is no '
+        "long straight stroke: when the drawing has no long double line, a double line found on straight runs of a "
+        "tenth of the short side (crashscene.extract.sketch, 'curved double solid line drawn'), "
+        "with drawn road on both sides, is the drawn centre line",
+        ("3-C1-2018-005",)),
 }
 
 RULE_SOURCES: dict[str, tuple[str, ...]] = {**ROUND_ONE_SOURCES, **{rule: () for rule in CONVENTION_RULES},
