@@ -1,10 +1,11 @@
 """Session 7's rules (issue 11), each on synthetic narratives written for the test in NHTSA's formulaic style,
-none copied from a bundled case: places along one lane that a chain of rear-end contacts entails
-(`rules_positions.struck_in_the_order_of_their_positions`, a deduction from the specs' sentences cited verbatim).
+none copied from a bundled case: places along one lane that a chain of rear-end contacts entails, no lane change
+charged into a vehicle out of control, the drawn centre line between the road's edges and along a curve, a move into
+another lane of the vehicle's own direction (rule_sources.SESSION_7_DEDUCTIONS; their citations are checked against
+the specs with the other sessions' in tests/extract/test_opposite_lane_and_lane_counts.py).
 """
 from __future__ import annotations
 
-import re
 from pathlib import Path
 
 import pytest
@@ -18,28 +19,12 @@ from crashscene.extract.rule_sources import (
 )
 from crashscene.extract.rules import extract_rules
 
-SPEC = Path(__file__).resolve().parents[1] / "data" / "spec"  # copies of ../shared/spec/{dsl,rules}.md
 IN_ORDER = "rules_positions.struck_in_the_order_of_their_positions"
-
-
-def _squash(text: str) -> str:
-    return " ".join(text.replace("`", "").split())
 
 
 def _relations(narrative: str, off: list[str] = ()) -> dict[str, str]:
     scenario = extract_rules(Report(case_id="t", narrative=narrative, source=Path("t.txt")), [], off=off)
     return {role: actor.position.relation.value for role, actor in scenario.actors.items() if role != "ego"}
-
-
-@pytest.mark.parametrize("rule", sorted(SESSION_7_DEDUCTIONS))
-def test_each_deduction_cites_words_the_specs_hold(rule):
-    specs = {name: _squash((SPEC / name).read_text(encoding="utf-8")) for name in ("dsl.md", "rules.md")}
-    citation, _ = SESSION_7_DEDUCTIONS[rule]
-    quotes = [(f"{m.group(1)}.md", q) for segment in citation.split(";")
-              for m in [re.match(r"\s*(dsl|rules)\.md\b", segment)] if m for q in re.findall(r'"([^"]+)"', segment)]
-    assert len(quotes) >= 3, rule
-    for spec, quote in quotes:
-        assert _squash(quote) in specs[spec], (rule, quote)
 
 
 def test_a_deduction_records_the_cases_it_was_written_for():
