@@ -407,9 +407,9 @@ SESSION_7_DEDUCTIONS: dict[str, tuple[str, tuple[str, ...]]] = {
     "rules_behavior.into_another_lane_of_its_direction": (
         'dsl.md section 3: "change_lane_left|right"; rules.md CVC_22107: "during a lane change, a vehicle in the '
         'target lane"; dsl.md section 3 position: "left|right = in the adjacent lane or on that side"; dsl.md '
-        'convention 7: "worked out from the travel directions". A vehicle stated in one lane of its direction that goes into '
-        "another lane of that direction, named by its side ('into the left northbound lane' from the right "
-        "northbound lane), changes lanes to that side whatever the verb; the same-direction sibling of "
+        'convention 7: "worked out from the travel directions". A vehicle stated in one lane of its direction that '
+        "goes into another lane of that direction, named by its side ('into the left northbound lane' from the "
+        "right northbound lane), changes lanes to that side whatever the verb; the same-direction sibling of "
         "rules_behavior.lane_of_the_opposite_direction",
         ("100343",)),
     "rules_road.a_curved_centre_line_in_short_runs": (
