@@ -172,3 +172,16 @@ def test_a_double_line_drawn_along_a_curve_is_the_centre_line():
     # drawn only at a road edge: no centre line
     edge = curved + [SketchFact(text=EDGE_ONLY, source="sketch:lines")]
     assert extract_rules(report, edge).road_network.road_marker.value == "not_mentioned"
+
+
+def test_the_llm_review_flags_places_the_crash_sequence_contradicts():
+    from crashscene.dsl.tokens import Relation
+    from crashscene.extract.revise import review
+
+    scenario = extract_rules(Report(case_id="t", narrative=THREE, source=Path("t.txt")), [])
+    assert not [f for f in review(scenario, THREE) if f.path.endswith("position.relation")]
+    npc1 = scenario.actors["npc1"]
+    ahead = npc1.model_copy(update={"position": npc1.position.model_copy(update={"relation": Relation.FRONT})})
+    draft = scenario.model_copy(update={"actors": {**scenario.actors, "npc1": ahead}})
+    found = [f for f in review(draft, THREE) if f.path == "actors.npc1.position.relation"]
+    assert len(found) == 1 and "place it behind" in found[0].message

@@ -170,7 +170,29 @@ def _position_stated(text: str, label: str) -> bool:
                re.search(_POSITION_WORDS, sentence, re.I) for sentence in re.split(r"(?<=[.!?])\s+", text))
 
 
-_KEEPS_ITS_LANE = ("go_forward", "decelerate", "stop", "static")
+KEEPS_ITS_LANE = ("go_forward", "decelerate", "stop", "static")  # manoeuvres that keep the vehicle in its lane
+
+
+def order_along_one_lane(chain: list[tuple[str, str]]) -> set[tuple[str, str]] | None:
+    """The pairs (x, y), x behind y along one lane, that rear-end contacts between lane-keeping vehicles entail:
+    `chain` is their (striker, struck) pairs in sequence order. A striker is behind what it rear-ends, and of two
+    vehicles one striker rear-ends, the one struck earlier is behind the one struck later; the pairs are chained
+    (x behind y behind z: x behind z). None when the contacts contradict each other (a cycle)."""
+    behind: set[tuple[str, str]] = set()
+    met: dict[str, list[str]] = {}
+    for striker, struck in chain:
+        behind.add((striker, struck))
+        ahead = met.setdefault(striker, [])
+        behind.update((earlier, struck) for earlier in ahead if earlier != struck)
+        if struck not in ahead:
+            ahead.append(struck)
+    closure = set(behind)
+    while True:
+        more = {(x, z) for x, y in closure for y2, z in closure if y == y2 and x != z} - closure
+        if not more:
+            break
+        closure |= more
+    return None if any((y, x) in closure for x, y in closure) else closure
 
 
 def revise_positions_by_the_sequence(state: RulesState, actors: dict, collisions: list[dict]) -> None:
@@ -186,31 +208,25 @@ def revise_positions_by_the_sequence(state: RulesState, actors: dict, collisions
     Y behind Z) and an NPC's relation to V1 is revised only when the chain settles it, the NPC travels V1's way
     and references V1, and the text does not place it (`_same_direction_relation` placed it ahead by default).
     Contacts between vehicles on stated different lanes, or involving a vehicle that leaves its lane, turns or
-    loses control, are not read. Written for 3-C1-2018-003 (rule_sources.SESSION_7_DEDUCTIONS)."""
+    loses control, are not read (`order_along_one_lane`, which the LLM backends' review also reads). Written for
+    3-C1-2018-003 (rule_sources.SESSION_7_DEDUCTIONS)."""
     if not state.unstated_positions or not state.uses("rules_positions.struck_in_the_order_of_their_positions"):
         return
     roles = {vehicle.role: vehicle for vehicle in state.vehicles.values()}
-    behind: set[tuple[str, str]] = set()  # (x, y): x is behind y along one lane
-    met: dict[str, list[str]] = {}  # striker -> vehicles it rear-ended, in sequence order
+    chain = []
     for contact in collisions:
         striker, struck = roles[contact["striking"]], roles[contact["struck"]]
-        if contact["class"] != "rear_end" or contact["struck_area"] != "rear" or \
-                striker.behavior not in _KEEPS_ITS_LANE or struck.behavior not in _KEEPS_ITS_LANE or \
-                (striker.lane_side and struck.lane_side and striker.lane_side != struck.lane_side):
-            continue
-        behind.add((striker.label, struck.label))
-        ahead = met.setdefault(striker.label, [])
-        behind.update((earlier, struck.label) for earlier in ahead if earlier != struck.label)
-        if struck.label not in ahead:
-            ahead.append(struck.label)
-    closure = set(behind)
-    while True:
-        more = {(x, z) for x, y in closure for y2, z in closure if y == y2 and x != z} - closure
-        if not more:
-            break
-        closure |= more
-    if any((y, x) in closure for x, y in closure):
+        if contact["class"] == "rear_end" and contact["struck_area"] == "rear" and \
+                striker.behavior in KEEPS_ITS_LANE and struck.behavior in KEEPS_ITS_LANE and \
+                not (striker.lane_side and struck.lane_side and striker.lane_side != struck.lane_side):
+            chain.append((striker.label, struck.label))
+    closure = order_along_one_lane(chain)
+    if closure is None:
         return  # the sequence contradicts itself: it places nothing
+    met: dict[str, list[str]] = {}
+    for striker, struck in chain:
+        if struck not in met.setdefault(striker, []):
+            met[striker].append(struck)
     for label in sorted(state.unstated_positions):
         position = actors[state.vehicles[label].role]["position"]
         if position.get("reference") != "ego" or position.get("heading") != "same_direction":
