@@ -48,6 +48,7 @@ class RulesState:
     no_controls: bool = False
     contacts: list = field(default_factory=list)  # rules_collisions.Contact, in sequence order
     speeds: dict[str, float] = field(default_factory=dict)  # label -> stated travel speed [mph]
+    unstated_positions: set[str] = field(default_factory=set)  # labels placed ahead of V1 by default, not by the text
     off: frozenset[str] = frozenset()  # recorded rules switched off (rule_sources): held-out extraction
     consulted: set[str] = field(default_factory=set)  # recorded rules this extraction asked for
 
