@@ -12,7 +12,7 @@ from crashscene.extract.narrative import (
     label_at,
     last_label_before,
 )
-from crashscene.extract.rules_state import RulesState, Vehicle
+from crashscene.extract.rules_state import LANE_SIDES, RulesState, Vehicle, lane_side
 
 
 def _any(*alternatives: str) -> str:
@@ -231,6 +231,11 @@ def _entered_opposing(state: RulesState, vehicle: Vehicle) -> str | None:
     return around(text, match, 80) if match else None
 
 
+def _towards(side: str, target: str) -> str:
+    """The lane change from one lane side of a direction to another (LANE_SIDES runs left to right)."""
+    return "change_lane_right" if LANE_SIDES.index(target) > LANE_SIDES.index(side) else "change_lane_left"
+
+
 def _opposite(vehicle: Vehicle, direction: str) -> bool:
     return vehicle.direction is not None and (COMPASS[direction.lower()] - COMPASS[vehicle.direction]) % 360 == 180
 
@@ -322,17 +327,14 @@ def _event(vehicle: Vehicle, token: str, match: re.Match, state: RulesState) -> 
         other = state.vehicles.get(next((g for g in match.groups() if g), ""))
         if other is None or other is vehicle or (other.direction and _opposite(vehicle, other.direction)):
             return None  # into an oncoming vehicle's lane is the opposing lanes, read by the crossing rules
-        order = {"left": 0, "middle": 1, "right": 2}
-        mine, theirs = order.get(vehicle.lane_side or ""), order.get(other.lane_side or "")
-        if mine is None or theirs is None or mine == theirs:
+        if vehicle.lane_side is None or other.lane_side is None or vehicle.lane_side == other.lane_side:
             return None  # the side is not stated: no manoeuvre guessed
-        return "change_lane_right" if theirs > mine else "change_lane_left"
+        return _towards(vehicle.lane_side, other.lane_side)
     if token == "into_own_lane":
-        order = {"left": 0, "middle": 1, "center": 1, "centre": 1, "right": 2}
-        mine, target = order.get(vehicle.lane_side or ""), order[match.group(1).lower()]
-        if vehicle.direction != match.group(2).lower() or mine is None or mine == target:
+        target = lane_side(match.group(1).lower())
+        if vehicle.direction != match.group(2).lower() or vehicle.lane_side is None or vehicle.lane_side == target:
             return None  # another direction's lane, or the vehicle's own lane is not stated
-        return "change_lane_right" if target > mine else "change_lane_left"
+        return _towards(vehicle.lane_side, target)
     if token == "ramp_merge":
         return "change_lane_left"
     if token == "lane_change_side":

@@ -14,6 +14,19 @@ from crashscene.extract.rule_sources import known_rule
 from crashscene.extract.sketch import SketchFact
 
 
+# a direction's lanes from its left edge to its right: the values of Vehicle.lane_side, in order
+LANE_SIDES = ("left", "middle", "right")
+
+
+def lane_side(word: str) -> str:
+    """The lane side a report's word names ("leftmost", "inboard", "center", ...): left, right or middle."""
+    if "left" in word or word == "inboard":
+        return "left"
+    if "right" in word or word == "outboard":
+        return "right"
+    return "middle"
+
+
 @dataclass
 class Vehicle:
     """One labelled vehicle of the report as the rules read it."""
