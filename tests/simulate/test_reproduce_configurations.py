@@ -127,10 +127,7 @@ def run(text: str, tmp_path, n: int = N, seed: int = 7) -> dict:
         return simulate_scenario(loads(text), tmp_path, n, seed, mode="reproduce")
 
 
-KNOWN_GAPS = {  # configurations the planner does not reproduce yet (issue 10): kept as strict expected failures
-    "turning_into_the_lane": "a right turn into the through lane is met in about half the variations (the "
-                             "striker cannot slow enough once the turner pulls away from its stop line)",
-}
+KNOWN_GAPS: dict[str, str] = {}  # configurations the planner does not reproduce yet: kept as strict expected failures
 
 
 @pytest.mark.slow
