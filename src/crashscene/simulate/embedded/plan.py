@@ -155,10 +155,7 @@ class VariationPlan:
     anchor_stop: float | None = None  # [m] distance to the stop line the anchor stops at first, None if none
     touch_at: tuple[float, float] | None = None  # [m] the first written contact's meeting stations on the striker's
     # and the struck actor's routes when `touch.class_meeting` moved it (sync.Meeting, with no struck offset)
-    pull_out: tuple | None = None  # a moved meeting whose one actor stops at its line first: (that actor, its
-    # partner, its line's station [m], the partner's front's station at the touch [m], the time [s] it takes from
-    # rest there to the touch, its centre's station at rest [m], its speed at the touch [m/s]): it pulls out when
-    # the partner is that far (pullout.PullOut)
+    pull_out: touch.Waiting | None = None  # a moved first meeting whose one actor stops at its line first
 
     @classmethod
     def build(cls, ctx: PlanContext, scene: SampledScene, rng: np.random.Generator, route: np.ndarray,
@@ -590,9 +587,9 @@ class VariationPlan:
         # one that waits at its line to pull out (`touch_at`) is met by the other coming a little late instead
         slack = SYNC_SLACK if ctx.reproduce and ctx.first_pair == frozenset((col.role,
                                                                              ctx.columns[anchor].role)) else 0.0
-        if self.pull_out is not None and anchor in self.pull_out[:2] and a in self.pull_out[:2]:
+        if self.pull_out is not None and {a, anchor} == {self.pull_out.actor, self.pull_out.partner}:
             slack = 0.0
-            target += PULL_OUT_WAIT if self.pull_out[0] == anchor else -PULL_OUT_WAIT
+            target += PULL_OUT_WAIT if self.pull_out.actor == anchor else -PULL_OUT_WAIT
         sc, hd, late = self._fit_arrival(a, cs_a, target, slack)
         if late > 0.1 and self.stop_dist(a) is None:
             late = self._advance_start(a, cs_a, sc, target, late)
@@ -638,7 +635,8 @@ class VariationPlan:
         def mover(i: int) -> touch.Mover:
             rest = None if lines[i] is None else lines[i] - float(self.length[i]) / 2  # its front at its line
             return touch.Mover(int(self.route[i]), float(cs[i]), float(self.speeds[i]), rest, float(self.length[i]),
-                               float(self.width[i]), ctx.columns[i].limits)
+                               float(self.width[i]), ctx.columns[i].limits,
+                               Disposition.NO_YIELD in ctx.columns[i].traits)
 
         met = touch.class_meeting(ctx.arrays, mover(s_idx), mover(t_idx),
                                   (klass, self.contact_area(s_idx, t_idx), self.contact_area(t_idx, s_idx)))
@@ -655,8 +653,8 @@ class VariationPlan:
             front = (met.striker_s if partner == s_idx else met.struck_s) + float(self.length[partner]) / 2
             # released at the first step its partner is that near: on average half a step late
             tta = (met.struck_t if w == t_idx else met.striker_t) + ctx.skid_paths.dt / 2
-            self.pull_out = (w, partner, lines[w], front, tta, mover(w).rest,
-                             met.struck_v if w == t_idx else met.striker_v)
+            self.pull_out = touch.Waiting(w, partner, lines[w], front, tta, mover(w).rest,
+                                          met.struck_v if w == t_idx else met.striker_v)
         return at[a], at[anchor]
 
     def _meeting_offset(self, a: int, cs_a: float, cs_e: float, offset: float, u: float | None = None) -> float:

@@ -507,12 +507,11 @@ def _pull_out_to_touch(pullout: PullOut, planned: list, hold: np.ndarray) -> Non
     for v, one in enumerate(planned):
         if one is None or pullout.npc[v] >= 0:
             continue
-        waiter, partner, line, front, tta, rest, touch_speed = one
         pullout.npc[v], pullout.ads[v], pullout.line[v], pullout.cs_ads[v], pullout.tta[v] = \
-            waiter, partner, line, front, tta
-        pullout.rest[v], pullout.touch_speed[v] = rest, touch_speed
+            one.actor, one.partner, one.line, one.partner_front, one.tta
+        pullout.rest[v], pullout.touch_speed[v] = one.rest, one.touch_speed
         pullout.fair[v] = False
-        hold[v, waiter] = 0.0
+        hold[v, one.actor] = 0.0
 
 
 FREE_BEHAVIORS = ("go_forward", "accelerate", "turn_left", "turn_right", "u_turn")

@@ -8,8 +8,12 @@ happens earlier on the turn, where the turner's nose enters the other's path whi
 well across it. `class_meeting` finds where: it drives both actors along their routes as the simulator's drivers
 steer (pure pursuit, `swerve`), shifts one against the other in time, takes each shift's first touch (the same
 footprints and classes as the monitor's, `geometry`) and returns the touch at the middle of the widest run of
-shifts that have the written class (the written areas preferred): the two centres' stations there. The plan
-and the closed-loop meeting then time the pair to it instead of the routes' meeting point.
+shifts that have the written class (the written areas preferred): the two centres' stations there. A driver the
+oracle charges with not yielding has entered the other's path before the other is past it (rules.md measures the
+other's time to reach the conflict area then), so its front is ahead of the other's centre at the touch. The plan
+and the closed-loop meeting then time the pair to it instead of the routes' meeting point; an actor that stops at
+its line first waits there and pulls out when its partner is as far from the touch as it takes from rest
+(`Waiting`, pullout.PullOut).
 """
 from __future__ import annotations
 
@@ -55,6 +59,7 @@ class Mover:
     length: float
     width: float
     limits: VehicleLimits
+    yields_not: bool = False  # its oracle charges it with not yielding to the other (a yield code)
 
 
 def needs_moving(arrays, r_s: int, cs_s: float, r_t: int, cs_t: float, klass: str | None) -> bool:
@@ -108,6 +113,22 @@ def driven_path(arrays, m: Mover) -> tuple[np.ndarray, np.ndarray, np.ndarray, n
         t += DT
     out = np.array(rows)
     return out[:, 0], out[:, 1], out[:, 2], out[:, 3], out[:, 4]
+
+
+@dataclass(frozen=True)
+class Waiting:
+    """A touch one of whose actors stops at its line first: it waits there and pulls out (pullout.PullOut) when its
+    partner is as far in time from the touch as it takes from rest: the two actors, its line's station, the
+    partner's front's station at the touch, that time [s], its centre's station at rest [m] and its speed at the
+    touch [m/s] (from rest further back it takes longer, by the extra distance at that speed)."""
+
+    actor: int
+    partner: int
+    line: float
+    partner_front: float
+    tta: float
+    rest: float
+    touch_speed: float
 
 
 @dataclass(frozen=True)
@@ -180,6 +201,14 @@ def class_meeting(arrays, striker: Mover, struck: Mover, wanted: tuple[str, str 
         # the class with a margin (the predicted heading is off the driven one by a few degrees), the written
         # areas only to choose among equally robust touches
         ok[rows] = (got == klass) & (cascade.class_margin(heading_difference(yawa, yawb), klass) >= CLASS_MARGIN)
+        # a driver charged with not yielding entered the other's path before the other was past it (rules.md: the
+        # other's time to reach the conflict area is measured then): at the touch its front is ahead of the other's
+        # centre, along the other's heading
+        for me, pose, other in ((striker, (xa, ya, yawa), (xb, yb, yawb)), (struck, (xb, yb, yawb), (xa, ya, yawa))):
+            if me.yields_not:
+                fx = pose[0] + me.length / 2 * np.cos(pose[2])
+                fy = pose[1] + me.length / 2 * np.sin(pose[2])
+                ok[rows] &= relative_position(*other, fx, fy)[0] >= 0.0
         score[rows] = np.where(ok[rows], 1.0 + AREA_WEIGHT * ((a_s == area_s).astype(float) + (a_t == area_t)), 0.0)
         t_s = t_at[rows, k0] + f * (t_at[rows, k1] - t_at[rows, k0])
         vs, vt = np.gradient(ss, ts), np.gradient(st, tt)
