@@ -18,6 +18,7 @@ from crashscene.extract.rule_sources import (
     RULE_SOURCES,
     SESSION_6_CONVENTIONS,
     SESSION_6_DECISIONS,
+    SESSION_7_DEDUCTIONS,
     SPEC_QUOTED_FROM_CASES,
 )
 from crashscene.extract.rules import extract_rules
@@ -41,7 +42,9 @@ def _oracle(scenario) -> set[tuple[str, str]]:
     return {(entry.code, entry.actor) for entry in scenario.oracle}
 
 
-CITATIONS = {**{rule: quote for rule, (quote, _) in SPEC_QUOTED_FROM_CASES.items()}, **SESSION_6_CONVENTIONS}
+# session 7's deductions (tests/extract/test_session_7_rules.py) cite the specs the same way
+CITATIONS = {**{rule: quote for rule, (quote, _) in {**SPEC_QUOTED_FROM_CASES, **SESSION_7_DEDUCTIONS}.items()},
+             **SESSION_6_CONVENTIONS}
 
 
 @pytest.mark.parametrize("rule", sorted(CITATIONS))

@@ -8,6 +8,8 @@ import pytest
 
 from crashscene.extract.errors import SketchError
 from crashscene.extract.sketch import (
+    CURVED_DOUBLE,
+    EDGE_ONLY,
     OcrLine,
     cache_dir,
     facts_from_ocr,
@@ -84,6 +86,68 @@ def test_unreadable_image_is_a_sketch_error(tmp_path):
 def test_drawn_double_centre_line_is_seen():
     assert [f.text for f in line_facts(CIREN / "3-C1-2018-001" / "sketch.jpg")] == ["double solid line drawn"]
     assert [f.text for f in line_facts(CIREN / "108812" / "sketch.jpg")] == ["broken line drawn"]
+
+
+def _road(path: Path, doubles: list[int], singles: list[int], dashed: list[int]) -> Path:
+    """A synthetic sketch of a straight road: double lines (two 2 px strokes 6 px apart), single lines, dashed lines
+    at the given heights [px]."""
+    import cv2
+    import numpy as np
+
+    image = np.full((500, 900, 3), 255, np.uint8)
+    for y in doubles:
+        cv2.line(image, (20, y), (880, y), (0, 0, 0), 2)
+        cv2.line(image, (20, y + 6), (880, y + 6), (0, 0, 0), 2)
+    for y in singles:
+        cv2.line(image, (20, y), (880, y), (0, 0, 0), 2)
+    for y in dashed:
+        for x in range(20, 880, 40):
+            cv2.line(image, (x, y), (x + 20, y), (0, 0, 0), 2)
+    cv2.imwrite(str(path), image)
+    return path
+
+
+def test_a_double_line_between_the_road_edges_is_a_centre_line(tmp_path):
+    facts = [f.text for f in line_facts(_road(tmp_path / "centre.png", [247], [150, 350], []))]
+    assert facts == ["double solid line drawn"]
+
+
+def test_double_drawn_road_edges_are_no_centre_line(tmp_path):
+    facts = [f.text for f in line_facts(_road(tmp_path / "edges.png", [150, 344], [], [250]))]
+    assert facts == ["double solid line drawn", EDGE_ONLY]
+    # the same edges around a double centre line: the centre is found
+    facts = [f.text for f in line_facts(_road(tmp_path / "both.png", [150, 247, 344], [], []))]
+    assert facts == ["double solid line drawn"]
+
+
+def _curved_road(path: Path, doubles: list[int], singles: list[int], radius: int = 600) -> Path:
+    """A synthetic sketch of a road on an arc of `radius` [px]: double and single lines at the given offsets [px]."""
+    import cv2
+    import numpy as np
+
+    image = np.full((900, 900, 3), 255, np.uint8)
+    angles = np.linspace(-0.6, 0.6, 200)
+
+    def arc(r: int) -> None:
+        points = np.stack([450 - radius + r * np.cos(angles), 450 + r * np.sin(angles)], 1).astype(np.int32)
+        cv2.polylines(image, [points], False, (0, 0, 0), 2)
+
+    for offset in doubles:
+        arc(radius + offset)
+        arc(radius + offset + 6)
+    for offset in singles:
+        arc(radius + offset)
+    cv2.imwrite(str(path), image)
+    return path
+
+
+def test_a_double_line_along_a_curve_is_read_on_short_straight_runs(tmp_path):
+    assert [f.text for f in line_facts(_curved_road(tmp_path / "curve.png", [0], [-100, 100]))] == [CURVED_DOUBLE]
+    # the same curve with single lines only: nothing double is drawn
+    assert [f.text for f in line_facts(_curved_road(tmp_path / "single.png", [], [-100, 0, 100]))] == []
+    # double-drawn edges of a curve with a single centre line are no centre line
+    edges = [f.text for f in line_facts(_curved_road(tmp_path / "edges.png", [-100, 94], [0]))]
+    assert edges == [CURVED_DOUBLE, EDGE_ONLY]
 
 
 @pytest.mark.slow

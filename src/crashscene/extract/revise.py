@@ -37,6 +37,7 @@ from crashscene.dsl.validate import check
 from crashscene.extract.errors import ExtractError
 from crashscene.extract.llm_schema import from_scenario, to_scenario
 from crashscene.extract.openai_backend import BackendError, ChatBackend, Usage
+from crashscene.extract.rules_positions import KEEPS_ITS_LANE, order_along_one_lane
 from crashscene.units import KMH_PER_MPH
 
 DEFAULT_MAX_REASKS = 2
@@ -149,6 +150,7 @@ def review(scenario: Scenario, narrative: str, facts: Sequence[str] = ()) -> lis
     reading = _rules_reading(narrative)
     found += _oracle_findings(scenario)
     found += _sequence_findings(scenario)
+    found += _lane_order_findings(scenario)
     found += _junction_findings(scenario)
     found += _stated_cause_findings(scenario, reading)
     found += _collision_findings(scenario, reading)
@@ -320,6 +322,31 @@ def _sequence_findings(s: Scenario) -> list[Finding]:
                 for other_name, other in s.actors.items() if other_name != name):
             found.append(Finding("oracle", f"{name} changes lanes into another vehicle: CVC_22107 "
                                  "unsafe_lane_change is missing"))
+    return found
+
+
+def _lane_order_findings(s: Scenario) -> list[Finding]:
+    """Places along the ego's lane that contradict the draft's own crash sequence: a lane-keeping striker meets
+    the vehicles it rear-ends in the order of their positions (rules_positions.order_along_one_lane). Actors placed
+    beside the ego (left, right) or crossing are not in its lane and are not read."""
+    in_lane = {name for name, actor in s.actors.items() if name == "ego" or (
+        actor.position.reference == "ego" and actor.position.heading == Heading.SAME_DIRECTION and
+        actor.position.relation.value in ("front", "behind"))}
+    chain = [(c.striking, c.struck) for c in s.collisions or [] if c.class_.value == "rear_end" and
+             c.struck_area.value == "rear" and {c.striking, c.struck} <= in_lane and
+             all(s.actors[n].behavior.value in KEEPS_ITS_LANE for n in (c.striking, c.struck))]
+    closure = order_along_one_lane(chain)
+    if not closure:
+        return []  # no rear-end contact in the ego's lane, or contacts that contradict each other
+    found = []
+    for name in sorted(in_lane - {"ego"}):
+        relation = s.actors[name].position.relation.value
+        entailed = "behind" if (name, "ego") in closure else "front" if ("ego", name) in closure else None
+        if entailed and entailed != relation:
+            found.append(Finding(f"actors.{name}.position.relation",
+                                 f"{name} is placed {relation} the ego, but the crash sequence's rear-end contacts "
+                                 f"({', '.join(f'{a}->{b}' for a, b in chain)}) place it {entailed}: a striker "
+                                 "keeping its lane meets the vehicles in it in the order of their positions"))
     return found
 
 

@@ -32,6 +32,11 @@ the specs under `tests/data/spec/`).
 Session 6 kept the test and added two records: rules that pass it but were written while reading bundled cases'
 texts name those cases (`SPEC_QUOTED_FROM_CASES`: held out like any case-written rule), and a split decided on a
 first-round rule's wording (`SESSION_6_DECISIONS`) whose spec-worded part rests on no case (`SESSION_6_CONVENTIONS`).
+
+Session 7 added deductions the integrator allowed (`SESSION_7_DEDUCTIONS`): a value the specs state, reached from facts
+already decided through a step that follows from the specs' own sentences (each cited verbatim), not from a report's
+phrasing. They rest on the specs (`DEDUCED_FROM_THE_SPECS`), and name the cases they were written for, which
+`--held-out` switches them off on.
 """
 from __future__ import annotations
 
@@ -370,11 +375,58 @@ SESSION_6_CONVENTIONS: dict[str, str] = {
         'formula"; the genitive ("V2\'s front struck V1\'s right side") is the same formula up to inflection',
 }
 
+# session 7: deductions the integrator allowed (issue 11): each reads only facts the extractor has already decided
+# and gives a value the specs state, through a step that follows from the specs' own sentences (cited verbatim,
+# checked like SPEC_QUOTED_CONVENTIONS) rather than from any report's phrasing; it was written for the cases
+# named, which `--held-out` switches it off on. Tested on synthetic narratives (tests/extract/test_session_7_rules.py)
+SESSION_7_DEDUCTIONS: dict[str, tuple[str, tuple[str, ...]]] = {
+    "rules_positions.struck_in_the_order_of_their_positions": (
+        'dsl.md section 1: "the contacts between actors, in the order they happen"; dsl.md section 3 collisions: '
+        '"every contact between two actors, first harmful event first"; dsl.md section 3 class: "front into rear, '
+        'same direction -> rear_end"; rules.md: "rear_end (relative heading under 30°, struck from behind)"; dsl.md '
+        'section 3 position: "front|behind = ahead of / behind it along its lane"; dsl.md convention 7: "Traffic in '
+        'the ego\'s lane, an adjacent lane or oncoming references ego (front/behind/left/right)". A striker keeping '
+        "one lane meets the vehicles in it in the order of their positions: of two it rear-ends, the one struck "
+        "earlier is behind the one struck later (the integrator's decision, session 7)",
+        ("3-C1-2018-003",)),
+    "rules_oracle.no_lane_change_into_a_vehicle_out_of_control": (
+        'dsl.md convention 9: "lane change or merge into another vehicle -> CVC_22107", "losing control, or too fast '
+        'for conditions -> CVC_22350"; rules.md CVC_22107: "during a lane change, a vehicle in the target lane must '
+        'brake harder"; dsl.md section 3: "lose_control (skid, yaw, rotation)". A vehicle that lost control left its '
+        "own path: a lane changer whose every contact is with such a vehicle moved into no vehicle of its target "
+        "lane, and is not charged CVC_22107 (the integrator's decision, session 7)",
+        ("103341",)),
+    "rules_road.a_centre_line_lies_between_the_edges": (
+        'dsl.md convention 5: "is the centre line of V1\'s road, as stated or clearly drawn", "nothing stated or '
+        'clearly drawn -> not_mentioned"; rules.md CVC_21650: "drive on the right half of a two-way roadway"; '
+        'rules.md CVC_21460: "never drive left of double solid centre lines". The centre line parts the two halves '
+        "of the roadway, so drawn road (its lanes, up to the edges) lies on both sides of it: a double stroke with "
+        "drawn road on one side only is a double-drawn road edge, not a clearly drawn centre line "
+        "(crashscene.extract.sketch, 'double line drawn only at a road edge')",
+        ("105203", "109525")),
+    "rules_behavior.into_another_lane_of_its_direction": (
+        'dsl.md section 3: "change_lane_left|right"; rules.md CVC_22107: "during a lane change, a vehicle in the '
+        'target lane"; dsl.md section 3 position: "left|right = in the adjacent lane or on that side"; dsl.md '
+        'convention 7: "worked out from the travel directions". A vehicle stated in one lane of its direction that '
+        "goes into another lane of that direction, named by its side ('into the left northbound lane' from the "
+        "right northbound lane), changes lanes to that side whatever the verb; the same-direction sibling of "
+        "rules_behavior.lane_of_the_opposite_direction",
+        ("100343",)),
+    "rules_road.a_curved_centre_line_in_short_runs": (
+        'dsl.md convention 5: "is the centre line of V1\'s road, as stated or clearly drawn", "double solid -> '
+        'double_solid_line"; dsl.md convention 2: "on a stated or drawn curve". A line drawn along a curve is no '
+        "long straight stroke: when the drawing has no long double line, a double line found on straight runs of a "
+        "tenth of the short side (crashscene.extract.sketch, 'curved double solid line drawn'), "
+        "with drawn road on both sides, is the drawn centre line",
+        ("3-C1-2018-005",)),
+}
+
 RULE_SOURCES: dict[str, tuple[str, ...]] = {**ROUND_ONE_SOURCES, **{rule: () for rule in CONVENTION_RULES},
                                             **LATER_SOURCES, **{rule: () for rule in FROM_THE_HELD_OUT_TABLE},
                                             **{rule: () for rule in SPEC_QUOTED_CONVENTIONS},
                                             **{rule: cases for rule, (_, cases) in SPEC_QUOTED_FROM_CASES.items()},
-                                            **{rule: () for rule in SESSION_6_CONVENTIONS}}
+                                            **{rule: () for rule in SESSION_6_CONVENTIONS},
+                                            **{rule: cases for rule, (_, cases) in SESSION_7_DEDUCTIONS.items()}}
 
 # sessions 2 and 3: written from dsl.md section 5 and synthetic narratives, not from bundled cases: they name no
 # case, or only the cases they were corrected on after `crashscene eval --held-out` showed a loss there (those
@@ -384,6 +436,9 @@ FROM_SYNTHETIC = frozenset(rule for rule, cases in LATER_SOURCES.items() if len(
 # every rule written from the spec rather than from a case: the first round's convention rules and FROM_SYNTHETIC
 FROM_CONVENTIONS = FROM_SYNTHETIC | frozenset(CONVENTION_RULES) | frozenset(FROM_THE_HELD_OUT_TABLE) | \
     frozenset(SPEC_QUOTED_CONVENTIONS) | frozenset(SESSION_6_CONVENTIONS)
+# rules resting on the specs' sentences, not on their source cases' phrasing, though written with those cases in
+# view (their sources are recorded and held out all the same)
+DEDUCED_FROM_THE_SPECS = frozenset(SESSION_7_DEDUCTIONS)
 # the first round's case-written rules that fire on no bundled case today: no bundled figure depends on them
 FIRES_ON_NO_BUNDLED_CASE = frozenset(rule for rule, cases in ROUND_ONE_SOURCES.items() if not cases)
 

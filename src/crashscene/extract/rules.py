@@ -39,7 +39,7 @@ from crashscene.extract.rules_behavior import decide_behaviors, revise_by_contac
 from crashscene.extract.rules_collisions import decide_collisions
 from crashscene.extract.rules_environment import decide_environment
 from crashscene.extract.rules_oracle import decide_oracle
-from crashscene.extract.rules_positions import decide_actors
+from crashscene.extract.rules_positions import decide_actors, revise_positions_by_the_sequence
 from crashscene.extract.rules_road import decide_road_network
 from crashscene.extract.rules_state import RulesState
 from crashscene.extract.rules_vehicles import find_vehicles, split_pre_crash
@@ -69,6 +69,7 @@ def extract_rules(report: Report, facts: list[SketchFact] | None = None, off: It
     actors = decide_actors(state, road)
     collisions = decide_collisions(state, actors)
     revise_by_contacts(state, actors, collisions)
+    revise_positions_by_the_sequence(state, actors, collisions)
     oracle = decide_oracle(state, road)
     raw = {
         "scenario_id": f"CIREN-{report.case_id}",

@@ -12,7 +12,7 @@ from crashscene.extract.narrative import (
     label_at,
     last_label_before,
 )
-from crashscene.extract.rules_state import RulesState, Vehicle
+from crashscene.extract.rules_state import LANE_SIDES, RulesState, Vehicle, lane_side
 
 
 def _any(*alternatives: str) -> str:
@@ -100,6 +100,11 @@ _OPPOSITE_LANE_BY_VEHICLE = r"\b(?:in|into) (?:the (?:travel )?lane of (V[1-9])\
 # merging) into a named vehicle's lane or path; the side is the way from the changer's lane to that vehicle's
 _INTO_A_VEHICLE = (r"\b(?:chang(?:e|ed|es|ing) lanes?|lane change|merg(?:e|ed|es|ing))\b[^.]{0,30}?\binto "
                    r"(?:the (?:travel )?(?:path|lane) of (V[1-9])\b|(V[1-9])['’]s (?:travel )?(?:path|lane)\b)")
+# a move from the vehicle's stated lane into another lane of its own direction, named by its side and that direction
+# ("into the left northbound lane" from the right northbound lane), whatever the verb: a lane change (dsl.md section
+# 3 change_lane_left|right; rules.md CVC_22107's "target lane"); groups = the target's side, its direction
+_OWN_DIRECTION_LANE = (r"\b(?:into|entered|entering|enters) the (left|right|middle|cent(?:er|re))(?:most)? "
+                       r"(north|south|east|west)bound (?:travel )?lane\b(?! of)")
 _RAMP = r"\b(?:entrance|on)[- ]ramp\b|\bacceleration lane\b"
 _PARKED_NAMED = (r"\b(?:parked{unoccupied})\b[^.()]{{0,60}}\(\s*{label}\s*\)|"
                  r"\(\s*{label}\s*\)\s*(?:that|which)\s+was\s+(?:legally\s+)?(?:parked{unoccupied})|"
@@ -129,6 +134,7 @@ PHRASES = (
     ("rules_behavior.lane_of_the_opposite_direction", _OPPOSITE_LANE_BY_DIRECTION, "into_lane"),
     ("rules_behavior.lane_of_the_opposite_direction", _OPPOSITE_LANE_BY_VEHICLE, "into_path"),
     ("rules_behavior.lane_change_into_a_vehicle", _INTO_A_VEHICLE, "lane_change_into"),
+    ("rules_behavior.into_another_lane_of_its_direction", _OWN_DIRECTION_LANE, "into_own_lane"),
 )
 # general phrasings of the same manoeuvres (dsl.md convention 8), each a recorded switch (rule_sources)
 MORE_PHRASES = (
@@ -146,7 +152,7 @@ MORE_PHRASES = (
 )
 # manoeuvres where the first one stated is the primary one (convention 8: crossed first -> cross_centerline)
 _EVENTS = ("lose_control", "cross_centerline", "leave_road", "overtake", "lane_change", "lane_change_side",
-           "ramp_merge", "into_lane", "into_path", "lane_change_into")
+           "ramp_merge", "into_lane", "into_path", "lane_change_into", "into_own_lane")
 
 Phrase = tuple[int, str, re.Match]  # position in the pre-crash text, token, match
 
@@ -223,6 +229,11 @@ def _entered_opposing(state: RulesState, vehicle: Vehicle) -> str | None:
     match = re.search(rf"\b{vehicle.label}\b(?:(?!\b(?:pushed|caused|redirected|forced)\b)[^.]){{0,60}}(?:{_CROSS})",
                       text, re.I)
     return around(text, match, 80) if match else None
+
+
+def _towards(side: str, target: str) -> str:
+    """The lane change from one lane side of a direction to another (LANE_SIDES runs left to right)."""
+    return "change_lane_right" if LANE_SIDES.index(target) > LANE_SIDES.index(side) else "change_lane_left"
 
 
 def _opposite(vehicle: Vehicle, direction: str) -> bool:
@@ -316,11 +327,14 @@ def _event(vehicle: Vehicle, token: str, match: re.Match, state: RulesState) -> 
         other = state.vehicles.get(next((g for g in match.groups() if g), ""))
         if other is None or other is vehicle or (other.direction and _opposite(vehicle, other.direction)):
             return None  # into an oncoming vehicle's lane is the opposing lanes, read by the crossing rules
-        order = {"left": 0, "middle": 1, "right": 2}
-        mine, theirs = order.get(vehicle.lane_side or ""), order.get(other.lane_side or "")
-        if mine is None or theirs is None or mine == theirs:
+        if vehicle.lane_side is None or other.lane_side is None or vehicle.lane_side == other.lane_side:
             return None  # the side is not stated: no manoeuvre guessed
-        return "change_lane_right" if theirs > mine else "change_lane_left"
+        return _towards(vehicle.lane_side, other.lane_side)
+    if token == "into_own_lane":
+        target = lane_side(match.group(1).lower())
+        if vehicle.direction != match.group(2).lower() or vehicle.lane_side is None or vehicle.lane_side == target:
+            return None  # another direction's lane, or the vehicle's own lane is not stated
+        return _towards(vehicle.lane_side, target)
     if token == "ramp_merge":
         return "change_lane_left"
     if token == "lane_change_side":

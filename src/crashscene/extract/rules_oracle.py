@@ -124,7 +124,7 @@ def _manoeuvre_oracle(state: RulesState, road: dict, oracle: _Oracle) -> None:
                 oracle.add("CVC_21460", role, f"{label} crossed the double solid centre line.",
                            quote)
         # convention 9: a lane change or merge into another vehicle
-        if behavior.startswith("change_lane"):
+        if behavior.startswith("change_lane") and not _only_met_vehicles_out_of_control(state, label):
             oracle.add("CVC_22107", role,
                        f"{label} changed lanes into the path of another vehicle.", quote)
         if label in speeding:
@@ -138,6 +138,21 @@ def _manoeuvre_oracle(state: RulesState, road: dict, oracle: _Oracle) -> None:
         if label in red and "traffic_light" in road["traffic_signs"]:
             oracle.add("CVC_21453", role, f"{label} entered the intersection against a red signal.",
                        around(text, red[label]))
+
+
+def _only_met_vehicles_out_of_control(state: RulesState, label: str) -> bool:
+    """Whether every vehicle the lane changer touches lost control into it: then the changer moved into no vehicle.
+
+    dsl.md convention 9 charges a "lane change or merge into another vehicle" (CVC_22107), and the rulebook's check
+    is on "a vehicle in the target lane" (rules.md CVC_22107); a vehicle that loses control ("skid, yaw,
+    rotation", dsl.md section 3) has left its own path, and is charged for that ("losing control, or too fast for
+    conditions -> CVC_22350"). So a changer whose only contacts are with vehicles that lost control is not charged;
+    one that meets a vehicle under control, or whose contacts are not stated, keeps the convention's code. Written
+    for 103341 (rule_sources.SESSION_7_DEDUCTIONS)."""
+    partners = [c.struck.label if c.striking.label == label else c.striking.label for c in state.contacts
+                if label in (c.striking.label, c.struck.label)]
+    return bool(partners) and all(state.vehicles[p].behavior == "lose_control" for p in partners) and \
+        state.uses("rules_oracle.no_lane_change_into_a_vehicle_out_of_control")
 
 
 def _obeyed(text: str, match: re.Match) -> bool:

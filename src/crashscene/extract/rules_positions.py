@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import re
 
-from crashscene.extract.narrative import COMPASS, around, label_at
+from crashscene.extract.narrative import COMPASS, around, clip, label_at
 from crashscene.extract.rules_state import RulesState, Vehicle, has_cross_traffic, relative_heading
 from crashscene.units import KMH_PER_MPH
 
@@ -156,4 +156,84 @@ def _same_direction_relation(state: RulesState, ego: Vehicle, npc: Vehicle, text
                        rf"\b{label}\b[^.]{{0,40}}slightly behind", text, re.I)
     if behind:
         return "behind"
+    if not _position_stated(text, label):
+        state.unstated_positions.add(label)
     return "front"
+
+
+_POSITION_WORDS = r"\b(?:ahead|in front|behind|follow\w*|lead\w*|preced\w*|trail\w*)\b"
+
+
+def _position_stated(text: str, label: str) -> bool:
+    """Whether a sentence names the vehicle and V1 with a word placing one along the lane of the other."""
+    return any(re.search(rf"\b{label}\b", sentence) and re.search(r"\bV1\b", sentence) and
+               re.search(_POSITION_WORDS, sentence, re.I) for sentence in re.split(r"(?<=[.!?])\s+", text))
+
+
+KEEPS_ITS_LANE = ("go_forward", "decelerate", "stop", "static")  # manoeuvres that keep the vehicle in its lane
+
+
+def order_along_one_lane(chain: list[tuple[str, str]]) -> set[tuple[str, str]] | None:
+    """The pairs (x, y), x behind y along one lane, that rear-end contacts between lane-keeping vehicles entail:
+    `chain` is their (striker, struck) pairs in sequence order. A striker is behind what it rear-ends, and of two
+    vehicles one striker rear-ends, the one struck earlier is behind the one struck later; the pairs are chained
+    (x behind y behind z: x behind z). None when the contacts contradict each other (a cycle)."""
+    behind: set[tuple[str, str]] = set()
+    met: dict[str, list[str]] = {}
+    for striker, struck in chain:
+        behind.add((striker, struck))
+        ahead = met.setdefault(striker, [])
+        behind.update((earlier, struck) for earlier in ahead if earlier != struck)
+        if struck not in ahead:
+            ahead.append(struck)
+    closure = set(behind)
+    while True:
+        more = {(x, z) for x, y in closure for y2, z in closure if y == y2 and x != z} - closure
+        if not more:
+            break
+        closure |= more
+    return None if any((y, x) in closure for x, y in closure) else closure
+
+
+def revise_positions_by_the_sequence(state: RulesState, actors: dict, collisions: list[dict]) -> None:
+    """Places along one lane that the crash sequence entails, for vehicles the text does not place.
+
+    Derived from three spec sentences, no phrasing: the crash sequence lists "the contacts between actors, in the
+    order they happen" (dsl.md section 1 and convention 11); a `rear_end` contact is "front into rear, same
+    direction" (dsl.md section 3), a vehicle "struck from behind" (rules.md); and an actor referencing another is
+    "ahead of / behind it along its lane" (dsl.md section 3 position, convention 7). So a striker is behind every
+    vehicle it rear-ends, and a striker travelling along one lane (it keeps its lane: go_forward, decelerate,
+    stop) meets the vehicles in that lane in the order of their positions: of two it rear-ends, the one struck
+    earlier is behind the one struck later. Any number of vehicles, any labels: the places are chained (X behind
+    Y behind Z) and an NPC's relation to V1 is revised only when the chain settles it, the NPC travels V1's way
+    and references V1, and the text does not place it (`_same_direction_relation` placed it ahead by default).
+    Contacts between vehicles on stated different lanes, or involving a vehicle that leaves its lane, turns or
+    loses control, are not read (`order_along_one_lane`, which the LLM backends' review also reads). Written for
+    3-C1-2018-003 (rule_sources.SESSION_7_DEDUCTIONS)."""
+    if not state.unstated_positions or not state.uses("rules_positions.struck_in_the_order_of_their_positions"):
+        return
+    roles = {vehicle.role: vehicle for vehicle in state.vehicles.values()}
+    chain = []
+    for contact in collisions:
+        striker, struck = roles[contact["striking"]], roles[contact["struck"]]
+        if contact["class"] == "rear_end" and contact["struck_area"] == "rear" and \
+                striker.behavior in KEEPS_ITS_LANE and struck.behavior in KEEPS_ITS_LANE and \
+                not (striker.lane_side and struck.lane_side and striker.lane_side != struck.lane_side):
+            chain.append((striker.label, struck.label))
+    closure = order_along_one_lane(chain)
+    if closure is None:
+        return  # the sequence contradicts itself: it places nothing
+    met: dict[str, list[str]] = {}
+    for striker, struck in chain:
+        if struck not in met.setdefault(striker, []):
+            met[striker].append(struck)
+    for label in sorted(state.unstated_positions):
+        position = actors[state.vehicles[label].role]["position"]
+        if position.get("reference") != "ego" or position.get("heading") != "same_direction":
+            continue
+        relation = "behind" if (label, "V1") in closure else "front" if ("V1", label) in closure else None
+        if relation and relation != position["relation"]:
+            position["relation"] = relation
+            chains = "; ".join(f"{striker} rear-ended {', then '.join(struck)}" for striker, struck in met.items())
+            state.evidence[f"actors.{state.vehicles[label].role}.position"] = clip(
+                f"from the crash sequence ({chains}): {label} is {relation} V1 along one lane")

@@ -14,6 +14,7 @@ from crashscene.extract.narrative import (
 )
 from crashscene.extract.rules_lanes import count_lanes
 from crashscene.extract.rules_state import RulesState, has_cross_traffic
+from crashscene.extract.sketch import CURVED_DOUBLE, EDGE_ONLY
 from crashscene.units import KMH_PER_MPH
 
 
@@ -421,8 +422,11 @@ def _marker(state: RulesState, road_text: str, ways: int) -> str:
         state.note("road_network.road_marker", "divided roadway: no centre line on V1's carriageway")
         return "none"
     if ways == 2 and state.uses("rules_road.drawn_centre_line"):
-        for fact, token in (("double solid line drawn", "double_solid_line"), ("broken line drawn", "broken_line")):
-            if state.fact_texts(fact):
+        edge_only = bool(state.fact_texts(EDGE_ONLY)) and state.uses("rules_road.a_centre_line_lies_between_the_edges")
+        curved = CURVED_DOUBLE if state.uses("rules_road.a_curved_centre_line_in_short_runs") else "(not read)"
+        for fact, token in (("double solid line drawn", "double_solid_line"), (curved, "double_solid_line"),
+                            ("broken line drawn", "broken_line")):
+            if state.fact_texts(fact) and not (token == "double_solid_line" and edge_only):
                 state.note("road_network.road_marker", f"sketch: {fact}")
                 return token
     return "not_mentioned"

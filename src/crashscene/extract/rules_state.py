@@ -14,6 +14,19 @@ from crashscene.extract.rule_sources import known_rule
 from crashscene.extract.sketch import SketchFact
 
 
+# a direction's lanes from its left edge to its right: the values of Vehicle.lane_side, in order
+LANE_SIDES = ("left", "middle", "right")
+
+
+def lane_side(word: str) -> str:
+    """The lane side a report's word names ("leftmost", "inboard", "center", ...): left, right or middle."""
+    if "left" in word or word == "inboard":
+        return "left"
+    if "right" in word or word == "outboard":
+        return "right"
+    return "middle"
+
+
 @dataclass
 class Vehicle:
     """One labelled vehicle of the report as the rules read it."""
@@ -48,6 +61,7 @@ class RulesState:
     no_controls: bool = False
     contacts: list = field(default_factory=list)  # rules_collisions.Contact, in sequence order
     speeds: dict[str, float] = field(default_factory=dict)  # label -> stated travel speed [mph]
+    unstated_positions: set[str] = field(default_factory=set)  # labels placed ahead of V1 by default, not by the text
     off: frozenset[str] = frozenset()  # recorded rules switched off (rule_sources): held-out extraction
     consulted: set[str] = field(default_factory=set)  # recorded rules this extraction asked for
 

@@ -7,7 +7,7 @@ import re
 
 from crashscene.extract.errors import RulesError
 from crashscene.extract.narrative import DIR, subject_of
-from crashscene.extract.rules_state import RulesState, Vehicle
+from crashscene.extract.rules_state import RulesState, Vehicle, lane_side
 
 
 _VEHICLE_WORDS = re.compile(r"\b(?:vehicles?|cars?|sedans?|coupes?|trucks?|pickups?|vans?|minivans?|SUVs?|bus(?:es)?|"
@@ -66,20 +66,12 @@ def _direction_of(state: RulesState, label: str) -> tuple[str | None, str | None
         if match:
             lane = re.search(r"\b(left|right|middle|center|far[- ]left|far[- ]right|inboard|outboard)\b[^.]{0,30}?"
                              rf"{DIR}bound\s+(?:travel\s+)?lane", cut, re.I)
-            side = _lane_side(lane.group(1).lower()) if lane and state.uses("rules_vehicles.lane_side") else None
+            side = lane_side(lane.group(1).lower()) if lane and state.uses("rules_vehicles.lane_side") else None
             state.note(f"actors.{state.vehicles[label].role}.position", sentence)
             return clause_direction or next(g for g in match.groups() if g).lower(), side
     if clause_direction:
         state.note(f"actors.{state.vehicles[label].role}.position", clause)
     return clause_direction, None
-
-
-def _lane_side(word: str) -> str:
-    if "left" in word or word == "inboard":
-        return "left"
-    if "right" in word or word == "outboard":
-        return "right"
-    return "middle"
 
 
 # pickups, vans and SUVs are cars (dsl.md section 2 aliases: semi, tractor-trailer, bus, box truck -> truck); a

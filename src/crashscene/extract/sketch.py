@@ -238,12 +238,17 @@ def speed_limit_mph(text: str) -> int | None:
 
 # ---------------------------------------------------------------- drawn lines (OpenCV)
 
-LINE_CACHE_VERSION = 1
+LINE_CACHE_VERSION = 3  # 2: centre_strokes; 3: short strokes
 _INK = 160  # grey level below which a pixel is drawn ink
 _LONG = 0.2  # a lane line runs over at least this share of the image's short side
+_SHORT = 0.1  # a curved lane line is drawn as straight runs of at least this share of the image's short side
 _DOUBLE_SHARE = 0.7  # share of cross-sections along a stroke that must show two thin parallel strokes
 MIN_DOUBLE_STROKES = 2  # long double strokes needed to call a double solid line drawn
 MIN_DASHES = 20  # collinear short dashes needed to call a broken line drawn
+EDGE_ONLY = "double line drawn only at a road edge"
+CURVED_DOUBLE = "curved double solid line drawn (short straight runs)"
+_ROAD_REACH = 0.3  # share of the image's short side searched on each side of a double stroke for drawn road
+_BOTH_SIDES_SHARE = 0.85  # share of cross-sections of a centre stroke with drawn road on both sides
 
 
 class LineSummary(BaseModel):
@@ -252,16 +257,29 @@ class LineSummary(BaseModel):
     long_strokes: int = 0
     double_strokes: int = 0
     collinear_dashes: int = 0
+    centre_strokes: int = 0  # double strokes with drawn road (lines, edges) on both sides: between the road's edges
+    short_double_strokes: int = 0  # the same on straight runs of _SHORT (a curved line is drawn as short runs)
+    short_centre_strokes: int = 0
 
 
 def line_facts(image: Path, use_cache: bool = True) -> list[SketchFact]:
-    """Facts about drawn lane lines: 'double solid line drawn', 'broken line drawn'."""
+    """Facts about drawn lane lines: 'double solid line drawn', 'broken line drawn', and 'double line drawn only
+    at a road edge' when no double stroke has drawn road on both sides (a centre line lies between the road's
+    edges: a double-drawn road edge has road on one side only)."""
     summary = line_summary(image, use_cache=use_cache)
     facts = []
     if summary.double_strokes >= MIN_DOUBLE_STROKES:
         facts.append(SketchFact(text="double solid line drawn", source="sketch:lines",
                                 confidence=min(1.0, 0.5 + 0.1 * summary.double_strokes)))
-    elif summary.collinear_dashes >= MIN_DASHES:
+        if not summary.centre_strokes:
+            facts.append(SketchFact(text=EDGE_ONLY, source="sketch:lines"))
+        return facts
+    if summary.short_double_strokes >= MIN_DOUBLE_STROKES:  # no long double line: a curved one, in short runs
+        facts.append(SketchFact(text=CURVED_DOUBLE, source="sketch:lines",
+                                confidence=min(1.0, 0.4 + 0.05 * summary.short_double_strokes)))
+        if not summary.short_centre_strokes:
+            facts.append(SketchFact(text=EDGE_ONLY, source="sketch:lines"))
+    if summary.collinear_dashes >= MIN_DASHES:
         facts.append(SketchFact(text="broken line drawn", source="sketch:lines",
                                 confidence=min(1.0, summary.collinear_dashes / 50)))
     return facts
@@ -294,15 +312,8 @@ def _measure_lines(data: bytes, image: Path) -> LineSummary:
     grey = decode_image(data, image, grey=True)
     ink = (grey < _INK).astype(np.uint8)
     side = min(grey.shape)
-    found = cv2.HoughLinesP(ink * 255, 1, np.pi / 360, threshold=60, minLineLength=int(_LONG * side), maxLineGap=3)
-    strokes = [] if found is None else [tuple(int(v) for v in s[0]) for s in found]
-    doubles = 0
-    for x1, y1, x2, y2 in strokes:
-        length = math.hypot(x2 - x1, y2 - y1)
-        nx, ny = -(y2 - y1) / length, (x2 - x1) / length
-        hits = sum(_is_double_section(ink, x1 + (x2 - x1) * t, y1 + (y2 - y1) * t, nx, ny)
-                   for t in np.linspace(0.05, 0.95, 19))
-        doubles += hits >= _DOUBLE_SHARE * 19
+    strokes, doubles, centres = _double_strokes(ink, side, _LONG)
+    _, short_doubles, short_centres = _double_strokes(ink, side, _SHORT)
     found = cv2.HoughLinesP(ink * 255, 1, np.pi / 360, threshold=12, minLineLength=int(0.012 * side), maxLineGap=1)
     dashes = [] if found is None else [s[0] for s in found
                                        if math.hypot(s[0][2] - s[0][0], s[0][3] - s[0][1]) < 0.08 * side]
@@ -318,7 +329,45 @@ def _measure_lines(data: bytes, image: Path) -> LineSummary:
             along = abs(math.cos(angle) * (qx - mx) + math.sin(angle) * (qy - my))
             count += across < 2.5 and along > 0.03 * side
         best = max(best, count)
-    return LineSummary(long_strokes=len(strokes), double_strokes=int(doubles), collinear_dashes=best)
+    return LineSummary(long_strokes=len(strokes), double_strokes=doubles, collinear_dashes=best,
+                       centre_strokes=centres, short_double_strokes=short_doubles, short_centre_strokes=short_centres)
+
+
+def _double_strokes(ink, side: int, share: float) -> tuple[list, int, int]:
+    """Straight strokes of at least `share` of the short side, how many of them are double (two thin parallel
+    strokes along most of their length), and how many of those have drawn road on both sides."""
+    import math
+
+    import cv2
+    import numpy as np
+
+    found = cv2.HoughLinesP(ink * 255, 1, np.pi / 360, threshold=60, minLineLength=int(share * side), maxLineGap=3)
+    strokes = [] if found is None else [tuple(int(v) for v in s[0]) for s in found]
+    doubles = centres = 0
+    for x1, y1, x2, y2 in strokes:
+        length = math.hypot(x2 - x1, y2 - y1)
+        nx, ny = -(y2 - y1) / length, (x2 - x1) / length
+        sections = [(x1 + (x2 - x1) * t, y1 + (y2 - y1) * t) for t in np.linspace(0.05, 0.95, 19)]
+        if sum(_is_double_section(ink, x, y, nx, ny) for x, y in sections) >= _DOUBLE_SHARE * 19:
+            doubles += 1
+            reach = int(_ROAD_REACH * side)
+            both = sum(_ink_beyond(ink, x, y, nx, ny, reach) and _ink_beyond(ink, x, y, -nx, -ny, reach)
+                       for x, y in sections)
+            centres += both >= _BOTH_SIDES_SHARE * len(sections)
+    return strokes, doubles, centres
+
+
+def _ink_beyond(ink, x: float, y: float, nx: float, ny: float, reach: int, clear: int = 16) -> bool:
+    """Whether drawn ink lies along the normal (nx, ny) from (x, y), past the double stroke's own width (`clear`
+    [px], the span `_is_double_section` reads) and within `reach` [px]: another line of the road, or its edge."""
+    height, width = ink.shape
+    for k in range(clear, reach):
+        px, py = int(round(x + nx * k)), int(round(y + ny * k))
+        if not (0 <= px < width and 0 <= py < height):
+            return False
+        if ink[py, px]:
+            return True
+    return False
 
 
 def _is_double_section(ink, x: float, y: float, nx: float, ny: float, half: int = 14) -> bool:

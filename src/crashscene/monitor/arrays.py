@@ -91,6 +91,16 @@ class TraceArrays:
             arr[drop] = -1
         self.alive &= ~drop
 
+    def select(self, rows: np.ndarray) -> TraceArrays:
+        """A copy of the variations at indices `rows` (axis 0)."""
+        return TraceArrays(variations=self.variations[rows], roles=list(self.roles), dt=self.dt,
+                           present=self.present[rows], alive=self.alive[rows],
+                           floats={k: v[rows] for k, v in self.floats.items()},
+                           codes={k: v[rows] for k, v in self.codes.items()}, length=self.length[rows],
+                           width=self.width[rows], is_ads=self.is_ads[rows], behavior=self.behavior[rows],
+                           actor_type=self.actor_type[rows], valid=self.valid[rows],
+                           invalid_reason=[self.invalid_reason[r] for r in rows], id_values=list(self.id_values))
+
     def time(self) -> np.ndarray:
         """(V, A, T) time [s]; steps without a row get step * dt."""
         t = self.floats["t"]

@@ -9,7 +9,7 @@ import pyarrow as pa
 from crashscene.dsl.model import Scenario
 from crashscene.monitor.arrays import TraceArrays, build_arrays
 from crashscene.monitor.collisions import classify_collisions, first_contact_steps
-from crashscene.monitor.context import EvalContext
+from crashscene.monitor.context import EvalContext, Whole
 from crashscene.monitor.errors import MonitorError
 from crashscene.monitor.judging import judged_until, upset_steps
 from crashscene.monitor.result import MonitorResult, rule_results_table
@@ -48,14 +48,17 @@ def evaluate(tables: dict[str, pa.Table], scenario: Scenario | None, rulebook: R
     collisions = classify_collisions(arrays, tables.get("collisions"), under_test)
     contact = first_contact_steps(arrays, collisions)
     invalid = invalid_reasons(arrays, ads, contact >= 0)   # on whole traces, before truncation
-    upset = None
+    upset, grace, whole = None, 0, None
+    rules = rulebook.rules()
     if stop_at_collision:
         grace = round(after_collision / arrays.dt)
         upset = upset_steps(arrays, collisions, grace)
+        whole = _whole_traces(arrays, rules, upset, grace)
         arrays.truncate(judged_until(upset, grace))
-    ctx = EvalContext(arrays=arrays, scenario=scenario, collisions=collisions, driven_until=upset)
+    ctx = EvalContext(arrays=arrays, scenario=scenario, collisions=collisions, driven_until=upset, grace=grace,
+                      whole=whole)
     outcomes = []
-    for rule in rulebook.rules():
+    for rule in rules:
         try:
             outcome = rule.evaluate(ctx)
         except MonitorError:
@@ -73,3 +76,16 @@ def evaluate(tables: dict[str, pa.Table], scenario: Scenario | None, rulebook: R
               "params": r.params.model_dump(mode="json")} for r, _ in outcomes]
     return MonitorResult(rule_results=rule_results, collisions=collisions, verdicts=verdicts, rules=rules,
                          oracle=oracle, rulebook=rulebook.source)
+
+
+def _whole_traces(arrays: TraceArrays, rules, upset: np.ndarray, grace: int) -> Whole | None:
+    """A copy of the variations some rule reads past the judging end (`Rule.past_judging`), None when none does."""
+    wanted = np.zeros(arrays.shape[0], dtype=bool)
+    for rule in rules:
+        asked = rule.past_judging(arrays, upset, grace)
+        if asked is not None:
+            wanted |= asked
+    if not wanted.any():
+        return None
+    rows = np.nonzero(wanted)[0]
+    return Whole(rows=rows, arrays=arrays.select(rows))

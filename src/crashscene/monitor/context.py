@@ -29,6 +29,14 @@ class Leaders:
 
 
 @dataclass
+class Whole:
+    """The whole traces of some variations, as recorded before judging cut each actor's (judging.py)."""
+
+    rows: np.ndarray      # (W,) indices of those variations in the batch (axis 0 of EvalContext.arrays)
+    arrays: TraceArrays   # their traces, every step kept
+
+
+@dataclass
 class EvalContext:
     """The batch under evaluation."""
 
@@ -37,6 +45,8 @@ class EvalContext:
     collisions: pa.Table | None = None  # classified collisions (crashscene.monitor.collisions.CLASSIFIED_SCHEMA)
     driven_until: np.ndarray | None = None  # (V, A) step an impact upset the actor (judging.upset_steps), -1 never:
     # its path as a driver (the conflicts) ends there
+    grace: int = 0                     # [steps] judging goes on this long past an upsetting contact
+    whole: Whole | None = None         # untruncated traces of the variations a rule asked for (Rule.past_judging)
     conflict_stride: int = 2
     lane_half_width: float = 1.6       # [m] lateral offset still counted as the same lane
     leader_range: float = 150.0        # [m] farthest leader considered

@@ -50,6 +50,7 @@ from crashscene.monitor.errors import RegistryError
 from crashscene.traces import TRACE_SCHEMA
 
 if TYPE_CHECKING:
+    from crashscene.monitor.arrays import TraceArrays
     from crashscene.monitor.context import EvalContext
 
 CODE_RE = re.compile(r"^CVC_[0-9]+[A-Za-z]?$")
@@ -128,6 +129,12 @@ class Rule(ABC):
     @abstractmethod
     def evaluate(self, ctx: EvalContext) -> RuleOutcome:
         """Evaluate every actor of every variation of the batch in `ctx`."""
+
+    def past_judging(self, arrays: TraceArrays, upset: np.ndarray, grace: int) -> np.ndarray | None:
+        """(V,) the variations whose whole traces this rule reads, past the end of each actor's judging (an
+        upsetting contact at step `upset` (V, A), -1 none, plus `grace` steps: `crashscene.monitor.judging`);
+        the monitor keeps a copy of them in `ctx.whole`. None (the default): the judged traces are enough."""
+        return None
 
 
 _REGISTRY: dict[str, type[Rule]] = {}

@@ -5,8 +5,9 @@ from __future__ import annotations
 import numpy as np
 from pydantic import Field
 
-from crashscene.geometry import heading_difference, relative_position
+from crashscene.geometry import footprint_separation, heading_difference, relative_position, wrap_angle
 from crashscene.monitor.context import EvalContext
+from crashscene.monitor.judging import contact_steps
 from crashscene.monitor.rules.base import Disposition, Rule, RuleOutcome, RuleParams, register_rule
 from crashscene.monitor.timeseries import first_index, margin_in, runs, steps_for
 
@@ -68,10 +69,42 @@ class WrongSideParams(RuleParams):
                                          description="[s] longer stays are never a permitted overtake")
     lane_half_width: float = Field(default=1.8, gt=0, le=5,
                                    description="[m] lateral offset of an oncoming vehicle still in the actor's lane")
+    own_lateral_speed: float = Field(default=0.3, ge=0, le=5,
+                                     description="[m/s] lateral speed towards the opposite lane before an upsetting "
+                                                 "contact above which a stay beginning just after it is the "
+                                                 "driver's own (the recorder's lane-change motion, 0.3 m/s; a car "
+                                                 "keeping its lane moves far less)")
 
 
 @register_rule
 class WrongSide(Rule):
+    """CVC 21650: drive on the right half of a two-way roadway.
+
+    rules.md's check: the actor's centre in a lane of the opposite direction
+    (`opposing_lane`) for `min_duration` or more, outside junctions and
+    outside a permitted overtake (no double solid line, the opposing lane
+    clear of oncoming vehicles within `clear_distance` for the whole stay, at
+    most `max_overtake_duration`). Our additions: a stay cut short by the
+    actor's first contact counts whatever its length (the crash ended it, not
+    the driver); measured is the longest stay [s], robustness `min_duration`
+    less it.
+
+    After an upsetting contact (`crashscene.monitor.judging`) an actor is
+    judged only a grace longer, so that a vehicle pushed across the centre
+    line by an impact is not blamed. A stay that *begins* within that grace is
+    nevertheless the driver's own, and counts with its whole duration (past
+    the judging end too; an integrator's decision, issue 10), when the actor
+    was already moving towards the opposite lane by itself: at the last
+    recorded step before the contact its centre was still on its own side
+    (a stay it was already in was judged as such) and its lateral speed
+    towards the centre line exceeded `own_lateral_speed`. That speed is taken from the
+    trace as a lower bound: the rate of `centerline_intrusion` (the farthest
+    corner beyond the centre line) less the most the vehicle's rotation moves
+    that corner (yaw rate times half the footprint's diagonal). A vehicle that
+    kept its lane and was pushed over is never charged; junctions and
+    permitted overtakes stay exempt.
+    """
+
     code = "CVC_21650"
     violation = "wrong_side"
     unit = "s"
@@ -83,10 +116,72 @@ class WrongSide(Rule):
     Params = WrongSideParams
 
     def evaluate(self, ctx: EvalContext) -> RuleOutcome:
+        out = self._stays(ctx)
+        if ctx.whole is None or ctx.driven_until is None:
+            return out
+        # variations where a stay begun just after an upsetting contact is the driver's own: judged again on
+        # their whole traces, each such actor up to the end of that stay
+        rows, whole = ctx.whole.rows, ctx.whole.arrays
+        upset = ctx.driven_until[rows]
+        own = self._own_stay_starts(whole, upset, ctx.grace)
+        if not (own >= 0).any():
+            return out
+        stay_end = np.where(own >= 0, _run_ends(self._opposing(whole), own), -1)
+        last = np.where(upset >= 0, upset + ctx.grace, -1)
+        last = np.where(own >= 0, np.maximum(last, stay_end), last)
+        arrays = whole.select(np.arange(len(rows)))
+        arrays.truncate(last)
+        collisions = ctx.collisions
+        if collisions is not None:
+            keep = np.isin(collisions.column("variation").to_numpy(), arrays.variations)
+            collisions = collisions.filter(keep)
+        sub = EvalContext(arrays=arrays, scenario=ctx.scenario, collisions=collisions, driven_until=upset,
+                          grace=ctx.grace)
+        again = self._stays(sub)
+        for name in ("applicable", "violated", "first_t", "measured", "threshold", "robustness", "note"):
+            getattr(out, name)[rows] = getattr(again, name)
+        return out
+
+    def past_judging(self, arrays, upset: np.ndarray, grace: int) -> np.ndarray | None:
+        return (self._own_stay_starts(arrays, upset, grace) >= 0).any(axis=1)
+
+    @staticmethod
+    def _opposing(a) -> np.ndarray:
+        """(V, A, T) the centre in an opposing lane outside junctions."""
+        return a.flag("opposing_lane") & ~a.flag("in_junction") & a.alive
+
+    def _own_stay_starts(self, a, upset: np.ndarray, grace: int) -> np.ndarray:
+        """(V, A) first step of a stay in an opposing lane that begins within `grace` steps after the actor's
+        upsetting contact (at step `upset`, -1 none) while, at the last recorded step before that contact, the
+        actor's centre was on its own side and moving towards the opposite lane by itself faster than
+        `own_lateral_speed`; -1 none."""
+        p: WrongSideParams = self.params
+        out = np.full(upset.shape, -1, dtype=np.int64)
+        n_steps = a.shape[2]
+        vv, aa = np.nonzero((upset >= 2) & (upset < n_steps))
+        if not len(vv):
+            return out
+        k = upset[vv, aa]
+        opposing = self._opposing(a)
+        start = np.full(len(vv), -1, dtype=np.int64)
+        for off in range(grace, -1, -1):  # the earliest start wins
+            s = np.minimum(k + off, n_steps - 1)
+            begins = opposing[vv, aa, s] & ~opposing[vv, aa, s - 1] & (k + off < n_steps)
+            start = np.where(begins, s, start)
+        intrusion, yaw = a.floats["centerline_intrusion"], a.floats["yaw"]
+        corner = (intrusion[vv, aa, k - 1] - intrusion[vv, aa, k - 2]) / a.dt
+        turn = np.abs(wrap_angle(yaw[vv, aa, k - 1] - yaw[vv, aa, k - 2])) / a.dt
+        reach = np.hypot(a.length[vv, aa], a.width[vv, aa]) / 2
+        with np.errstate(invalid="ignore"):  # moving towards the opposite lane from its own side of the road
+            own = (start >= 0) & ~opposing[vv, aa, k - 1] & (corner - turn * reach > p.own_lateral_speed)
+        out[vv[own], aa[own]] = start[own]
+        return out
+
+    def _stays(self, ctx: EvalContext) -> RuleOutcome:
         p: WrongSideParams = self.params
         a = ctx.arrays
         n_var, n_act, n_steps = a.shape
-        opposing = a.flag("opposing_lane") & ~a.flag("in_junction") & a.alive
+        opposing = self._opposing(a)
         out = RuleOutcome.empty(ctx.shape, p.min_duration)
         out.applicable = (a.known("opposing_lane") & a.alive).any(axis=2)
         ids, n_runs = runs(opposing)
@@ -129,7 +224,9 @@ class WrongSide(Rule):
 
     @staticmethod
     def _oncoming_close(ctx: EvalContext, p: WrongSideParams, opposing: np.ndarray) -> np.ndarray:
-        """(V, A, T) an oncoming vehicle is ahead in the actor's lane within the clear distance."""
+        """(V, A, T) an oncoming vehicle is ahead in the actor's lane within the clear distance: seen from the
+        actor (ahead of it, within a lane's half width of its axis) or from the oncoming vehicle (the actor ahead
+        of it in its lane, as when the actor's body is turned across the road)."""
         a = ctx.arrays
         x, y, yaw = a.floats["x"], a.floats["y"], a.floats["yaw"]
         close = np.zeros(a.shape, dtype=bool)
@@ -141,11 +238,22 @@ class WrongSide(Rule):
                 if i == j:
                     continue
                 lon, lat = relative_position(x[rows, i], y[rows, i], yaw[rows, i], x[rows, j], y[rows, j])
+                lon_j, lat_j = relative_position(x[rows, j], y[rows, j], yaw[rows, j], x[rows, i], y[rows, i])
                 with np.errstate(invalid="ignore"):
-                    hit = ((heading_difference(yaw[rows, i], yaw[rows, j]) > np.pi / 2) & (lon > 0)
-                           & (lon < p.clear_distance) & (np.abs(lat) < p.lane_half_width))
+                    ahead = (lon > 0) & (lon < p.clear_distance) & (np.abs(lat) < p.lane_half_width)
+                    in_its_lane = (lon_j > 0) & (lon_j < p.clear_distance) & (np.abs(lat_j) < p.lane_half_width)
+                    hit = (heading_difference(yaw[rows, i], yaw[rows, j]) > np.pi / 2) & (ahead | in_its_lane)
                 close[rows, i] |= hit & a.alive[rows, j]
         return close
+
+
+def _run_ends(mask: np.ndarray, start: np.ndarray) -> np.ndarray:
+    """(V, A) last step of the True run of `mask` (V, A, T) that contains step `start` (V, A; >= 0)."""
+    n_steps = mask.shape[2]
+    steps = np.arange(n_steps)
+    after_gap = ~mask & (steps >= np.maximum(start, 0)[..., None])
+    first_gap = np.where(after_gap.any(axis=2), np.argmax(after_gap, axis=2), n_steps)
+    return first_gap - 1
 
 
 class LaneChangeParams(RuleParams):
@@ -159,11 +267,34 @@ class LaneChangeParams(RuleParams):
 
 @register_rule
 class UnsafeLaneChange(Rule):
+    """CVC 22107: no lane change unless it can be made with reasonable safety.
+
+    rules.md's check: during a lane change (and `after_window` past it), a
+    vehicle in the target lane behind or alongside the changer must brake
+    harder than `max_brake`, or its gap falls below its safe distance
+    (`time_headway` at its speed, at least `min_gap`). Measured: that gap [m];
+    threshold: that safe distance [m]; robustness: gap less safe distance (the
+    braking margin scaled into metres where it is the smaller).
+
+    Beyond rules.md's wording (an integrator's decision, issue 10): a lane
+    change during which the changer *strikes* another vehicle (the monitor's
+    own attribution of a contact, `collisions.striking_actor`: the actor whose
+    front made it; a sideswipe has no striker) was not made with reasonable
+    safety, wherever that vehicle is (the lane being left, as when a car pulls
+    out to pass and clips the rear of the car it follows). The lane change is
+    in progress at the contact when the changer's `lane_change` flag is set at
+    the contact's step or the recorded step before it. For such a contact the
+    rule reports the clearance [m] between the two footprints at the contact's
+    step (zero or less: they touch) against a threshold of 0 m, and that
+    clearance as the robustness, unless the target-lane check gives a smaller
+    margin. The struck vehicle is not charged by this clause.
+    """
+
     code = "CVC_22107"
     violation = "unsafe_lane_change"
     unit = "m"
     summary = ("a target-lane vehicle behind or alongside ends closer than its safe gap or must brake harder than "
-               "the limit")
+               "the limit, or the changer strikes a vehicle while changing lanes")
     rank = 10
     columns = ("t", "x", "y", "yaw", "speed", "accel", "lane_id", "lane_change", "target_lane_id")
     guide = "changed lanes or merged into another vehicle"
@@ -209,7 +340,12 @@ class UnsafeLaneChange(Rule):
                 worst[rows, i] = np.where(better, margin, current)
                 gap_at[rows, i] = np.where(better, gap, gap_at[rows, i])
                 safe_at[rows, i] = np.where(better, safe, safe_at[rows, i])
-        bad = worst < 0
+        struck = self._strikes(ctx, changing)
+        better = struck < worst
+        worst = np.where(better, struck, worst)
+        gap_at = np.where(better, struck, gap_at)
+        safe_at = np.where(better, 0.0, safe_at)
+        bad = (worst < 0) | np.isfinite(struck)
         out = RuleOutcome.empty(ctx.shape, np.nan)
         out.applicable = changing.any(axis=2)
         out.violated = bad.any(axis=2)
@@ -221,3 +357,37 @@ class UnsafeLaneChange(Rule):
         out.threshold = np.where(affected_any, np.take_along_axis(safe_at, k, axis=2)[..., 0], p.min_gap)
         out.robustness = np.where(affected_any, m, np.inf)
         return out.finalize()
+
+    @staticmethod
+    def _strikes(ctx: EvalContext, changing: np.ndarray) -> np.ndarray:
+        """(V, A, T) at the step of each contact an actor strikes while its lane change is in progress (its flag set
+        at that step or the one before), the clearance [m] between the two footprints there, at most 0; inf
+        elsewhere."""
+        out = np.full(changing.shape, np.inf)
+        table = ctx.collisions
+        if table is None or not table.num_rows:
+            return out
+        a = ctx.arrays
+        striker = table.column("striking_actor").to_pylist()
+        rows = [k for k, role in enumerate(striker) if role is not None]
+        if not rows:
+            return out
+        role_index = {r: i for i, r in enumerate(a.roles)}
+        cols = table.take(rows).to_pydict()
+        v = np.searchsorted(a.variations, np.asarray(cols["variation"]))
+        i = np.array([role_index[r] for r in cols["striking_actor"]], dtype=np.int64)
+        other = [b if s == r else s for s, b, r in zip(cols["actor_a"], cols["actor_b"], cols["striking_actor"])]
+        j = np.array([role_index[r] for r in other], dtype=np.int64)
+        step = np.minimum(contact_steps(np.asarray(cols["t"], dtype=float), ctx.dt), a.shape[2] - 1)
+        in_progress = changing[v, i, step] | changing[v, i, np.maximum(step - 1, 0)]
+        if not in_progress.any():
+            return out
+        v, i, j, step = v[in_progress], i[in_progress], j[in_progress], step[in_progress]
+        f = a.floats
+        with np.errstate(invalid="ignore"):
+            clearance = footprint_separation(f["x"][v, i, step], f["y"][v, i, step], f["yaw"][v, i, step],
+                                             a.length[v, i], a.width[v, i], f["x"][v, j, step], f["y"][v, j, step],
+                                             f["yaw"][v, j, step], a.length[v, j], a.width[v, j])
+        clearance = np.where(np.isfinite(clearance), np.minimum(clearance, 0.0), 0.0)  # a contact touches
+        np.minimum.at(out, (v, i, step), clearance)
+        return out
