@@ -215,6 +215,19 @@ LATER_CONTACTS = {  # cascades planned from a predicted slide: (scenario, least 
     # car, pushed on by the truck, ran into the next one; 1.0 of 20 with the room planned)
     # (the rear-end chain configuration, judged on its whole sequence)
     "a_truck_knocks_a_car_aside_and_runs_on_into_the_next_one": (CONFIGURATIONS["rear_end_chain"], 0.9),
+    # a car drifting off the road strikes the corner of a parked car (the plan chooses which, from its predicted
+    # slide, and times the drift to end there) and is deflected back into the side of the car passing in the next
+    # lane, placed beside it (0 of 20 when a drifting striker got no cascade plan; 0.45, areas 0, with the drift
+    # planned but the passing car timed to drive into the deflected one with its front; 0.95, areas 0.65, with the
+    # deflected car coming alongside into its side)
+    "a_drift_into_a_parked_car_deflects_the_striker_into_the_side_of_the_car_alongside": (scenario(
+        "divided", "speed_limit_sign", 65,
+        actor("ego", "go_forward", "reference: road, relation: behind")
+        + actor("npc1", "leave_road", "reference: ego, relation: right, heading: same_direction")
+        + actor("npc2", "static", "reference: ego, relation: right, heading: same_direction"),
+        "  []\n",
+        contact("npc1", "npc2", "front", "rear", "rear_end") + contact("npc1", "ego", "left", "right", "sideswipe"))
+        .replace("oracle:\n  []\n", "oracle: []\n"), 0.8),
 }
 
 
