@@ -58,3 +58,24 @@ def test_facing_area_is_the_face_turned_towards_the_striker():
     # a car heading +x, struck by vehicles coming from behind, from its left and head on
     areas = cascade.facing_area(np.zeros(3), np.array([0.0, -np.pi / 2, np.pi]))
     assert list(areas) == ["rear", "left", "front"]
+
+
+@pytest.mark.parametrize(("deg", "margin"), [(10, 50), (45, 15), (170, 50), (130, 10), (80, -20)])
+def test_a_side_to_side_contact_is_a_sideswipe_below_the_angle_range(deg, margin):
+    # side to side (a car coming alongside into another's side), a near-parallel contact is a sideswipe, not a
+    # rear-end or a head-on; end on it is not
+    assert float(cascade.class_margin(np.radians(deg), "sideswipe", side=True)) == pytest.approx(margin)
+    side = cascade.contact_class(np.radians([10.0, 45.0, 90.0, 170.0]), side=True)
+    assert list(side) == ["sideswipe", "sideswipe", "angle", "sideswipe"]
+    assert list(cascade.contact_class(np.radians([10.0, 170.0]))) == ["rear_end", "head_on"]
+
+
+def test_a_third_car_is_met_on_its_side_only_by_a_written_sideswipe_there():
+    assert cascade.meeting_mode("sideswipe", "right") == "side"
+    assert cascade.meeting_mode("sideswipe", "front") == "front"
+    assert cascade.meeting_mode("angle", "left") == "front"
+    # a car heading +x struck on its right side: the striker comes from its right, so the striker's face towards it
+    # is the one turned to +y (its left, when it heads +x too)
+    toward = cascade.toward_third(np.zeros(1), "right")
+    assert list(cascade.facing_area(np.zeros(1), toward - np.pi)) == ["left"]
+    assert list(cascade.facing_area(np.zeros(1), cascade.toward_third(np.zeros(1), "left") - np.pi)) == ["right"]

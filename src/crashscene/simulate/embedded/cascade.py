@@ -5,7 +5,9 @@ A rear-end can push the struck car out of its lane when it strikes one rear corn
 way its nose points. `pushed_path` integrates that motion from the moment of contact, so that the plan
 can place the third vehicle of the written sequence where the pushed car will be, when it is there.
 `slide_path` is that slide for any vehicle already sliding; `clip_slide`, the slide of a car that clips the car
-ahead while pulling out, so that the plan can place a third vehicle where the clip sends it.
+ahead while pulling out, so that the plan can place a third vehicle where the clip sends it. How the third vehicle
+meets the moving one (`meeting_mode`: it drives into it, or the moving one comes alongside into its side) decides
+which face of the moving one turns towards it and the class of their contact.
 """
 from __future__ import annotations
 
@@ -104,10 +106,26 @@ def slide_path(x, y, yaw, vx, vy, yaw_rate, friction: float, length, width, dt: 
     return out[0], out[1], out[2]
 
 
-def class_margin(relative_yaw: np.ndarray, klass: str) -> np.ndarray:
+def meeting_mode(klass: str, third_area: str | None) -> str:
+    """How the third vehicle of a later contact meets the vehicle a contact set moving, by its own written area:
+    'side' (a sideswipe on its side: the moving vehicle comes alongside into it), else 'front' (it drives into the
+    moving vehicle)."""
+    return "side" if klass == "sideswipe" and third_area in ("left", "right") else "front"
+
+
+def toward_third(yaw_third: np.ndarray, third_area: str) -> np.ndarray:
+    """[rad] the direction from a moving vehicle to the side `third_area` ('left', 'right') of a third vehicle
+    heading `yaw_third` [rad] that it strikes there (`meeting_mode` 'side')."""
+    return np.asarray(yaw_third) + (math.pi / 2 if third_area == "right" else -math.pi / 2)
+
+
+def class_margin(relative_yaw: np.ndarray, klass: str, side: bool = False) -> np.ndarray:
     """[deg] how far contacts at these relative headings [rad] are inside the heading range of `klass` (rules.md;
-    negative outside): how much a heading may be off before the class changes."""
+    negative outside): how much a heading may be off before the class changes. `side`: the contacts are side to
+    side, so a near-parallel one is a sideswipe too (geometry.classify_contact)."""
     deg = np.degrees(np.abs(wrap_angle(np.asarray(relative_yaw, dtype=float))))
+    if side and klass == "sideswipe":
+        return np.where(deg < 90.0, ANGLE_RANGE[0] - deg, deg - ANGLE_RANGE[1])
     if klass == "rear_end":
         return REAR_END_MAX - deg
     if klass == "head_on":
@@ -119,9 +137,13 @@ def class_margin(relative_yaw: np.ndarray, klass: str) -> np.ndarray:
     return np.minimum(deg - lo, hi - deg)
 
 
-def contact_class(relative_yaw: np.ndarray) -> np.ndarray:
-    """The classes (rules.md, geometry.classify_contact) of end-on contacts at these relative headings [rad]."""
-    return classify_contact(np.abs(wrap_angle(np.asarray(relative_yaw, dtype=float))))
+def contact_class(relative_yaw: np.ndarray, side: bool = False) -> np.ndarray:
+    """The classes (rules.md, geometry.classify_contact) of end-on contacts at these relative headings [rad]; with
+    `side`, of side-to-side ones (a near-parallel one is a sideswipe)."""
+    klass = classify_contact(np.abs(wrap_angle(np.asarray(relative_yaw, dtype=float))))
+    if side:
+        klass[(klass == "rear_end") | (klass == "head_on")] = "sideswipe"
+    return klass
 
 
 AREAS = ("front", "left", "rear", "right")  # a body's faces, counter-clockwise from its heading

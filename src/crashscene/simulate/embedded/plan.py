@@ -27,7 +27,7 @@ from crashscene.simulate.drivers.behaviors import (
     SPEEDING_CODES,
     speed_factor,
 )
-from crashscene.simulate.embedded import cascade, lockstep, signals, swerve, timing
+from crashscene.simulate.embedded import cascade, lockstep, signals, swerve, timing, touch
 from crashscene.simulate.embedded import skid as skid_plan
 from crashscene.simulate.embedded.control import entry_before
 from crashscene.simulate.embedded.world import RouteArrays
@@ -38,7 +38,9 @@ if TYPE_CHECKING:
     from crashscene.simulate.embedded.setup import ActorColumn
 
 VEER_BEHAVIORS = ("change_lane_left", "change_lane_right", "cross_centerline", "overtake")
+DRIFT_BEHAVIORS = VEER_BEHAVIORS + ("leave_road",)  # lateral manoeuvres a driver steers (not a loss of control)
 SYNC_SLACK = 0.8  # [s] an actor moved back to meet later is placed this much early (sync.Meeting slows it)
+PULL_OUT_WAIT = 1.0  # [s] an actor pulling out to meet a written contact on its turn waits this long for its partner
 START_MARGIN = 5.0  # [m] an actor moved back along its route stays this far from the route's start
 CLIP_CLOSING = 3.0  # [m/s] a vehicle pulling out around the one ahead and clipping it comes up at least this fast
 CLIP_SPEEDS = 5  # [-] partner speeds (down to the slowest of its range) a clip followed by a later contact tries
@@ -51,6 +53,7 @@ CASCADE_ACROSS = 0.9  # [-] at most this part of the way across is done before t
 NEAR_ROUTE = 8.0  # [m] a pushed car further than this from a route's centre line cannot meet a car on it
 CASCADE_WINDOW = 0.8  # [s] a later contact's striker arrives up to this long after the pushed car is in its path
 CASCADE_CENTRAL = 2.0  # [deg] a later contact is timed where the predicted heading is this near its most central
+SIDE_ALONG = 0.25  # [-] a sideswipe strikes a third car's side this part of its length ahead of its centre
 STOP_DECEL = 4.0  # [m/s2] a stopping driver's braking (drivers.behaviors.DECELERATE_RATE)
 STOP_NEAR_JUNCTION = 40.0  # [m] a stopping driver this close to a junction stops at its line
 WRONG_WAY_LEFT = 0.4  # [lanes] a drift across several lanes starts this far short of the partner's lane
@@ -152,6 +155,9 @@ class VariationPlan:
     arrival_anchor: float | None = None  # [s] the anchor's planned arrival at its conflict point (first asked)
     anchor_speed: float = 0.0  # [m/s] the anchor's planned speed
     anchor_stop: float | None = None  # [m] distance to the stop line the anchor stops at first, None if none
+    touch_at: tuple[float, float] | None = None  # [m] the first written contact's meeting stations on the striker's
+    # and the struck actor's routes when `touch.class_meeting` moved it (sync.Meeting, with no struck offset)
+    pull_out: touch.Waiting | None = None  # a moved first meeting whose one actor stops at its line first
 
     @classmethod
     def build(cls, ctx: PlanContext, scene: SampledScene, rng: np.random.Generator, route: np.ndarray,
@@ -450,27 +456,26 @@ class VariationPlan:
         if best is None or best[4][2] != later[0]:
             return False
         scale, timed, shifted, t_touch, meeting = best
-        k, gap_k, _, _, extent, _ = meeting
-        if not self._meet_at(third, gap_k - self.length[third] / 2 - extent,
-                             timed.t_step + t_touch + (k + 1) * cascade.DT, passing=(a,)):
+        if not self._place_third(third, meeting, later, timed.t_step + t_touch + (meeting[0] + 1) * cascade.DT,
+                                 passing=(a,)):
             return False
         self.scale[partner], self.speeds[partner] = scale, self.planned[partner] * scale
         self.s0[partner], self.moved[partner] = shifted
         self.trigger[a] = timed.trigger
         return True
 
-    def _after_clip(self, a: int, partner: int) -> tuple[int, tuple[str, str]] | None:
-        """(third actor, (class, actor a's area)) of actor a's next written contact after its first one with
-        `partner`, when it is with a third actor that drives freely straight on (not the ADS); else None."""
+    def _after_clip(self, a: int, partner: int) -> tuple[int, tuple[str, str, str]] | None:
+        """(third actor, (class, actor a's area, the third's)) of actor a's next written contact after its first one
+        with `partner`, when it is with a third actor that drives freely straight on (not the ADS); else None."""
         cols, roles = self.ctx.columns, [c.role for c in self.ctx.columns]
         mine = [c for c in self.ctx.contacts if roles[a] in c[:2] and all(r in roles for r in c[:2])]
         if cols[a].is_ads or len(mine) < 2 or roles[partner] not in mine[0][:2]:
             return None
-        striking, struck, klass, striking_area, struck_area = mine[1]
+        striking, struck, *_ = mine[1]
         third = roles.index(striking if struck == roles[a] else struck)
         if third == partner or cols[third].is_ads or cols[third].behavior != "go_forward":
             return None
-        return third, (klass, striking_area if striking == roles[a] else struck_area)
+        return third, _later(mine[1], roles[a])
 
     def _lateral_distance(self, a: int, lateral: float, opposite: bool) -> float:
         """[m] how far actor a steers sideways to reach its partner's path (sets a skid's side)."""
@@ -574,11 +579,18 @@ class VariationPlan:
         cs_e = arrays.conflict_s[ra, r]
         if np.isnan(cs_a) or cs_a <= self.s0[a] or cs_e <= self.s0[anchor]:
             return
+        moved = self._class_meeting(a, cs_a, cs_e)
+        if moved is not None:
+            cs_a, cs_e = moved
         anchor_arrival = self._anchor_arrival(cs_e)
-        target = anchor_arrival + self._meeting_offset(a, cs_a, cs_e, offset)
-        # the first written contact's pair meets closed loop (sync.Meeting): place the free one a little early
+        target = anchor_arrival + self._meeting_offset(a, cs_a, cs_e, offset, None if moved is None else 0.0)
+        # the first written contact's pair meets closed loop (sync.Meeting): place the free one a little early;
+        # one that waits at its line to pull out (`touch_at`) is met by the other coming a little late instead
         slack = SYNC_SLACK if ctx.reproduce and ctx.first_pair == frozenset((col.role,
                                                                              ctx.columns[anchor].role)) else 0.0
+        if self.pull_out is not None and {a, anchor} == {self.pull_out.actor, self.pull_out.partner}:
+            slack = 0.0
+            target += PULL_OUT_WAIT if self.pull_out.actor == anchor else -PULL_OUT_WAIT
         sc, hd, late = self._fit_arrival(a, cs_a, target, slack)
         if late > 0.1 and self.stop_dist(a) is None:
             late = self._advance_start(a, cs_a, sc, target, late)
@@ -602,9 +614,53 @@ class VariationPlan:
                                                           stop_dist=anchor_stop)
         return self.arrival_anchor
 
-    def _meeting_offset(self, a: int, cs_a: float, cs_e: float, offset: float) -> float:
+    def _class_meeting(self, a: int, cs_a: float, cs_e: float) -> tuple[float, float] | None:
+        """Reproduce mode, a written contact of actor a with the anchor whose class the routes' meeting point
+        cannot give (`touch.needs_moving`: a turn into a lane meets almost aligned): (cs_a, cs_e) [m] moved to
+        where the class happens on the paths they drive (`touch.class_meeting`), in `_meeting_offset`'s terms (the
+        striker's front at the struck centre, no struck offset); None keeps the routes' meeting point."""
+        ctx = self.ctx
+        anchor = ctx.anchor
+        pair = frozenset((ctx.columns[a].role, ctx.columns[anchor].role))
+        striking, klass = ctx.strikers.get(pair), ctx.classes.get(pair)
+        if not ctx.reproduce or striking is None:
+            return None
+        s_idx = a if striking == ctx.columns[a].role else anchor
+        t_idx = anchor if s_idx == a else a
+        cs = {a: cs_a, anchor: cs_e}
+        if not touch.needs_moving(ctx.arrays, self.route[s_idx], cs[s_idx], self.route[t_idx], cs[t_idx], klass):
+            return None
+
+        lines = {i: (None if (stop := self.stop_dist(i)) is None else float(self.s0[i] + stop)) for i in cs}
+
+        def mover(i: int) -> touch.Mover:
+            rest = None if lines[i] is None else lines[i] - float(self.length[i]) / 2  # its front at its line
+            return touch.Mover(int(self.route[i]), float(cs[i]), float(self.speeds[i]), rest, float(self.length[i]),
+                               float(self.width[i]), ctx.columns[i].limits,
+                               Disposition.NO_YIELD in ctx.columns[i].traits)
+
+        met = touch.class_meeting(ctx.arrays, mover(s_idx), mover(t_idx),
+                                  (klass, self.contact_area(s_idx, t_idx), self.contact_area(t_idx, s_idx)))
+        if met is None:
+            return None
+        reach = float(self.length[s_idx] / 2 + self.width[t_idx] / 2)
+        at = {s_idx: met.striker_s + reach, t_idx: met.struck_s}
+        if pair == ctx.first_pair:
+            self.touch_at = (at[s_idx], at[t_idx])
+        waiting = [i for i in cs if lines[i] is not None]
+        if pair == ctx.first_pair and len(waiting) == 1 and not ctx.columns[waiting[0]].is_ads:
+            w = waiting[0]
+            partner = t_idx if w == s_idx else s_idx
+            front = (met.striker_s if partner == s_idx else met.struck_s) + float(self.length[partner]) / 2
+            # released at the first step its partner is that near: on average half a step late
+            tta = (met.struck_t if w == t_idx else met.striker_t) + ctx.skid_paths.dt / 2
+            self.pull_out = touch.Waiting(w, partner, lines[w], front, tta, mover(w).rest,
+                                          met.struck_v if w == t_idx else met.striker_v)
+        return at[a], at[anchor]
+
+    def _meeting_offset(self, a: int, cs_a: float, cs_e: float, offset: float, u: float | None = None) -> float:
         """[s] actor a's arrival after the anchor's: the turner first, and a written contact's striker's
-        front at the struck one's side."""
+        front at the struck one's side (`u` [m] past the striker's path, by default `struck_offset`)."""
         ctx, col = self.ctx, self.ctx.columns[a]
         arrays, anchor = ctx.arrays, ctx.anchor
         anchor_col = ctx.columns[anchor]
@@ -627,8 +683,9 @@ class VariationPlan:
         v_struck = _effective_speed(arrays, r_t, max(cs_t - 10.0, s_t0), cs_t, self.speeds[t_idx],
                                     ctx.columns[t_idx])
         r_s, cs_s = (ra, cs_e) if t_idx == a else (r, cs_a)
-        u = struck_offset(arrays, r_t, cs_t, r_s, cs_s, float(self.length[t_idx]),
-                          ctx.classes.get(frozenset((col.role, anchor_col.role))))
+        if u is None:
+            u = struck_offset(arrays, r_t, cs_t, r_s, cs_s, float(self.length[t_idx]),
+                              ctx.classes.get(frozenset((col.role, anchor_col.role))))
         side_hit = (self.length[s_idx] / 2 + self.width[t_idx] / 2) / max(self.speeds[s_idx], 1.0) \
             + u / max(v_struck, 1.0)
         jitter = offset - timing.ARRIVAL_OFFSET_MEAN * (timing.REPRODUCE_OFFSET_SCALE if ctx.reproduce else 1.0)
@@ -859,8 +916,9 @@ class VariationPlan:
         its centre line, on the side that sends the one the third vehicle meets (the struck car pushed, the striker
         deflected: the impulse of cascade.pushed_paths, the simulator's impact model) so that the third vehicle
         meets it as the later contact's class says, and the third vehicle is placed to reach it just after it is
-        in its path (or, with no room behind, slowed and held at its start); a striker steering across (an
-        overtake) is on its corner before the impact (`_settle_before`)."""
+        in its path (or, with no room behind, slowed and held at its start; or beside it, when it comes alongside
+        into its side: `_place_third`); a striker steering across (an overtake) is on its corner before the impact
+        (`_settle_before`), one drifting (off the road, into the next lane) drifts into it (`_drift_into`)."""
         found = self._cascade_actors()
         if found is None:
             return
@@ -899,24 +957,55 @@ class VariationPlan:
                 best, best_score = (float(offset), *meeting), score
         if best is None:
             return
-        side, k, gap_k, _, _, extent, _ = best
-        arrive = t1 + (k + 1) * cascade.DT
+        side, k = best[:2]
         # a striker drifting out of the lane ahead of it is no obstacle to a start behind it
         passing = (si,) if self.ctx.columns[si].behavior in LATERAL_BEHAVIORS else ()
-        if not self._meet_at(xi, gap_k - self.length[xi] / 2 - extent, arrive, passing):
+        if not self._place_third(xi, best[1:], later, t1 + (k + 1) * cascade.DT, passing):
             return
         # the striker holds its centre off the struck car's centre line, toward the corner it hits (its own
         # left is the struck car's right when it comes the other way)
         offset = side * self.width[ti] * (-1.0 if head_on else 1.0)
-        if cols[si].behavior in LATERAL_BEHAVIORS:
+        _, lat_s = _relative(arrays, self.route[si], self.s0[si], px, py)
+        if cols[si].behavior in LATERAL_BEHAVIORS and head_on:
             self.lateral_target[si] += offset
             self._settle_before(si, t1)
-            return
-        _, lat_s = _relative(arrays, self.route[si], self.s0[si], px, py)
-        target = (self.lateral_target[si] if head_on else lat_s) + offset
-        self.drifted[si] += target - self.d0[si]
-        self.d0[si] = target
-        self.lateral_target[si] = target
+        elif cols[si].behavior in LATERAL_BEHAVIORS:
+            self._drift_into(si, t1, lat_s + offset)
+        else:
+            target = (self.lateral_target[si] if head_on else lat_s) + offset
+            self.drifted[si] += target - self.d0[si]
+            self.d0[si] = target
+            self.lateral_target[si] = target
+
+    def _place_third(self, xi: int, meeting: tuple[int, float, str, str, float, float],
+                     later: tuple[str, str, str], arrive: float, passing: tuple[int, ...] = ()) -> bool:
+        """Actor xi placed to meet a moving actor at `arrive` [s] as `meeting` (`_pushed_meetings`) has it, as its
+        written area says (cascade.meeting_mode): its front at the moving one, or (a sideswipe on its side) its
+        side beside it, SIDE_ALONG of its length ahead of its centre (`_meet_at`); False when it cannot be."""
+        _, gap_k, _, _, extent, _ = meeting
+        if cascade.meeting_mode(later[0], later[2]) == "side":
+            return self._meet_at(xi, gap_k - SIDE_ALONG * self.length[xi], arrive, passing)
+        return self._meet_at(xi, gap_k - self.length[xi] / 2 - extent, arrive, passing)
+
+    def _drift_into(self, a: int, t1: float, target: float) -> None:
+        """Actor a drifts (its lateral manoeuvre, swerve.path) into the corner of a stopped car it strikes at t1 [s],
+        its centre `target` [m] off its route then: the manoeuvre is under way its lead time before (less when that
+        would start it outside its lane), from where it takes it to the corner."""
+        rate = timing.lateral_rate(self.ctx.columns[a].behavior)
+        rows = self._pull_out_path(a, rate)
+        sign = 1.0 if self.lateral_target[a] >= self.d0[a] else -1.0
+        dt = self.ctx.skid_paths.dt
+        across = np.abs(rows[1][0])  # [m] how far across it is every dt after its trigger
+        room = max(self.lane_width - self.width[a], 0.0) / 2  # [m] its start stays within its lane
+        lead = min(self.lead_time(a), t1)
+        k = int(round(lead / dt)) - 1
+        while k > 0 and abs(target - sign * across[k] - self.d0[a]) > room:
+            k -= 1
+        lead = (k + 1) * dt if k >= 0 else 0.0
+        shift = target - sign * (float(across[k]) if k >= 0 else 0.0) - self.d0[a]
+        self.d0[a] += shift
+        self.drifted[a] += shift
+        self.trigger[a] = max(t1 - lead, 0.0)
 
     def _meet_at(self, a: int, reach: float, arrive: float, passing: tuple[int, ...] = ()) -> bool:
         """Actor a covers `reach` [m] along its route by `arrive` [s]: it starts where that takes its own speed, else
@@ -986,18 +1075,19 @@ class VariationPlan:
         return (t1, impact_s, 0.0) if t1 > 0 else None
 
     def _pushed_meeting(self, ti: int, xi: int, path: tuple[np.ndarray, np.ndarray, np.ndarray],
-                        pose: tuple[float, float, float], later: tuple[str, str]
+                        pose: tuple[float, float, float], later: tuple[str, str, str]
                         ) -> tuple[int, float, str, str, float, float] | None:
         """Where the third actor xi meets actor ti moving along `path` after an impact (cascade.pushed_paths,
         clip_slide: forward, left, yaw in the frame of `pose`): (step of the path, station on xi's route from its
         start [m] (negative: behind it, where it is then placed), the class of that contact, ti's area facing xi,
         its half extent across xi's path [m], how far [deg] its heading is inside the written class's range): the
-        step where that contact has the `later` (class, area) written, else the one nearest a drawn moment in the
-        window after ti enters xi's path."""
+        step where that contact has the `later` (class, ti's area, xi's area) written (xi met as
+        cascade.meeting_mode says), else the one nearest a drawn moment in the window after ti enters xi's path
+        (the first step it reaches xi's side, when it comes alongside into it)."""
         return self._pushed_meetings(ti, xi, [path], [pose], later)[0]
 
     def _pushed_meetings(self, ti: int, xi: int, paths: list[tuple[np.ndarray, np.ndarray, np.ndarray]],
-                         poses: list[tuple[float, float, float]], later: tuple[str, str]
+                         poses: list[tuple[float, float, float]], later: tuple[str, str, str]
                          ) -> list[tuple[int, float, str, str, float, float] | None]:
         """`_pushed_meeting` of each (path, pose), measured at once (each point as it would be alone)."""
         arrays = self.ctx.arrays
@@ -1031,6 +1121,9 @@ class VariationPlan:
         # on its route far enough from its start for it to be placed further back to meet there
         hits = (np.abs(lat - self.d0[xi]) < self.width[xi] / 2 + extent - 0.3) \
             & (k_route * ROUTE_DS > START_MARGIN + self.length[xi])
+        side = cascade.meeting_mode(later[0], later[2]) == "side"
+        # the face of ti turned towards xi: xi comes from behind it, or (side) ti comes into xi's side
+        toward = cascade.toward_third(yaw_x, later[2]) - math.pi if side else yaw_x
         out: list = []
         for end, size, (px, py, one_yaw) in zip(ends, sizes, poses):
             lo = end - size
@@ -1039,30 +1132,33 @@ class VariationPlan:
                 out.append(None)
                 continue
             at = lo + hit
-            klass = cascade.contact_class(rel[at])
-            area = cascade.facing_area(turned[at], yaw_x[at])
-            margin = cascade.class_margin(rel[at], later[0])
+            klass = cascade.contact_class(rel[at], side)
+            area = cascade.facing_area(turned[at], toward[at])
+            margin = cascade.class_margin(rel[at], later[0], side)
             # the steps with the written class and area (else the nearest to them), and among those the ones whose
             # heading is near the most central one: a struck car that spins fast is in the class's range only
             # briefly, and what the prediction does not foresee shifts the moment of contact
             # (then those where its centre is in xi's lane: it is in the path it meets xi in, not just reaching
-            # into it)
+            # into it; one coming alongside into xi's side touches it before it is in its lane)
             inside = np.abs(lat[at] - self.d0[xi]) < self.lane_width / 2
+            if side:
+                inside[:] = True
             # (class, area, inside) misses as one number ordered as the tuples are
             group = 4 * (klass != later[0]) + 2 * (area != later[1]) + ~inside
             best = group.min()
             central = margin[group == best].max() - CASCADE_CENTRAL
-            want = hit[0] + self.draws.cascade[xi] * CASCADE_WINDOW / cascade.DT
+            # ...as soon as it reaches xi's side (later it would be inside xi's body), else at a drawn moment
+            want = hit[0] + (0.0 if side else self.draws.cascade[xi] * CASCADE_WINDOW / cascade.DT)
             i = int(np.lexsort((np.abs(hit - want), margin < central, group))[0])  # the first of the smallest keys
             k = int(hit[i])
             out.append((k, float(gap[lo + k]), str(klass[i]), str(area[i]), float(extent[lo + k]), float(margin[i])))
         return out
 
-    def _cascade_actors(self) -> tuple[int, int, int, int, str, tuple[str, str]] | None:
+    def _cascade_actors(self) -> tuple[int, int, int, int, str, tuple[str, str, str]] | None:
         """(striker, struck, the one of them that meets a third actor next, the third actor, first class, (later
-        class, the mover's area in it)) of a written end-on first contact (a rear-end into a stopped car, a
-        head-on) followed by a contact of either of its two actors with a third one that drives freely straight
-        on (the struck car pushed into its path, or the striker deflected into it); else None."""
+        class, the mover's area in it, the third's)) of a written end-on first contact (a rear-end into a stopped
+        car, a head-on) followed by a contact of either of its two actors with a third one that drives freely
+        straight on (the struck car pushed into its path, or the striker deflected into it); else None."""
         seq = self.ctx.contacts
         cols = self.ctx.columns
         roles = [c.role for c in cols]
@@ -1070,18 +1166,21 @@ class VariationPlan:
                 or not all(r in roles for c in seq for r in c[:2]):
             return None
         si, ti = roles.index(seq[0][0]), roles.index(seq[0][1])
-        for striking, struck, klass, striking_area, struck_area in seq[1:]:
+        for later_contact in seq[1:]:
+            striking, struck = later_contact[:2]
             pair = {striking, struck}
             if (roles[ti] in pair) != (roles[si] in pair):
                 mover = ti if roles[ti] in pair else si
                 xi = roles.index((pair - {roles[mover]}).pop())
-                later = (klass, struck_area if roles[mover] == struck else striking_area)
+                later = _later(later_contact, roles[mover])
                 break
         else:
             return None
         if cols[si].is_ads or cols[xi].is_ads or cols[xi].behavior != "go_forward":
             return None
-        if seq[0][2] == "rear_end" and (cols[si].behavior != "go_forward"
+        # a rear-end into a stopped car, by a driver going straight on or drifting into it (not one whose loss of
+        # control is planned as a skid)
+        if seq[0][2] == "rear_end" and (cols[si].behavior not in ("go_forward", *DRIFT_BEHAVIORS)
                                         or cols[ti].behavior not in ("stop", "static")):
             return None
         if seq[0][2] == "head_on" and (cols[ti].is_ads or cols[ti].behavior != "go_forward"
@@ -1176,7 +1275,14 @@ def _nearest(xy: np.ndarray, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, 
     return cols[take], dist[take]
 
 
-def _matches(meeting: tuple[int, float, str, str, float, float], later: tuple[str, str]) -> int:
+def _later(contact: tuple[str, str, str, str, str], mover: str) -> tuple[str, str, str]:
+    """A written later contact (striking, struck, class, striking area, struck area) as a meeting plan reads it:
+    (class, the area of the actor `mover` (the role a contact before set moving), the area of the other one)."""
+    striking, struck, klass, striking_area, struck_area = contact
+    return (klass, striking_area, struck_area) if striking == mover else (klass, struck_area, striking_area)
+
+
+def _matches(meeting: tuple[int, float, str, str, float, float], later: tuple[str, str, str]) -> int:
     """How well a predicted meeting (`VariationPlan._pushed_meeting`) has the written later contact (class, area):
     2 for the class, plus 1 for the area."""
     return 2 * (meeting[2] == later[0]) + (meeting[3] == later[1])
