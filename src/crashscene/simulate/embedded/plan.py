@@ -27,7 +27,7 @@ from crashscene.simulate.drivers.behaviors import (
     SPEEDING_CODES,
     speed_factor,
 )
-from crashscene.simulate.embedded import cascade, lockstep, signals, swerve, timing
+from crashscene.simulate.embedded import cascade, lockstep, signals, swerve, timing, touch
 from crashscene.simulate.embedded import skid as skid_plan
 from crashscene.simulate.embedded.control import entry_before
 from crashscene.simulate.embedded.world import RouteArrays
@@ -40,6 +40,7 @@ if TYPE_CHECKING:
 VEER_BEHAVIORS = ("change_lane_left", "change_lane_right", "cross_centerline", "overtake")
 DRIFT_BEHAVIORS = VEER_BEHAVIORS + ("leave_road",)  # lateral manoeuvres a driver steers (not a loss of control)
 SYNC_SLACK = 0.8  # [s] an actor moved back to meet later is placed this much early (sync.Meeting slows it)
+PULL_OUT_WAIT = 1.0  # [s] an actor pulling out to meet a written contact on its turn waits this long for its partner
 START_MARGIN = 5.0  # [m] an actor moved back along its route stays this far from the route's start
 CLIP_CLOSING = 3.0  # [m/s] a vehicle pulling out around the one ahead and clipping it comes up at least this fast
 CLIP_SPEEDS = 5  # [-] partner speeds (down to the slowest of its range) a clip followed by a later contact tries
@@ -154,6 +155,9 @@ class VariationPlan:
     arrival_anchor: float | None = None  # [s] the anchor's planned arrival at its conflict point (first asked)
     anchor_speed: float = 0.0  # [m/s] the anchor's planned speed
     anchor_stop: float | None = None  # [m] distance to the stop line the anchor stops at first, None if none
+    touch_at: tuple[float, float] | None = None  # [m] the first written contact's meeting stations on the striker's
+    # and the struck actor's routes when `touch.class_meeting` moved it (sync.Meeting, with no struck offset)
+    pull_out: touch.Waiting | None = None  # a moved first meeting whose one actor stops at its line first
 
     @classmethod
     def build(cls, ctx: PlanContext, scene: SampledScene, rng: np.random.Generator, route: np.ndarray,
@@ -575,11 +579,18 @@ class VariationPlan:
         cs_e = arrays.conflict_s[ra, r]
         if np.isnan(cs_a) or cs_a <= self.s0[a] or cs_e <= self.s0[anchor]:
             return
+        moved = self._class_meeting(a, cs_a, cs_e)
+        if moved is not None:
+            cs_a, cs_e = moved
         anchor_arrival = self._anchor_arrival(cs_e)
-        target = anchor_arrival + self._meeting_offset(a, cs_a, cs_e, offset)
-        # the first written contact's pair meets closed loop (sync.Meeting): place the free one a little early
+        target = anchor_arrival + self._meeting_offset(a, cs_a, cs_e, offset, None if moved is None else 0.0)
+        # the first written contact's pair meets closed loop (sync.Meeting): place the free one a little early;
+        # one that waits at its line to pull out (`touch_at`) is met by the other coming a little late instead
         slack = SYNC_SLACK if ctx.reproduce and ctx.first_pair == frozenset((col.role,
                                                                              ctx.columns[anchor].role)) else 0.0
+        if self.pull_out is not None and {a, anchor} == {self.pull_out.actor, self.pull_out.partner}:
+            slack = 0.0
+            target += PULL_OUT_WAIT if self.pull_out.actor == anchor else -PULL_OUT_WAIT
         sc, hd, late = self._fit_arrival(a, cs_a, target, slack)
         if late > 0.1 and self.stop_dist(a) is None:
             late = self._advance_start(a, cs_a, sc, target, late)
@@ -603,9 +614,53 @@ class VariationPlan:
                                                           stop_dist=anchor_stop)
         return self.arrival_anchor
 
-    def _meeting_offset(self, a: int, cs_a: float, cs_e: float, offset: float) -> float:
+    def _class_meeting(self, a: int, cs_a: float, cs_e: float) -> tuple[float, float] | None:
+        """Reproduce mode, a written contact of actor a with the anchor whose class the routes' meeting point
+        cannot give (`touch.needs_moving`: a turn into a lane meets almost aligned): (cs_a, cs_e) [m] moved to
+        where the class happens on the paths they drive (`touch.class_meeting`), in `_meeting_offset`'s terms (the
+        striker's front at the struck centre, no struck offset); None keeps the routes' meeting point."""
+        ctx = self.ctx
+        anchor = ctx.anchor
+        pair = frozenset((ctx.columns[a].role, ctx.columns[anchor].role))
+        striking, klass = ctx.strikers.get(pair), ctx.classes.get(pair)
+        if not ctx.reproduce or striking is None:
+            return None
+        s_idx = a if striking == ctx.columns[a].role else anchor
+        t_idx = anchor if s_idx == a else a
+        cs = {a: cs_a, anchor: cs_e}
+        if not touch.needs_moving(ctx.arrays, self.route[s_idx], cs[s_idx], self.route[t_idx], cs[t_idx], klass):
+            return None
+
+        lines = {i: (None if (stop := self.stop_dist(i)) is None else float(self.s0[i] + stop)) for i in cs}
+
+        def mover(i: int) -> touch.Mover:
+            rest = None if lines[i] is None else lines[i] - float(self.length[i]) / 2  # its front at its line
+            return touch.Mover(int(self.route[i]), float(cs[i]), float(self.speeds[i]), rest, float(self.length[i]),
+                               float(self.width[i]), ctx.columns[i].limits,
+                               Disposition.NO_YIELD in ctx.columns[i].traits)
+
+        met = touch.class_meeting(ctx.arrays, mover(s_idx), mover(t_idx),
+                                  (klass, self.contact_area(s_idx, t_idx), self.contact_area(t_idx, s_idx)))
+        if met is None:
+            return None
+        reach = float(self.length[s_idx] / 2 + self.width[t_idx] / 2)
+        at = {s_idx: met.striker_s + reach, t_idx: met.struck_s}
+        if pair == ctx.first_pair:
+            self.touch_at = (at[s_idx], at[t_idx])
+        waiting = [i for i in cs if lines[i] is not None]
+        if pair == ctx.first_pair and len(waiting) == 1 and not ctx.columns[waiting[0]].is_ads:
+            w = waiting[0]
+            partner = t_idx if w == s_idx else s_idx
+            front = (met.striker_s if partner == s_idx else met.struck_s) + float(self.length[partner]) / 2
+            # released at the first step its partner is that near: on average half a step late
+            tta = (met.struck_t if w == t_idx else met.striker_t) + ctx.skid_paths.dt / 2
+            self.pull_out = touch.Waiting(w, partner, lines[w], front, tta, mover(w).rest,
+                                          met.struck_v if w == t_idx else met.striker_v)
+        return at[a], at[anchor]
+
+    def _meeting_offset(self, a: int, cs_a: float, cs_e: float, offset: float, u: float | None = None) -> float:
         """[s] actor a's arrival after the anchor's: the turner first, and a written contact's striker's
-        front at the struck one's side."""
+        front at the struck one's side (`u` [m] past the striker's path, by default `struck_offset`)."""
         ctx, col = self.ctx, self.ctx.columns[a]
         arrays, anchor = ctx.arrays, ctx.anchor
         anchor_col = ctx.columns[anchor]
@@ -628,8 +683,9 @@ class VariationPlan:
         v_struck = _effective_speed(arrays, r_t, max(cs_t - 10.0, s_t0), cs_t, self.speeds[t_idx],
                                     ctx.columns[t_idx])
         r_s, cs_s = (ra, cs_e) if t_idx == a else (r, cs_a)
-        u = struck_offset(arrays, r_t, cs_t, r_s, cs_s, float(self.length[t_idx]),
-                          ctx.classes.get(frozenset((col.role, anchor_col.role))))
+        if u is None:
+            u = struck_offset(arrays, r_t, cs_t, r_s, cs_s, float(self.length[t_idx]),
+                              ctx.classes.get(frozenset((col.role, anchor_col.role))))
         side_hit = (self.length[s_idx] / 2 + self.width[t_idx] / 2) / max(self.speeds[s_idx], 1.0) \
             + u / max(v_struck, 1.0)
         jitter = offset - timing.ARRIVAL_OFFSET_MEAN * (timing.REPRODUCE_OFFSET_SCALE if ctx.reproduce else 1.0)

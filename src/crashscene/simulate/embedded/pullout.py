@@ -3,6 +3,11 @@ waits at (or near) its line and pulls out when the ADS is about PULL_OUT_TTA awa
 search samples that time as `<role>_PULL_OUT_TTA`), never later than the ADS's reaction plus braking distance
 allows. When the ADS is already inside that distance as the NPC reaches its line, the plan cannot give it a
 fair chance: the variation is invalid (`unavoidable`).
+
+Reproduce mode uses the same wait for a written contact that happens on a turn out of a stop-controlled approach
+(plan.VariationPlan.pull_out): the turner pulls out when its partner is as far in time from the touch as the
+turner takes from rest to get there (from where it stands: `rest`, `touch_speed`); no fairness applies (`fair`
+False: the crash is the report's).
 """
 from __future__ import annotations
 
@@ -40,12 +45,15 @@ class PullOut:
     released: np.ndarray
     judged: np.ndarray
     tta: np.ndarray  # [s]
+    fair: np.ndarray  # (V,) bool: the partner is given its reaction plus braking time (test mode)
+    rest: np.ndarray  # (V,) [m] the NPC's centre's station at rest for which `tta` holds (NaN: tta as it is)
+    touch_speed: np.ndarray  # (V,) [m/s] ...and its speed where it is to be met: a start further back takes longer
 
     @classmethod
     def none(cls, n_v: int, ads_brake: float = 8.0) -> "PullOut":
         return cls(np.full(n_v, -1), np.full(n_v, -1), np.full(n_v, np.nan), np.full(n_v, np.nan),
                    np.full(n_v, np.nan), ads_brake, np.zeros(n_v, dtype=bool), np.zeros(n_v, dtype=bool),
-                   np.full(n_v, PULL_OUT_TTA))
+                   np.full(n_v, PULL_OUT_TTA), np.ones(n_v, dtype=bool), np.full(n_v, np.nan), np.full(n_v, np.nan))
 
     def step(self, t: float, s: np.ndarray, v: np.ndarray, length: np.ndarray, hold_until: np.ndarray,
              invalid: list) -> None:
@@ -59,11 +67,14 @@ class PullOut:
         to_line = self.line[idx] - (s[idx, n] + length[idx, n] / 2)
         ads_dist = self.cs_ads[idx] - (s[idx, a] + length[idx, a] / 2)
         passed = ads_dist < -length[idx, a]
+        fair = self.fair[idx]
         need = stopping_distance(v_a, self.ads_brake)
-        pull_tta = np.maximum(self.tta[idx], need / v_a + MARGIN)
+        # from rest further back than planned it takes longer, by the extra distance at its speed where it is met
+        behind = np.where(np.isnan(self.rest[idx]), 0.0, (self.rest[idx] - s[idx, n]) / self.touch_speed[idx])
+        pull_tta = np.where(fair, np.maximum(self.tta[idx], need / v_a + MARGIN), self.tta[idx] + behind)
         at_line = (to_line < v_n ** 2 / (2.0 * WAIT_DECEL) + 0.5) | self.judged[idx]
         first = at_line & ~self.judged[idx]
-        for k in np.nonzero(first & ~passed & (ads_dist >= 0) & (ads_dist < need))[0]:
+        for k in np.nonzero(first & fair & ~passed & (ads_dist >= 0) & (ads_dist < need))[0]:
             invalid[idx[k]] = invalid[idx[k]] or UNAVOIDABLE
         self.judged[idx] |= at_line
         go = passed | (ads_dist / v_a <= pull_tta) & at_line

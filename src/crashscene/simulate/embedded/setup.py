@@ -156,6 +156,7 @@ def build(scenario: Scenario, scenes: list[SampledScene], roadmap: RoadMap,
     factor = condition_factor(scenario, settings.conditions)
     plans = _timing_plans(scenario, scenes, columns, anchor, layout, start, tables, lane_width, factor, settings)
     pullout = _pullout(scenes, columns, anchor, arrays, route, s0, tables, priority, plans.hold, settings)
+    _pull_out_to_touch(pullout, plans.pull_out, plans.hold)
     start_cap = _apply_plan_moves(arrays, route, start, plans)
     speed0 = _initial_speeds(columns, arrays, route, start, plans, tables, start_cap)
     limit = scenario.road_network.speed_limit_mph
@@ -169,7 +170,8 @@ def build(scenario: Scenario, scenes: list[SampledScene], roadmap: RoadMap,
         lateral_target=layout.lateral_target,
         spin_rate=plans.skids[..., 0], drift=plans.skids[..., 1], spin_hold=plans.skids[..., 2],
         unseen=unseen_partners(scenario, columns, settings.mode == "reproduce"),
-        meeting=_meeting(scenario, columns, arrays, route, s0, start.length, plans.hold, tables, settings),
+        meeting=_meeting(scenario, columns, arrays, route, s0, start.length, plans.hold, tables, settings,
+                         plans.touch_at, plans.pull_out),
         pullout=pullout,
         condition_factor=factor, friction=friction(scenario, settings.conditions),
         invalid=layout.invalid, conflict_time=plans.conflict_time,
@@ -319,17 +321,22 @@ class _TimingPlans:
     skids: np.ndarray  # (V, A, 3)
     phase: np.ndarray  # (V,)
     conflict_time: np.ndarray  # (V,)
+    touch_at: np.ndarray  # (V, 2) [m] plan.VariationPlan.touch_at, NaN where the plan kept the routes' meeting
+    pull_out: list  # (V,) plan.VariationPlan.pull_out, None where no actor waits at its line for the touch
 
     @classmethod
     def empty(cls, n_v: int, n_a: int) -> _TimingPlans:
         return cls(planned=np.zeros((n_v, n_a)), scale=np.ones((n_v, n_a)), hold=np.zeros((n_v, n_a)),
                    trigger=np.full((n_v, n_a), np.inf), moved=np.zeros((n_v, n_a), dtype=bool),
                    drifted=np.zeros((n_v, n_a)), skids=np.full((n_v, n_a, 3), np.nan), phase=np.zeros(n_v),
-                   conflict_time=np.full(n_v, np.inf))
+                   conflict_time=np.full(n_v, np.inf), touch_at=np.full((n_v, 2), np.nan), pull_out=[None] * n_v)
 
     def put(self, v: int, plan: VariationPlan) -> None:
         for name in ("planned", "scale", "hold", "trigger", "moved", "drifted", "skids", "phase", "conflict_time"):
             getattr(self, name)[v] = getattr(plan, name)
+        if plan.touch_at is not None:
+            self.touch_at[v] = plan.touch_at
+        self.pull_out[v] = plan.pull_out
 
 
 def _timing_plans(scenario: Scenario, scenes: list[SampledScene], columns: list[ActorColumn], anchor: int,
@@ -493,13 +500,30 @@ def _pullout(scenes: list[SampledScene], columns: list[ActorColumn], anchor: int
     return out
 
 
+def _pull_out_to_touch(pullout: PullOut, planned: list, hold: np.ndarray) -> None:
+    """Reproduce mode: the actor of a written contact on its turn out of a stop-controlled approach waits at its
+    line and pulls out when its partner is as far in time from the touch as it takes to get there from rest
+    (plan.VariationPlan.pull_out); no fairness applies."""
+    for v, one in enumerate(planned):
+        if one is None or pullout.npc[v] >= 0:
+            continue
+        pullout.npc[v], pullout.ads[v], pullout.line[v], pullout.cs_ads[v], pullout.tta[v] = \
+            one.actor, one.partner, one.line, one.partner_front, one.tta
+        pullout.rest[v], pullout.touch_speed[v] = one.rest, one.touch_speed
+        pullout.fair[v] = False
+        hold[v, one.actor] = 0.0
+
+
 FREE_BEHAVIORS = ("go_forward", "accelerate", "turn_left", "turn_right", "u_turn")
 
 
 def _meeting(scenario: Scenario, columns: list[ActorColumn], arrays: RouteArrays, route: np.ndarray, s0: np.ndarray,
-             length: np.ndarray, hold: np.ndarray, tables: list, settings: SimulationSettings) -> Meeting:
+             length: np.ndarray, hold: np.ndarray, tables: list, settings: SimulationSettings,
+             touch_at: np.ndarray, pull_out: list) -> Meeting:
     """The follower of the first written contact, per variation (sync.Meeting): the striker when it drives
-    freely (a scripted driver, not held, not stopping at a sign first), else the struck actor."""
+    freely (a scripted driver, not held, not stopping at a sign first), else the struck actor; they meet at the
+    routes' meeting point, or where the plan moved it (`touch_at` (V, 2) [m] on the striker's and the struck
+    actor's routes, NaN: not moved); none where an actor waits at its line for the touch (`pull_out`)."""
     n_v = route.shape[0]
     meeting = Meeting.none(n_v)
     contacts = getattr(scenario, "collisions", None) or []
@@ -511,8 +535,11 @@ def _meeting(scenario: Scenario, columns: list[ActorColumn], arrays: RouteArrays
         return meeting
     si, ti = roles.index(str(first.striking)), roles.index(str(first.struck))
     for v in range(n_v):
-        cs_s = arrays.conflict_s[route[v, si], route[v, ti]]
-        cs_t = arrays.conflict_s[route[v, ti], route[v, si]]
+        if pull_out[v] is not None:
+            continue  # the waiting actor's pull-out times the touch (_pull_out_to_touch)
+        moved = bool(np.isfinite(touch_at[v, 0]))
+        cs_s, cs_t = touch_at[v] if moved else (arrays.conflict_s[route[v, si], route[v, ti]],
+                                                arrays.conflict_s[route[v, ti], route[v, si]])
         if not (np.isfinite(cs_s) and np.isfinite(cs_t)) or cs_s <= s0[v, si] + length[v, si] / 2 \
                 or cs_t <= s0[v, ti] + length[v, ti] / 2:
             continue
@@ -525,9 +552,9 @@ def _meeting(scenario: Scenario, columns: list[ActorColumn], arrays: RouteArrays
             meeting.cs_follower[v] = cs_s if f == si else cs_t
             meeting.cs_leader[v] = cs_t if f == si else cs_s
             meeting.follower_strikes[v] = f == si
-            meeting.struck_offset[v] = struck_offset(arrays, route[v, ti], cs_t, route[v, si], cs_s,
-                                                     float(length[v, ti]), str(getattr(first.class_, "value",
-                                                                                       first.class_)))
+            meeting.struck_offset[v] = 0.0 if moved else struck_offset(
+                arrays, route[v, ti], cs_t, route[v, si], cs_s, float(length[v, ti]),
+                str(getattr(first.class_, "value", first.class_)))
             stop = stop_dist(arrays, route[v, l_], s0[v, l_], tables[v][0], columns[l_])
             if stop is not None:
                 meeting.leader_stop[v] = s0[v, l_] + stop
