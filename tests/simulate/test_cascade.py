@@ -82,3 +82,20 @@ def test_clip_slide_starts_where_a_car_driving_straight_on_touches_the_slower_ca
     assert np.all(np.diff(along) / DT < speed)
     # pushed back on its right front corner (the car it clipped is on its right) it turns right, clockwise
     assert yaw[10] < -0.05 and np.all(np.diff(yaw[:10]) < 0.0)
+
+
+def test_pushes_of_several_impacts_at_once_equal_each_alone():
+    from crashscene.simulate.embedded.cascade import Push, pushed_paths, pushes
+
+    items = [Push(20.0, 0.0, np.array([-0.4, 0.3]), 1500.0, 1500.0, 4.5, 1.8, 4.5, 1.8, 0.8),
+             Push(14.0, 11.0, np.array([0.5]), 15000.0, 1500.0, 12.0, 2.5, 4.2, 1.7, 0.5, True, (0.55, 0.6)),
+             Push(25.0, 3.0, np.array([0.3, 0.4, 0.6]), 1800.0, 1400.0, 4.8, 1.9, 4.4, 1.8, 0.7)]
+    together = pushes(items)
+    for item, (struck, striker) in zip(items, together):
+        alone = pushed_paths(item.v_striker, item.v_struck, item.offsets, item.m_striker, item.m_struck,
+                             item.l_striker, item.w_striker, item.l_struck, item.w_struck, item.friction,
+                             item.head_on, striker=True, wheelbase_ratios=item.wheelbase_ratios)
+        for a, b in zip((*alone[0], *alone[1]), (*struck, *striker)):
+            assert a.shape == b.shape and np.array_equal(a, b)
+    # without the striker's slide the struck car's is the same
+    assert all(np.array_equal(a, b) for a, b in zip(pushes(items[:1], striker=False)[0][0], together[0][0]))

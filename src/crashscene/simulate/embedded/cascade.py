@@ -25,7 +25,7 @@ from crashscene.geometry import (
     touch_fraction,
     wrap_angle,
 )
-from crashscene.simulate.embedded import impact
+from crashscene.simulate.embedded import impact, lockstep
 from crashscene.simulate.embedded.vehicles import limits_for
 
 DT = 0.05  # [s] integration step of the prediction
@@ -56,28 +56,67 @@ def pushed_paths(v_striker: float, v_struck: float, offsets: np.ndarray, m_strik
     left: (forward, left, yaw) (N, steps); with `striker`, also the striker's own slide after the impact in the
     same frame, ((forward, left, yaw), (x, y, yaw)); `wheelbase_ratios` [-] the striker's and the struck car's
     (vehicles.VehicleLimits)."""
-    n = len(offsets)
+    struck, mine = pushes([Push(v_striker, v_struck, np.asarray(offsets, dtype=float), m_striker, m_struck, l_striker,
+                                w_striker, l_struck, w_struck, friction, head_on, wheelbase_ratios)], striker)[0]
+    return (struck, mine) if striker else struck
+
+
+@dataclass(frozen=True)
+class Push:
+    """An end-on impact `pushed_paths` predicts: the striker at `v_striker` [m/s] from behind (from ahead when
+    `head_on`), its centre `offsets` (N,) times the struck car's width to the struck car's left, the struck car at
+    `v_struck` [m/s]; masses [kg], lengths and widths [m], the road's friction [-], the two wheelbase ratios [-]."""
+
+    v_striker: float
+    v_struck: float
+    offsets: np.ndarray
+    m_striker: float
+    m_struck: float
+    l_striker: float
+    w_striker: float
+    l_struck: float
+    w_struck: float
+    friction: float
+    head_on: bool = False
+    wheelbase_ratios: tuple[float, float] = (CAR_WHEELBASE_RATIO, CAR_WHEELBASE_RATIO)
+
+
+def pushes(items: list[Push], striker: bool = True) -> list[tuple[tuple[np.ndarray, ...], tuple[np.ndarray, ...] | None]]:
+    """`pushed_paths(..., striker=striker)` of each item, every offset of every item integrated at once (each
+    element as it would be alone: lockstep.together batches the plans' pushes): per item ((forward, left, yaw),
+    (x, y, yaw) of the striker, None without `striker`), each (N, steps)."""
+    if not items:
+        return []
+    sizes = [len(p.offsets) for p in items]
+
+    def each(field) -> np.ndarray:
+        return lockstep.per_element((field(p) for p in items), sizes)
+
+    head_on = each(lambda p: p.head_on).astype(bool)
+    l_striker, w_striker = each(lambda p: p.l_striker), each(lambda p: p.w_striker)
+    l_struck, w_struck = each(lambda p: p.l_struck), each(lambda p: p.w_struck)
     reach = (l_striker + l_struck) / 2 - 0.05
-    xa = np.full(n, reach if head_on else -reach)
-    ya = offsets * w_struck
-    one = np.ones(n)
-    yaw_a = (math.pi if head_on else 0.0) * one
-    nx, ny, px, py = impact.contact_frame(xa, ya, yaw_a, l_striker * one, w_striker * one,
-                                          0 * one, 0 * one, 0 * one, l_struck * one, w_struck * one)
-    ma, mb = m_striker * one, m_struck * one
-    ia = impact.yaw_inertia(ma, l_striker * one, w_striker * one)
-    ib = impact.yaw_inertia(mb, l_struck * one, w_struck * one)
-    va = np.stack([(-v_striker if head_on else v_striker) * one, 0 * one])
-    vb = np.stack([v_struck * one, 0 * one])
-    va, wa, vb, wb, _ = impact.exchange(nx, ny, px, py, xa, ya, va, 0 * one, ma, ia, 0 * one, 0 * one, vb,
-                                        0 * one, mb, ib)
+    xa = np.where(head_on, reach, -reach)
+    ya = np.concatenate([p.offsets for p in items]) * w_struck
+    zero = np.zeros(len(xa))
+    yaw_a = np.where(head_on, math.pi, 0.0)
+    nx, ny, px, py = impact.contact_frame(xa, ya, yaw_a, l_striker, w_striker, zero, zero, zero, l_struck, w_struck)
+    ma, mb = each(lambda p: p.m_striker), each(lambda p: p.m_struck)
+    ia = impact.yaw_inertia(ma, l_striker, w_striker)
+    ib = impact.yaw_inertia(mb, l_struck, w_struck)
+    v_striker = each(lambda p: p.v_striker)
+    va = np.stack([np.where(head_on, -v_striker, v_striker), zero])
+    vb = np.stack([each(lambda p: p.v_struck), zero])
+    va, wa, vb, wb, _ = impact.exchange(nx, ny, px, py, xa, ya, va, zero, ma, ia, zero, zero, vb, zero, mb, ib)
     steps = int(HORIZON / DT)
-    struck = slide_path(0 * one, 0 * one, 0 * one, vb[0], vb[1], wb, friction, l_struck * one, w_struck * one, DT,
-                        steps, wheelbase_ratios[1] * l_struck * one)
-    if not striker:
-        return struck
-    return struck, slide_path(xa, ya, yaw_a, va[0], va[1], wa, friction, l_striker * one, w_striker * one, DT, steps,
-                              wheelbase_ratios[0] * l_striker * one)
+    friction = each(lambda p: p.friction)
+    struck = slide_path(zero, zero, zero, vb[0], vb[1], wb, friction, l_struck, w_struck, DT, steps,
+                        each(lambda p: p.wheelbase_ratios[1]) * l_struck)
+    mine = slide_path(xa, ya, yaw_a, va[0], va[1], wa, friction, l_striker, w_striker, DT, steps,
+                      each(lambda p: p.wheelbase_ratios[0]) * l_striker) if striker else None
+    by_item = lockstep.per_item(struck, sizes)
+    mine_by_item = lockstep.per_item(mine, sizes) if striker else [None] * len(items)
+    return list(zip(by_item, mine_by_item))
 
 
 def touch_again(struck: tuple[np.ndarray, np.ndarray, np.ndarray], striker: tuple[np.ndarray, np.ndarray, np.ndarray],

@@ -937,16 +937,18 @@ class VariationPlan:
         # that is moving (and braking for what it sees coming) is hit at the usual corner
         corners = cascade.CORNERS if v_t == 0.0 or head_on else (cascade.CORNER,)
         offsets = np.array([side * c for side in (preferred, -preferred) for c in corners])
-        (fwd, left, yaw), striker = cascade.pushed_paths(
-            self.speeds[si], v_t, offsets, cols[si].limits.mass, cols[ti].limits.mass, float(self.length[si]),
-            float(self.width[si]), float(self.length[ti]), float(self.width[ti]), self.ctx.friction, head_on=head_on,
-            striker=True, wheelbase_ratios=(cols[si].limits.wheelbase_ratio, cols[ti].limits.wheelbase_ratio))
+        # every offset's push at once, with every other variation's (lockstep.run)
+        (fwd, left, yaw), striker = lockstep.together(cascade.pushes, [cascade.Push(
+            float(self.speeds[si]), float(v_t), offsets, cols[si].limits.mass, cols[ti].limits.mass,
+            float(self.length[si]), float(self.width[si]), float(self.length[ti]), float(self.width[ti]),
+            self.ctx.friction, head_on, (cols[si].limits.wheelbase_ratio, cols[ti].limits.wheelbase_ratio))])[0]
         again = cascade.touch_again((fwd, left, yaw), striker, float(self.length[ti]), float(self.width[ti]),
                                     float(self.length[si]), float(self.width[si]))
         best, best_score = None, (-1, False, -math.inf)
         moving = (fwd, left, yaw) if mover == ti else striker
-        for j, offset in enumerate(offsets):
-            meeting = self._pushed_meeting(mover, xi, tuple(q[j] for q in moving), (px, py, pyaw), later)
+        meetings = self._pushed_meetings(mover, xi, [tuple(q[j] for q in moving) for j in range(len(offsets))],
+                                         [(px, py, pyaw)] * len(offsets), later)
+        for j, (offset, meeting) in enumerate(zip(offsets, meetings)):
             if meeting is None:
                 continue
             # the written class first, then the side of the moving car it names, then a push the striker does not
