@@ -22,6 +22,7 @@ from crashscene.simulate.drivers.base import (
 STOP_SPEED = 0.3  # [m/s] a full stop (rules.md rule 2)
 STOP_ZONE = 4.0  # [m] a stop counts within this distance before the line
 CURVE_LAT_ACCEL = 2.5  # [m/s2] lateral acceleration Observation.curve_speed is computed for
+CURVE_FLOOR = 3.0  # [m/s] a driver slowing for a curve slows to no less than this
 WAIT_BEFORE_CONFLICT = 3.0  # [m] where a yielding driver waits inside a junction (front bumper to conflict point)
 
 
@@ -64,7 +65,7 @@ def desired_speed(obs: Observation, cruise: np.ndarray, rules: LongitudinalRules
         return cruise
     # obs.curve_speed assumes 2.5 m/s2 lateral; v scales with sqrt(lateral acceleration)
     curve_limit = obs.curve_speed * np.sqrt(rules.lat_accel / CURVE_LAT_ACCEL)
-    return np.minimum(cruise, np.maximum(curve_limit, 3.0))
+    return np.minimum(cruise, np.maximum(curve_limit, CURVE_FLOOR))
 
 
 def longitudinal_accel(obs: Observation, ctx: DriverContext, state: LongitudinalState, rules: LongitudinalRules,

@@ -38,7 +38,7 @@ from crashscene.simulate.drivers.behaviors import BehaviorDriver
 from crashscene.simulate.embedded import setup as batch_setup
 from crashscene.simulate.embedded import impact, signals
 from crashscene.simulate.embedded.swerve import lookahead as pursuit_lookahead
-from crashscene.simulate.embedded.swerve import steer_step
+from crashscene.simulate.embedded.swerve import bicycle_move, bicycle_yaw_rate, steer_step
 from crashscene.simulate.embedded.record import Recorder
 from crashscene.simulate.roads import STOP_LINE_SETBACK, RoadMap
 from crashscene.upset import upsets
@@ -432,12 +432,8 @@ def _move(batch: batch_setup.BatchSetup, state: State, accel_cmd: np.ndarray, la
     v_new = np.where(frozen, 0.0, v_new)
     accel = np.where(frozen, 0.0, (v_new - state.v) / dt)
     v_mid = 0.5 * (state.v + v_new)
-    yaw_rate = v_mid / wheelbase * np.tan(state.steer)
-    yaw_rate = np.where(frozen, 0.0, yaw_rate)
-    heading = state.yaw + 0.5 * yaw_rate * dt
-    x_new = state.x + v_mid * np.cos(heading) * dt
-    y_new = state.y + v_mid * np.sin(heading) * dt
-    yaw_new = state.yaw + yaw_rate * dt
+    yaw_rate = np.where(frozen, 0.0, bicycle_yaw_rate(v_mid, state.steer, wheelbase))
+    x_new, y_new, yaw_new = bicycle_move(state.x, state.y, state.yaw, v_mid, yaw_rate, dt)
     sliding = state.free & ~state.gone
     if sliding.any():
         vx, vy, w = impact.slide(state.vx, state.vy, state.yaw, state.yaw_rate, batch.friction, batch.length,

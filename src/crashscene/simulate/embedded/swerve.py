@@ -29,6 +29,18 @@ def steer_step(steer: np.ndarray, alpha: np.ndarray, look: np.ndarray, wheelbase
     return np.clip(steer, -steer_max, steer_max)
 
 
+def bicycle_yaw_rate(speed, steer, wheelbase):
+    """[rad/s] the yaw rate of a kinematic bicycle at `speed` [m/s] with front wheel angle `steer` [rad]."""
+    return speed / wheelbase * np.tan(steer)
+
+
+def bicycle_move(x, y, yaw, speed, yaw_rate, dt: float):
+    """(x, y, yaw) [m, m, rad] of a kinematic bicycle after one step of `dt` [s] at `speed` [m/s] and `yaw_rate`
+    [rad/s], moving along its mid-step heading (the embedded simulator's integration)."""
+    heading = yaw + 0.5 * yaw_rate * dt
+    return x + speed * np.cos(heading) * dt, y + speed * np.sin(heading) * dt, yaw + yaw_rate * dt
+
+
 def path(speed: float, offset: float, rate: float, wheelbase: float, steer_rate: float, steer_max: float,
          dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(x, y, yaw) (1, n_steps) [m, m, rad] every dt [s] after a car driving straight along x at `speed` [m/s]
@@ -56,10 +68,6 @@ def paths(requests: list[tuple[float, float, float, float, float, float, float]]
         d_ref = d_ref + np.minimum(np.maximum(offset - d_ref, -rate_dt), rate_dt)
         alpha = wrap_angle(np.arctan2(d_ref - y, look) - yaw)  # as the simulator wraps arrays
         steer = steer_step(steer, alpha, look, wheelbase, steer_rate, steer_max, dt)
-        yaw_rate = speed / wheelbase * np.tan(steer)
-        heading = yaw + 0.5 * yaw_rate * dt
-        x = x + speed * np.cos(heading) * dt
-        y = y + speed * np.sin(heading) * dt
-        yaw = yaw + yaw_rate * dt
+        x, y, yaw = bicycle_move(x, y, yaw, speed, bicycle_yaw_rate(speed, steer, wheelbase), dt)
         out[:, :, k] = x, y, yaw
     return [(out[0, i:i + 1], out[1, i:i + 1], out[2, i:i + 1]) for i in range(n)]

@@ -30,6 +30,8 @@ from crashscene.geometry import (
     touch_fraction,
     wrap_angle,
 )
+from crashscene.simulate.drivers.base import idm_accel
+from crashscene.simulate.drivers.longitudinal import CURVE_FLOOR
 from crashscene.simulate.embedded import cascade, swerve
 from crashscene.simulate.embedded.vehicles import VehicleLimits
 from crashscene.simulate.roads import ROUTE_DS
@@ -39,7 +41,6 @@ BEFORE = 30.0  # [m] a predicted path starts this far before the routes' meeting
 AFTER = 15.0  # [m] ...and ends this far after it
 SHIFTS = 2.5  # [s] the time shifts tried, to either side of both reaching the routes' meeting point together
 ROBUST = 0.15  # [s] a shift is counted with the shifts this near it: the meeting is not kept to the step
-CURVE_FLOOR = 3.0  # [m/s] a scripted driver slows for a curve to no less than this (drivers.longitudinal)
 HORIZON = 30.0  # [s] a predicted path ends after this long at the latest
 CLASS_MARGIN = 2.0  # [deg] a chosen touch's relative heading is this far inside its class's range (a predicted
 # path's heading is off the driven one by about that much where a turn is cut)
@@ -94,19 +95,17 @@ def driven_path(arrays, m: Mover) -> tuple[np.ndarray, np.ndarray, np.ndarray, n
         rows.append((t, x, y, yaw, s))
         _, curve = arrays.curve_lookahead(r, np.array(s), np.array(v))
         desired = max(min(m.speed, max(float(curve), CURVE_FLOOR)), 0.1)
-        free = max(1.0 - (v / desired) ** 4, -m.limits.brake_comfort / m.limits.accel_max)
-        v_new = max(v + m.limits.accel_max * free * DT, 0.0)
+        accel = float(idm_accel(np.array(v), np.array(desired), np.array(np.inf), np.array(np.nan),
+                                m.limits.accel_max, m.limits.brake_comfort, 0.0))  # on a free road
+        v_new = max(v + accel * DT, 0.0)
         look = float(swerve.lookahead(np.array(v)))
         tx, ty, _ = (float(q) for q in arrays.point(r, np.array(s + look)))
         alpha = wrap_angle(float(np.arctan2(ty - y, tx - x)) - yaw)
         steer = float(swerve.steer_step(np.array(steer), np.array(alpha), np.array(look), wheelbase,
                                         m.limits.steer_rate, m.limits.steer_max, DT))
         v_mid = 0.5 * (v + v_new)
-        yaw_rate = v_mid / wheelbase * np.tan(steer)
-        heading = yaw + 0.5 * yaw_rate * DT
-        x += v_mid * np.cos(heading) * DT
-        y += v_mid * np.sin(heading) * DT
-        yaw += yaw_rate * DT
+        x, y, yaw = (float(q) for q in swerve.bicycle_move(x, y, yaw, v_mid,
+                                                           swerve.bicycle_yaw_rate(v_mid, steer, wheelbase), DT))
         s_new, _, _ = arrays.local_coordinates(r, np.array(x), np.array(y), np.array(s + v_mid * DT))
         s = float(s_new)
         v = v_new
