@@ -1076,22 +1076,17 @@ class VariationPlan:
                 self.moved[si] = True
         return (t1, impact_s, 0.0) if t1 > 0 else None
 
-    def _pushed_meeting(self, ti: int, xi: int, path: tuple[np.ndarray, np.ndarray, np.ndarray],
-                        pose: tuple[float, float, float], later: tuple[str, str, str]
-                        ) -> tuple[int, float, str, str, float, float] | None:
-        """Where the third actor xi meets actor ti moving along `path` after an impact (cascade.pushed_paths,
-        clip_slide: forward, left, yaw in the frame of `pose`): (step of the path, station on xi's route from its
-        start [m] (negative: behind it, where it is then placed), the class of that contact, ti's area facing xi,
-        its half extent across xi's path [m], how far [deg] its heading is inside the written class's range): the
-        step where that contact has the `later` (class, ti's area, xi's area) written (xi met as
-        cascade.meeting_mode says), else the one nearest a drawn moment in the window after ti enters xi's path
-        (the first step it reaches xi's side, when it comes alongside into it)."""
-        return self._pushed_meetings(ti, xi, [path], [pose], later)[0]
-
     def _pushed_meetings(self, ti: int, xi: int, paths: list[tuple[np.ndarray, np.ndarray, np.ndarray]],
                          poses: list[tuple[float, float, float]], later: tuple[str, str, str]
                          ) -> list[tuple[int, float, str, str, float, float] | None]:
-        """`_pushed_meeting` of each (path, pose), measured at once (each point as it would be alone)."""
+        """Where the third actor xi meets actor ti moving along each `path` after an impact (cascade.pushed_paths,
+        clip_slide: forward, left, yaw in the frame of its `pose`), all measured at once (each point as it would
+        be alone): (step of the path, station on xi's route from its start [m] (negative: behind it, where it is
+        then placed), the class of that contact, ti's area facing xi, its half extent across xi's path [m], how
+        far [deg] its heading is inside the written class's range): the step where that contact has the `later`
+        (class, ti's area, xi's area) written (xi met as cascade.meeting_mode says), else the one nearest a drawn
+        moment in the window after ti enters xi's path (the first step it reaches xi's side, when it comes
+        alongside into it); None for a path that never meets xi."""
         arrays = self.ctx.arrays
         if not paths:
             return []
@@ -1142,9 +1137,7 @@ class VariationPlan:
             # briefly, and what the prediction does not foresee shifts the moment of contact
             # (then those where its centre is in xi's lane: it is in the path it meets xi in, not just reaching
             # into it; one coming alongside into xi's side touches it before it is in its lane)
-            inside = np.abs(lat[at] - self.d0[xi]) < self.lane_width / 2
-            if side:
-                inside[:] = True
+            inside = side | (np.abs(lat[at] - self.d0[xi]) < self.lane_width / 2)
             # (class, area, inside) misses as one number ordered as the tuples are
             group = 4 * (klass != later[0]) + 2 * (area != later[1]) + ~inside
             best = group.min()
@@ -1285,7 +1278,7 @@ def _later(contact: tuple[str, str, str, str, str], mover: str) -> tuple[str, st
 
 
 def _matches(meeting: tuple[int, float, str, str, float, float], later: tuple[str, str, str]) -> int:
-    """How well a predicted meeting (`VariationPlan._pushed_meeting`) has the written later contact (class, area):
+    """How well a predicted meeting (`VariationPlan._pushed_meetings`) has the written later contact (class, area):
     2 for the class, plus 1 for the area."""
     return 2 * (meeting[2] == later[0]) + (meeting[3] == later[1])
 
