@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 import shapely
@@ -135,7 +136,7 @@ class RouteArrays:
         if (v0 is None or v0 >= speed - 1e-9) and speed ** 2 * self._abs_curvature_max(r, k0, k1) <= lat_accel:
             return (s1 - s0) / speed  # no curve to slow down for, already at speed
         step = 4  # every 2 m is enough for a speed profile
-        kappa = self._abs_curvature_levels()[0][r, k0:k1 + 1]
+        kappa = self._abs_curvature_levels[0][r, k0:k1 + 1]
         if len(kappa) > step:
             pad = (-len(kappa)) % step
             kappa = np.concatenate([kappa, np.full(pad, kappa[-1])]).reshape(-1, step).max(axis=1)
@@ -159,21 +160,19 @@ class RouteArrays:
             return (s1 - s0) / float(v[0])
         return float(np.sum(ds / (0.5 * (v[1:] + v[:-1])))) * (s1 - s0) / (dist[-1] if dist[-1] > 0 else 1.0)
 
+    @cached_property
     def _abs_curvature_levels(self) -> list[np.ndarray]:
         """|curvature| (R, K) and its sparse table: level j holds the largest value of samples [k, k + 2^j)."""
-        levels = self.__dict__.get("_kappa_levels")
-        if levels is None:
-            levels = [np.abs(self.curvature)]
-            while 2 ** len(levels) <= levels[0].shape[1]:
-                half = 2 ** (len(levels) - 1)
-                levels.append(np.maximum(levels[-1][:, :-half], levels[-1][:, half:]))
-            self._kappa_levels = levels
+        levels = [np.abs(self.curvature)]
+        while 2 ** len(levels) <= levels[0].shape[1]:
+            half = 2 ** (len(levels) - 1)
+            levels.append(np.maximum(levels[-1][:, :-half], levels[-1][:, half:]))
         return levels
 
     def _abs_curvature_max(self, r: int, k0: int, k1: int) -> float:
         """Largest |curvature| [1/m] of samples k0..k1 of route r: two lookups in the sparse table."""
         j = (k1 - k0 + 1).bit_length() - 1
-        row = self._abs_curvature_levels()[j][r]
+        row = self._abs_curvature_levels[j][r]
         return float(np.maximum(row[k0], row[k1 + 1 - 2 ** j]))
 
     def curve_speed(self, r: np.ndarray, s: np.ndarray, ahead: np.ndarray, lat_accel: float, decel: float,
