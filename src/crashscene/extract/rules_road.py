@@ -423,9 +423,10 @@ def _marker(state: RulesState, road_text: str, ways: int) -> str:
         return "none"
     if ways == 2 and state.uses("rules_road.drawn_centre_line"):
         edge_only = bool(state.fact_texts(EDGE_ONLY)) and state.uses("rules_road.a_centre_line_lies_between_the_edges")
-        curved = CURVED_DOUBLE if state.uses("rules_road.a_curved_centre_line_in_short_runs") else "(not read)"
-        for fact, token in (("double solid line drawn", "double_solid_line"), (curved, "double_solid_line"),
-                            ("broken line drawn", "broken_line")):
+        drawn = [("double solid line drawn", "double_solid_line"), ("broken line drawn", "broken_line")]
+        if state.uses("rules_road.a_curved_centre_line_in_short_runs"):
+            drawn.insert(1, (CURVED_DOUBLE, "double_solid_line"))
+        for fact, token in drawn:
             if state.fact_texts(fact) and not (token == "double_solid_line" and edge_only):
                 state.note("road_network.road_marker", f"sketch: {fact}")
                 return token

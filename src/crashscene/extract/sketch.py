@@ -249,6 +249,7 @@ EDGE_ONLY = "double line drawn only at a road edge"
 CURVED_DOUBLE = "curved double solid line drawn (short straight runs)"
 _ROAD_REACH = 0.3  # share of the image's short side searched on each side of a double stroke for drawn road
 _BOTH_SIDES_SHARE = 0.85  # share of cross-sections of a centre stroke with drawn road on both sides
+_SECTION_HALF = 14  # [px] a cross-section of a stroke reads this far to either side of it (`_is_double_section`)
 
 
 class LineSummary(BaseModel):
@@ -357,9 +358,10 @@ def _double_strokes(ink, side: int, share: float) -> tuple[list, int, int]:
     return strokes, doubles, centres
 
 
-def _ink_beyond(ink, x: float, y: float, nx: float, ny: float, reach: int, clear: int = 16) -> bool:
+def _ink_beyond(ink, x: float, y: float, nx: float, ny: float, reach: int, clear: int = _SECTION_HALF + 2) -> bool:
     """Whether drawn ink lies along the normal (nx, ny) from (x, y), past the double stroke's own width (`clear`
-    [px], the span `_is_double_section` reads) and within `reach` [px]: another line of the road, or its edge."""
+    [px]: the span `_is_double_section` reads, and 2 px more) and within `reach` [px]: another line of the road,
+    or its edge."""
     height, width = ink.shape
     for k in range(clear, reach):
         px, py = int(round(x + nx * k)), int(round(y + ny * k))
@@ -370,7 +372,7 @@ def _ink_beyond(ink, x: float, y: float, nx: float, ny: float, reach: int, clear
     return False
 
 
-def _is_double_section(ink, x: float, y: float, nx: float, ny: float, half: int = 14) -> bool:
+def _is_double_section(ink, x: float, y: float, nx: float, ny: float, half: int = _SECTION_HALF) -> bool:
     """Across the stroke at (x, y): two thin ink runs (<= 6 px) separated by a 1-9 px gap, one on the stroke."""
     height, width = ink.shape
     values = []
