@@ -81,14 +81,20 @@ def test_overtake_across_double_line_is_violated(check):
     assert check(tables({"ego": ego}), "CVC_21650", "ego")["verdict"] == "violated"
 
 
+def move_left(steps: int, start: int) -> tuple[np.ndarray, np.ndarray]:
+    """(y [m], lane-change flag) of a move from y=0 to the next lane (y=3.5) over the 20 steps from `start`."""
+    y = np.zeros(steps)
+    y[start:start + 20] = np.linspace(0, 3.5, 20)
+    y[start + 20:] = 3.5
+    changing = np.zeros(steps, dtype=bool)
+    changing[start:start + 20] = True
+    return y, changing
+
+
 def lane_change(gap: float) -> dict:
     """Ego moves from lane A (y=0) to lane B (y=3.5) over steps 20-40; npc1 in lane B `gap` [m] behind."""
     ego = track(STEPS, speed=15.0)
-    y = np.zeros(STEPS)
-    y[20:40] = np.linspace(0, 3.5, 20)
-    y[40:] = 3.5
-    changing = np.zeros(STEPS, dtype=bool)
-    changing[20:40] = True
+    y, changing = move_left(STEPS, 20)
     ego.update(y=y, lane_change=changing, lane_id=np.where(np.arange(STEPS) < 30, "A", "B").astype(object),
                target_lane_id=np.where(changing, "B", None).astype(object))
     npc = track(STEPS, x0=-(gap + 4.5), y0=3.5, speed=15.0, lane_id="B")
@@ -148,11 +154,7 @@ def lane_change_into_the_car_ahead(changes: dict[str, str] | None = None) -> dic
     Every role in `changes` (default: ego) is flagged as changing lanes, into the lane given, over steps 45-65."""
     steps = 80
     ego = track(steps, speed=15.0)
-    y = np.zeros(steps)
-    y[45:65] = np.linspace(0, 3.5, 20)
-    y[65:] = 3.5
-    changing = np.zeros(steps, dtype=bool)
-    changing[45:65] = True
+    y, changing = move_left(steps, 45)
     ego.update(y=y, lane_id=np.where(np.arange(steps) < 55, "A", "B").astype(object))
     npc = track(steps, x0=30.0, speed=10.0, lane_id="A")
     actors = {"ego": ego, "npc1": npc}
