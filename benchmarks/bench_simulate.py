@@ -31,6 +31,7 @@ The machine's load average is printed beside the figures.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import os
 import resource
@@ -123,18 +124,23 @@ class Newtonian:
         self._pass(scenes[:self.WARM_UP])
 
     def _pass(self, scenes) -> tuple[list[tuple[float, float, bool]], float, float]:
-        """What `NewtonianSimulator.simulate` does, timed: ([(wall, CPU, completed)] per scene, record wall, CPU)."""
+        """What `NewtonianSimulator.simulate` does (`recorder.run_scenes` over its `run_scene`), timed:
+        ([(wall, CPU, completed)] per scene, the recording's wall and CPU: the pass's less its scenes')."""
         from crashscene.simulate import recorder
 
-        runs, times = [], []
-        for scene in scenes:
+        times = []
+
+        def timed_run(request, scene):
             wall, cpu = time.perf_counter(), time.process_time()
-            run = self.simulator.run_scene(self.request, scene)
+            run = self.simulator.run_scene(request, scene)
             times.append((time.perf_counter() - wall, time.process_time() - cpu, run.invalid_reason is None))
-            runs.append(run)
+            return run
+
         wall, cpu = time.perf_counter(), time.process_time()
-        recorder.record_tables(self.request.scenario, scenes, runs, self.settings, self.request.map_file)
-        return times, time.perf_counter() - wall, time.process_time() - cpu
+        recorder.run_scenes(self.simulator.name, dataclasses.replace(self.request, scenes=scenes), self.settings,
+                            timed_run)
+        wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
+        return times, wall - sum(t[0] for t in times), cpu - sum(t[1] for t in times)
 
     def time_pass(self) -> tuple[float, float, int, float]:
         """([s] wall, [s] CPU) per variation over the runs that completed the horizon (all, if none did), how
