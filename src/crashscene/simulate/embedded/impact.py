@@ -13,7 +13,11 @@ no energy is created. A vehicle the impact upsets (`crashscene.upset.upsets`, th
 monitor) is from then on out of its driver's control: each axle slides on its tyres with Coulomb friction against
 its contact patch's velocity (mu across the body, ROLL_FRACTION of it along), so a vehicle sliding
 sideways keeps spinning, one rolling on stops turning, until it is at rest
-(`tyre_slide`). A second contact is exchanged the same way. `slide` is the
+(`tyre_slide`). Rigid bodies do not pass through each other: after the exchange, two footprints that still
+overlap are pushed apart along the normal until they barely touch (`separate`, each by its share of the inverse
+mass, as a rigid-body engine's position projection does), so that bodies turned towards each other by the
+impulse (a struck car spun round by an offset impact) meet again face to face instead of rotating through each
+other. A second contact is exchanged the same way. `slide` is the
 motion of a planned loss of control before any impact (skid), whose yaw the
 plan holds. All arrays are per contact (vectorised over the variations that touch).
 """
@@ -21,6 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from crashscene.geometry import footprint_separation
 from crashscene.units import G
 
 RESTITUTION = 0.15  # [-] vehicle-to-vehicle impacts are nearly plastic (reconstruction practice: 0.1-0.3)
@@ -31,6 +36,8 @@ REST_SPEED = 0.15  # [m/s] below this (and REST_YAW_RATE) a sliding vehicle is a
 REST_YAW_RATE = 0.05  # [rad/s]
 INSIDE_TOLERANCE = 0.02  # [m] a corner this close to the other body counts as inside it
 FACE_TOLERANCE = 0.15  # [m] corners this close to the deepest one form a face lying against the other
+OVERLAP_KEPT = 0.05  # [m] two bodies pushed apart after an exchange are left this deep in each other (`separate`):
+# they still touch in the trace, as the monitor sees contacts
 TYRE_SWEEPS = 4  # [-] Gauss-Seidel sweeps of the two axles' friction impulses per step (tyre_slide)
 
 
@@ -138,6 +145,17 @@ def exchange(nx, ny, px, py, xa, ya, va, wa, ma, ia, xb, yb, vb, wb, mb, ib):
     wb = wb + (rbx * jy - rby * jx) / ib
     wa = wa - (rax * jy - ray * jx) / ia
     return va, wa, vb, wb, np.stack([jx, jy])
+
+
+def separate(xa, ya, yawa, la, wa, ma, xb, yb, yawb, lb, wb, mb) -> tuple[np.ndarray, ...]:
+    """(dxa, dya, dxb, dyb) [m]: the moves that leave two overlapping footprints no deeper in each other than
+    OVERLAP_KEPT, along the normal of least penetration (`contact_frame`, the separating-axis depth), a's share
+    mb / (ma + mb) of it (the lighter body moves further); zero where they overlap less. A contact's onset (moved
+    back to where the two first touched) is left as it is, so the trace shows the overlap the monitor reads."""
+    depth = np.maximum(-footprint_separation(xa, ya, yawa, la, wa, xb, yb, yawb, lb, wb) - OVERLAP_KEPT, 0.0)
+    nx, ny, _, _ = contact_frame(xa, ya, yawa, la, wa, xb, yb, yawb, lb, wb)
+    share_a = mb / (ma + mb)
+    return (-share_a * depth * nx, -share_a * depth * ny, (1.0 - share_a) * depth * nx, (1.0 - share_a) * depth * ny)
 
 
 def slide(vx, vy, yaw, yaw_rate, friction: float, length, width, dt: float):

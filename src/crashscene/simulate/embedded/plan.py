@@ -27,7 +27,7 @@ from crashscene.simulate.drivers.behaviors import (
     SPEEDING_CODES,
     speed_factor,
 )
-from crashscene.simulate.embedded import cascade, lockstep, signals, swerve, timing, touch
+from crashscene.simulate.embedded import cascade, lockstep, signals, slap, swerve, timing, touch
 from crashscene.simulate.embedded import skid as skid_plan
 from crashscene.simulate.embedded.control import entry_before
 from crashscene.simulate.embedded.world import RouteArrays
@@ -158,6 +158,7 @@ class VariationPlan:
     touch_at: tuple[float, float] | None = None  # [m] the first written contact's meeting stations on the striker's
     # and the struck actor's routes when `touch.class_meeting` moved it (sync.Meeting, with no struck offset)
     pull_out: touch.Waiting | None = None  # a moved first meeting whose one actor stops at its line first
+    slap_offset: float | None = None  # [m] the struck offset (struck_offset's terms) a side slap follows (slap)
 
     @classmethod
     def build(cls, ctx: PlanContext, scene: SampledScene, rng: np.random.Generator, route: np.ndarray,
@@ -683,6 +684,10 @@ class VariationPlan:
         v_struck = _effective_speed(arrays, r_t, max(cs_t - 10.0, s_t0), cs_t, self.speeds[t_idx],
                                     ctx.columns[t_idx])
         r_s, cs_s = (ra, cs_e) if t_idx == a else (r, cs_a)
+        if u is None and slap.slaps_after(ctx.contacts, ctx.columns[s_idx].role, ctx.columns[t_idx].role):
+            u = self.slap_offset = slap.slap_offset(
+                ctx.arrays, self._body(s_idx, cs_s, float(self.speeds[s_idx])),
+                self._body(t_idx, cs_t, float(v_struck)), ctx.friction, ctx.skid_paths.dt)  # a side slap follows
         if u is None:
             u = struck_offset(arrays, r_t, cs_t, r_s, cs_s, float(self.length[t_idx]),
                               ctx.classes.get(frozenset((col.role, anchor_col.role))))
@@ -690,6 +695,12 @@ class VariationPlan:
             + u / max(v_struck, 1.0)
         jitter = offset - timing.ARRIVAL_OFFSET_MEAN * (timing.REPRODUCE_OFFSET_SCALE if ctx.reproduce else 1.0)
         return (side_hit if s_idx == a else -side_hit) + jitter
+
+    def _body(self, i: int, meet: float, speed: float) -> slap.Body:
+        """Actor i driving through station `meet` [m] of its route at `speed` [m/s] (slap)."""
+        limits = self.ctx.columns[i].limits
+        return slap.Body(touch.Mover(int(self.route[i]), meet, speed, None, float(self.length[i]),
+                                     float(self.width[i]), limits), limits.mass)
 
     def _fit_arrival(self, a: int, cs_a: float, target: float, slack: float) -> tuple[float, float, float]:
         """(speed scale, hold [s], lateness [s]) that bring actor a to its conflict point cs_a [m] at `target`

@@ -171,7 +171,7 @@ def build(scenario: Scenario, scenes: list[SampledScene], roadmap: RoadMap,
         spin_rate=plans.skids[..., 0], drift=plans.skids[..., 1], spin_hold=plans.skids[..., 2],
         unseen=unseen_partners(scenario, columns, settings.mode == "reproduce"),
         meeting=_meeting(scenario, columns, arrays, route, s0, start.length, plans.hold, tables, settings,
-                         plans.touch_at, plans.pull_out),
+                         plans.touch_at, plans.pull_out, plans.slap_offset),
         pullout=pullout,
         condition_factor=factor, friction=friction(scenario, settings.conditions),
         invalid=layout.invalid, conflict_time=plans.conflict_time,
@@ -323,13 +323,15 @@ class _TimingPlans:
     conflict_time: np.ndarray  # (V,)
     touch_at: np.ndarray  # (V, 2) [m] plan.VariationPlan.touch_at, NaN where the plan kept the routes' meeting
     pull_out: list  # (V,) plan.VariationPlan.pull_out, None where no actor waits at its line for the touch
+    slap_offset: np.ndarray  # (V,) [m] plan.VariationPlan.slap_offset, NaN where no side slap is planned
 
     @classmethod
     def empty(cls, n_v: int, n_a: int) -> _TimingPlans:
         return cls(planned=np.zeros((n_v, n_a)), scale=np.ones((n_v, n_a)), hold=np.zeros((n_v, n_a)),
                    trigger=np.full((n_v, n_a), np.inf), moved=np.zeros((n_v, n_a), dtype=bool),
                    drifted=np.zeros((n_v, n_a)), skids=np.full((n_v, n_a, 3), np.nan), phase=np.zeros(n_v),
-                   conflict_time=np.full(n_v, np.inf), touch_at=np.full((n_v, 2), np.nan), pull_out=[None] * n_v)
+                   conflict_time=np.full(n_v, np.inf), touch_at=np.full((n_v, 2), np.nan), pull_out=[None] * n_v,
+                   slap_offset=np.full(n_v, np.nan))
 
     def put(self, v: int, plan: VariationPlan) -> None:
         for name in ("planned", "scale", "hold", "trigger", "moved", "drifted", "skids", "phase", "conflict_time"):
@@ -337,6 +339,8 @@ class _TimingPlans:
         if plan.touch_at is not None:
             self.touch_at[v] = plan.touch_at
         self.pull_out[v] = plan.pull_out
+        if plan.slap_offset is not None:
+            self.slap_offset[v] = plan.slap_offset
 
 
 def _timing_plans(scenario: Scenario, scenes: list[SampledScene], columns: list[ActorColumn], anchor: int,
@@ -519,11 +523,13 @@ FREE_BEHAVIORS = ("go_forward", "accelerate", "turn_left", "turn_right", "u_turn
 
 def _meeting(scenario: Scenario, columns: list[ActorColumn], arrays: RouteArrays, route: np.ndarray, s0: np.ndarray,
              length: np.ndarray, hold: np.ndarray, tables: list, settings: SimulationSettings,
-             touch_at: np.ndarray, pull_out: list) -> Meeting:
+             touch_at: np.ndarray, pull_out: list, slap_offset: np.ndarray) -> Meeting:
     """The follower of the first written contact, per variation (sync.Meeting): the striker when it drives
     freely (a scripted driver, not held, not stopping at a sign first), else the struck actor; they meet at the
     routes' meeting point, or where the plan moved it (`touch_at` (V, 2) [m] on the striker's and the struck
-    actor's routes, NaN: not moved); none where an actor waits at its line for the touch (`pull_out`)."""
+    actor's routes, NaN: not moved); none where an actor waits at its line for the touch (`pull_out`). The struck
+    centre is past the striker's path by `slap_offset` (V,) [m] where the plan placed the touch for a side slap to
+    follow (slap), else by plan.struck_offset."""
     n_v = route.shape[0]
     meeting = Meeting.none(n_v)
     contacts = getattr(scenario, "collisions", None) or []
@@ -552,9 +558,9 @@ def _meeting(scenario: Scenario, columns: list[ActorColumn], arrays: RouteArrays
             meeting.cs_follower[v] = cs_s if f == si else cs_t
             meeting.cs_leader[v] = cs_t if f == si else cs_s
             meeting.follower_strikes[v] = f == si
-            meeting.struck_offset[v] = 0.0 if moved else struck_offset(
-                arrays, route[v, ti], cs_t, route[v, si], cs_s, float(length[v, ti]),
-                str(getattr(first.class_, "value", first.class_)))
+            meeting.struck_offset[v] = 0.0 if moved else slap_offset[v] if np.isfinite(slap_offset[v]) else \
+                struck_offset(arrays, route[v, ti], cs_t, route[v, si], cs_s, float(length[v, ti]),
+                              str(getattr(first.class_, "value", first.class_)))
             stop = stop_dist(arrays, route[v, l_], s0[v, l_], tables[v][0], columns[l_])
             if stop is not None:
                 meeting.leader_stop[v] = s0[v, l_] + stop

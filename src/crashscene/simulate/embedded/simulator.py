@@ -544,6 +544,14 @@ def _exchange(batch: batch_setup.BatchSetup, state: State, recorder: Recorder, o
         state.v[idx, k] = np.hypot(*vel)
         state.free[idx, k] |= upsets(np.hypot(*(vel - vel0)), w - w0)  # else its driver drives on
         state.collided[idx, k] = True
+    # the bodies do not pass through each other: pushed apart until they barely touch (impact.separate)
+    dxa, dya, dxb, dyb = impact.separate(state.x[idx, a], state.y[idx, a], state.yaw[idx, a], L[idx, a], W[idx, a],
+                                         state.mass[idx, a], state.x[idx, b], state.y[idx, b], state.yaw[idx, b],
+                                         L[idx, b], W[idx, b], state.mass[idx, b])
+    state.x[idx, a] += dxa
+    state.y[idx, a] += dya
+    state.x[idx, b] += dxb
+    state.y[idx, b] += dyb
 
 
 def _back_to_contact(batch: batch_setup.BatchSetup, state: State, hit: np.ndarray, a: int, b: int) -> np.ndarray:

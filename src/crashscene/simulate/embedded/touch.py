@@ -77,6 +77,15 @@ def needs_moving(arrays, r_s: int, cs_s: float, r_t: int, cs_t: float, klass: st
 
 
 def driven_path(arrays, m: Mover) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """`drive`, kept on the route arrays per mover (a batch's variations share their routes, and often a mover: a
+    turning car held to its curve's speed); the arrays returned are shared, not to be written to."""
+    paths = arrays.__dict__.setdefault("_driven_paths", {})
+    if m not in paths:
+        paths[m] = drive(arrays, m)
+    return paths[m]
+
+
+def drive(arrays, m: Mover) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """(time [s], x, y [m], yaw [rad], station [m]) every DT of actor m driving its route as the simulator's
     scripted driver does: pure pursuit at the lookahead of its speed, bounded wheel angle and rate, kinematic
     bicycle (simulator._move), its speed by the free-road IDM towards its planned speed, held down to the speed

@@ -1,0 +1,184 @@
+"""A side slap after an offset angle impact: where along the struck car's side the striker's front must meet it
+so that the two cars, turned by the impulse, touch again side to side.
+
+A front striking a side ahead of the struck car's centre turns the struck car away from the striker's path (the
+normal impulse's moment about its centre beats the opposite moment of the friction along its side), and the
+friction turns the striker's front along with the struck car's motion: the two rotate opposite ways, and the
+struck car's rear swings into the striker's side while they are still close (impact: the bodies do not pass
+through each other, so they meet face to face). The sides meet nearly parallel, far inside the sideswipe range
+(rules.md), so the slap's class does not hinge on its timing; whether it happens does, on where along the struck
+side the first touch is, and the first touch must keep its own (angle) class: a touch further ahead on a turning
+car meets it less far through its turn. `slap_offset` measures both for every candidate touch along the struck
+side, on the paths the two drive (touch.driven_path: the simulator's steering, so the headings at the touch are
+the driven ones, not the lane's), with the simulator's own contact physics (`after_touch`), and returns the
+middle of the widest run of touches that give both with a margin. Where none does (a turner crossing the
+striker's lane early in its turn is still turned too little there for an angle contact ahead of its centre), the
+plan keeps its usual touch and no slap is planned.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from crashscene.geometry import (
+    classify_contact,
+    footprint_separation,
+    heading_difference,
+    relative_position,
+    touch_fraction,
+)
+from crashscene.simulate.embedded import cascade, impact, touch
+from crashscene.upset import upsets
+
+STEP = 0.1  # [m] between candidate touches along the struck side
+HORIZON = 2.5  # [s] a slap is looked for this long after the first touch
+FIRST_MARGIN = 5.0  # [deg] the first touch's relative heading is this far inside its class's range
+SLAP_MARGIN = 15.0  # [deg] ...and the slap's inside the sideswipe range
+BISECTIONS = 8  # [-] halvings of a step of the striker's path to find where it first touches
+
+
+@dataclass(frozen=True)
+class Body:
+    """One vehicle of the pair: how it drives to the meeting (touch.Mover: its route, the routes' meeting point on
+    it, its speed there, body and limits) and its mass [kg]."""
+
+    mover: touch.Mover
+    mass: float
+
+
+def slaps_after(contacts, striking: str, struck: str) -> bool:
+    """Whether the written sequence (striking, struck, class, ... per contact, in order) has the pair's first
+    contact an angle one and the same pair's next contact a sideswipe, with no other contact of either in between:
+    a side slap after an offset angle impact."""
+    pair = {striking, struck}
+    mine = [c for c in contacts if {c[0], c[1]} & pair]
+    return (len(mine) >= 2 and {mine[0][0], mine[0][1]} == pair and {mine[1][0], mine[1][1]} == pair
+            and mine[0][2] == "angle" and mine[1][2] == "sideswipe")
+
+
+def slap_offset(arrays, striker: Body, struck: Body, friction: float, dt: float) -> float | None:
+    """[m] how far past the striker's path the struck centre is when the striker's front meets its side
+    (plan.struck_offset's terms; negative: short of it) for a slap to follow; None when no touch along the struck
+    side gives both the angle first touch and the slap with their margins. Each car drives its route as its
+    driver steers (touch.driven_path, from before the routes' meeting point `mover.meet`); the struck centre is
+    `d` short of its meeting point, and the striker's front meets its side where the striker's path first
+    touches it there; their velocities and yaw rates are the driven paths' at those points."""
+    paths = [touch.driven_path(arrays, b.mover) for b in (striker, struck)]
+    if min(len(p[0]) for p in paths) < 3:
+        return None
+    (ts, xs_, ys_, yaws_, ss), (tt, xt_, yt_, yawt_, st) = paths
+    yaws_, yawt_ = np.unwrap(yaws_), np.unwrap(yawt_)
+    half = struck.mover.length / 2
+    d = np.arange(-half + 0.3, half - 0.05, STEP)
+    n = len(d)
+    t_t = np.interp(struck.mover.meet - d, st, tt)
+    xt, yt, yawt = (np.interp(t_t, tt, q) for q in (xt_, yt_, yawt_))
+    ls, ws, lt, wt = striker.mover.length, striker.mover.width, struck.mover.length, struck.mover.width
+
+    def at(t):
+        return [np.interp(t, ts, q) for q in (xs_, ys_, yaws_)]
+
+    def gap(t):
+        return footprint_separation(*at(t), ls, ws, xt, yt, yawt, lt, wt)
+
+    # the striker's front reaches the struck side: its first touch along the striker's path, then bisected
+    grid = np.arange(ts[0], ts[-1], touch.DT)
+    touching = gap(grid[:, None]) <= 0  # (n_grid, n)
+    k = np.argmax(touching, axis=0)
+    reached = touching.any(axis=0) & (k > 0)
+    lo, hi = grid[np.maximum(k - 1, 0)], grid[k]
+    for _ in range(BISECTIONS):
+        mid = (lo + hi) / 2
+        touching = gap(mid) <= 0
+        hi = np.where(touching, mid, hi)
+        lo = np.where(touching, lo, mid)
+    xs, ys, yaws = at(hi)
+    rel = heading_difference(yaws, yawt)
+    lon, lat = relative_position(xs, ys, yaws, xt, yt)
+    first = classify_contact(rel, lon, lat, (ls + lt) / 2, (ws + wt) / 2)
+    ok = reached & (first == "angle") & (cascade.class_margin(rel, "angle") >= FIRST_MARGIN)
+    if not ok.any():
+        return None
+
+    def motion(t, times, x, y, yaw):
+        return [np.interp(t, times, np.gradient(q, times)) for q in (x, y, yaw)]
+
+    margin = after_touch(([xs, ys, yaws], [xt, yt, yawt]),
+                         (motion(hi, ts, xs_, ys_, yaws_), motion(t_t, tt, xt_, yt_, yawt_)),
+                         (striker, struck), np.ones(n), friction, dt)
+    ok &= margin >= SLAP_MARGIN
+    if not ok.any():
+        return None
+    # the middle of the widest run of candidate touches that give both
+    edges = np.diff(np.concatenate([[0], ok.astype(int), [0]]))
+    starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+    widest = int(np.argmax(ends - starts))
+    return -float(d[(starts[widest] + ends[widest] - 1) // 2])
+
+
+def after_touch(poses, motion, bodies, one: np.ndarray, friction: float, dt: float) -> np.ndarray:
+    """[deg] (N,) how far inside the sideswipe range (side to side) the pair's next touch after a first one is
+    (cascade.class_margin; -inf where they do not touch again within HORIZON), from the first touch's poses
+    ([x, y, yaw] per body, (N,) each) and motions ([vx, vy, yaw rate] [m/s, rad/s]), stepped by the simulator's
+    `dt` [s] as it moves them: the impulse at every check they overlap (impact.exchange, nothing once they
+    separate) and their separation (impact.separate), a body an impulse upsets sliding on its tyres
+    (impact.tyre_slide), one it does not taken on at its velocity (its driver's steering is not foreseen); a touch
+    again is an overlap after a check apart, classed where they first touch within the step."""
+    n = len(one)
+    dims = [(b.mover.length * one, b.mover.width * one, b.mass * one,
+             b.mover.limits.wheelbase_ratio * b.mover.length * one) for b in bodies]
+    inertia = [impact.yaw_inertia(m, ln, w) for ln, w, m, _ in dims]
+    pose = [list(p) for p in poses]
+    vel = [list(v) for v in motion]
+    start = [list(v) for v in motion]
+    upset = [np.zeros(n, dtype=bool), np.zeros(n, dtype=bool)]
+    (la, wa, ma, _), (lb, wb, mb, _) = dims
+    touching = np.zeros(n, dtype=bool)
+    out = np.full(n, -np.inf)
+    done = np.zeros(n, dtype=bool)
+    before = None
+    for step in range(int(round(HORIZON / dt)) + 1):
+        overlap = np.ones(n, dtype=bool) if step == 0 else \
+            footprint_separation(*pose[0], la, wa, *pose[1], lb, wb) <= 0
+        onset = overlap & ~touching & ~done & (step > 0)
+        if onset.any():
+            def within(k: int, f: np.ndarray, before=before):
+                return [b + f * (q - b) for b, q in zip(before[k], pose[k])]
+            f = touch_fraction(lambda f: within(0, f), lambda f: within(1, f), la, wa, lb, wb, n)
+            pa, pb = within(0, f), within(1, f)
+            for k, p in ((0, pa), (1, pb)):
+                pose[k] = [np.where(onset, q, q0) for q, q0 in zip(p, pose[k])]
+            rel = heading_difference(pa[2], pb[2])
+            lon, lat = relative_position(*pa, pb[0], pb[1])
+            klass = classify_contact(rel, lon, lat, (la + lb) / 2, (wa + wb) / 2)
+            margin = np.where(klass == "sideswipe", cascade.class_margin(rel, "sideswipe", side=True), -np.inf)
+            out = np.where(onset & (margin > out), margin, out)
+            done |= onset & (klass == "sideswipe")
+        touching = overlap
+        if overlap.any():
+            nx, ny, px, py = impact.contact_frame(*pose[0], la, wa, *pose[1], lb, wb)
+            va1, wa1, vb1, wb1, _ = impact.exchange(nx, ny, px, py, pose[0][0], pose[0][1], np.stack(vel[0][:2]),
+                                                    vel[0][2], ma, inertia[0], pose[1][0], pose[1][1],
+                                                    np.stack(vel[1][:2]), vel[1][2], mb, inertia[1])
+            for k, (v1, w1) in enumerate(((va1, wa1), (vb1, wb1))):
+                new = [np.where(overlap, v1[0], vel[k][0]), np.where(overlap, v1[1], vel[k][1]),
+                       np.where(overlap, w1, vel[k][2])]
+                upset[k] |= overlap & upsets(np.hypot(new[0] - start[k][0], new[1] - start[k][1]),
+                                             new[2] - start[k][2])
+                vel[k] = new
+            dxa, dya, dxb, dyb = impact.separate(*pose[0], la, wa, ma, *pose[1], lb, wb, mb)
+            pose[0][0], pose[0][1] = pose[0][0] + dxa, pose[0][1] + dya
+            pose[1][0], pose[1][1] = pose[1][0] + dxb, pose[1][1] + dyb
+        still = [(np.hypot(v[0], v[1]) < impact.REST_SPEED) & (np.abs(v[2]) < impact.REST_YAW_RATE) for v in vel]
+        if (done | (still[0] & still[1] & ~overlap)).all():
+            break  # every pair slapped, or at rest apart
+        before = [list(q) for q in pose]
+        for k, (ln, w, _, wheelbase) in enumerate(dims):
+            vx, vy, yr = vel[k]
+            sx, sy, sw = impact.tyre_slide(vx, vy, pose[k][2], yr, friction, ln, w, wheelbase, dt)
+            vx1, vy1, yr1 = (np.where(upset[k], q, q0) for q, q0 in ((sx, vx), (sy, vy), (sw, yr)))
+            pose[k] = [pose[k][0] + 0.5 * (vx + vx1) * dt, pose[k][1] + 0.5 * (vy + vy1) * dt,
+                       pose[k][2] + 0.5 * (yr + yr1) * dt]
+            vel[k] = [vx1, vy1, yr1]
+    return out
