@@ -3,15 +3,13 @@ impulse exchange, and on a synthetic queue the whole written chain happens."""
 from __future__ import annotations
 
 import math
-import warnings
 
 import numpy as np
 import pytest
 
-from crashscene.dsl import loads
-from crashscene.pipeline.simulate import simulate_scenario
 from crashscene.simulate.embedded import impact
 from crashscene.simulate.embedded.pushchain import meeting, pushed_speed
+from tests.simulate.test_reproduce_configurations import actor, contact, oracle, run, scenario
 
 N = 20  # variations (0.9 of 20: at most 2 misses)
 
@@ -40,39 +38,13 @@ def test_meeting_is_where_the_rolling_car_has_covered_that_part_of_its_roll_out(
     assert 0 < at < closing and math.isclose(at ** 2, closing ** 2 - 2 * decel * gap)
 
 
-QUEUE = """dsl_version: 1
-environment: {weather: clear, time_of_day: daytime, road_surface: dry}
-road_network:
-  road_type: straight
-  number_of_ways: 1
-  number_of_lanes: 3
-  road_marker: none
-  traffic_signs: [speed_limit_sign]
-  speed_limit_mph: 55
-actors:
-  ego:
-    type: car
-    behavior: go_forward
-    position: {reference: road, relation: behind}
-  npc1:
-    type: car
-    behavior: stop
-    position: {reference: ego, relation: front, heading: same_direction}
-  npc2:
-    type: car
-    behavior: stop
-    position: {reference: ego, relation: front, heading: same_direction}
-  npc3:
-    type: car
-    behavior: stop
-    position: {reference: ego, relation: front, heading: same_direction}
-oracle:
-  - {code: CVC_21703, violation: following_too_closely, actor: ego}
-collisions:
-  - {striking: ego, struck: npc1, striking_area: front, struck_area: rear, class: rear_end}
-  - {striking: npc1, struck: npc2, striking_area: front, struck_area: rear, class: rear_end}
-  - {striking: npc2, struck: npc3, striking_area: front, struck_area: rear, class: rear_end}
-"""
+QUEUE = scenario(
+    "divided", "speed_limit_sign", 55,
+    actor("ego", "go_forward", "reference: road, relation: behind")
+    + "".join(actor(f"npc{i}", "stop", "reference: ego, relation: front, heading: same_direction") for i in (1, 2, 3)),
+    oracle("CVC_21703", "following_too_closely", "ego"),
+    contact("ego", "npc1", "front", "rear", "rear_end") + contact("npc1", "npc2", "front", "rear", "rear_end")
+    + contact("npc2", "npc3", "front", "rear", "rear_end"))
 
 
 @pytest.mark.slow
@@ -80,9 +52,7 @@ def test_a_rear_end_into_a_queue_pushes_each_car_into_the_one_ahead(tmp_path):
     # a car struck from behind rolls on out of its driver's control into the car ahead, and that one into the next:
     # 0.0 of 20 (the first push only, in 0.4) with the queue where sampled (15-20 m apart), 1.0 of 100 measured
     # with each car ahead placed within the predicted roll-out of the one pushed into it
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        summary = simulate_scenario(loads(QUEUE), tmp_path, N, 7, mode="reproduce")
+    summary = run(QUEUE, tmp_path, N)
     assert summary["valid"] >= N * 0.9, summary.get("invalid")
     assert summary["first_contact_rate"] >= 0.9
     assert summary["sequence_rate"] >= 0.9, summary["collisions"]

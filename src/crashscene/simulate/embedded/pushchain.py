@@ -37,6 +37,8 @@ REACH = (0.2, 0.45)  # [-] the pushed car meets the car ahead this part of the w
 MIN_GAP = 0.5  # [m] the car ahead starts at least this far (bumper to bumper) from any car in its lane
 HORIZON = 20.0  # [s] the first impact of a chain is looked for this long after the start
 STEP = 0.05  # [s] ...at this step
+UPSET_MARGIN = 1.2  # [-] a car pushed on in turn is met while the push still changes its speed by this much more
+# than it takes to upset it (crashscene.upset)
 PASSES = 3  # [-] placements, each from the striker's approach to the cars placed in the one before
 
 
@@ -52,7 +54,7 @@ class Link:
 def links(plan: VariationPlan) -> list[Link]:
     """The written chain of pushes starting at the sequence's first contact: each a rear-end by the car struck from
     behind in the link before (the first: in the first contact), on the car ahead of it in its lane (same start
-    lane), that drives freely (not the ADS; it goes forward, stops or stands)."""
+    lane, starting ahead of it), that drives freely (not the ADS; it goes forward, stops or stands)."""
     from crashscene.simulate.embedded.plan import _same_lane
 
     seq, cols = plan.ctx.contacts, plan.ctx.columns
@@ -69,7 +71,7 @@ def links(plan: VariationPlan) -> list[Link]:
         ahead = roles.index(struck)
         if cols[ahead].is_ads or cols[ahead].behavior not in ("go_forward", "stop", "static") \
                 or ahead in (pusher, pushed) or any(ahead in (k.pusher, k.pushed) for k in out) \
-                or not _same_lane(plan.route, plan.d0, pushed, ahead):
+                or not _same_lane(plan.route, plan.d0, pushed, ahead) or plan.s0[ahead] <= plan.s0[pushed]:
             break
         out.append(Link(pusher, pushed, ahead))
         pusher, pushed = pushed, ahead
@@ -173,7 +175,7 @@ def _place(plan: VariationPlan, chain: list[Link]) -> int:
     t, station, v_striker, v_struck = found
     cols, decel = plan.ctx.columns, roll_decel(plan.ctx.friction)
     placed = 0
-    for link in chain:
+    for i, link in enumerate(chain):
         m_s, m_p = cols[link.pusher].limits.mass, cols[link.pushed].limits.mass
         u = pushed_speed(v_striker, v_struck, m_s, m_p)
         if u - v_struck < CONTROL_DELTA_V:
@@ -184,6 +186,9 @@ def _place(plan: VariationPlan, chain: list[Link]) -> int:
         v_ahead = float(v_q[0])
         if u - v_ahead <= 0.5:
             break
+        if i + 1 < len(chain):  # the car ahead is pushed on in turn: met early enough that the push upsets it,
+            # where that leaves it within REACH
+            part = min(part, max(_upsetting_part(u - v_ahead, m_p, cols[link.ahead].limits.mass), REACH[0]))
         tau, gap, closing = meeting(u - v_ahead, decel, part)
         k = min(int(round(tau / STEP)), len(times) - 1)
         travelled = u * tau - decel * tau ** 2 / 2  # [m] the pushed car's roll-out until it meets the car ahead
@@ -200,6 +205,13 @@ def _place(plan: VariationPlan, chain: list[Link]) -> int:
         v_struck = float(v_q[k])
         v_striker = v_struck + closing
     return placed
+
+
+def _upsetting_part(closing: float, m_pushed: float, m_ahead: float) -> float:
+    """[-] the largest part of its relative roll-out (`meeting`) at which a car `closing` [m/s] faster than the car
+    ahead still pushes it by UPSET_MARGIN times CONTROL_DELTA_V (`pushed_speed`), 0 when none does."""
+    need = UPSET_MARGIN * CONTROL_DELTA_V / ((1.0 + impact.RESTITUTION) * m_pushed / (m_pushed + m_ahead))
+    return max(0.0, 1.0 - (need / closing) ** 2)
 
 
 def _room(plan: VariationPlan, a: int, new: float, behind: tuple[int, ...]) -> float | None:
