@@ -190,7 +190,7 @@ class VariationPlan:
         if ctx.reproduce:
             plan.knock_aside()
             plan.plan_cascade()
-            pushchain.plan(plan)
+            pushchain.place_chain(plan)
         plan.plan_signal_phase()
         return plan
 

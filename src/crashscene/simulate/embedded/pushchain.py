@@ -4,12 +4,13 @@ ahead of it in its lane, and that one into the next.
 A car an impact upsets (`crashscene.upset`) rolls on out of its driver's control, slowed by its tyres at
 ROLL_FRACTION of mu g along its body (`impact.tyre_slide`), so it reaches the car ahead only when that car is
 within its roll-out. The impact is the simulator's own (`impact.exchange`): end-on along the lane it gives the
-struck car (1 + RESTITUTION) m_striker / (m_striker + m_struck) of the closing speed. `plan` finds the written
-links (a rear-end whose striker was struck earlier in the sequence, by a car behind it in its lane, and whose struck
-car starts ahead of it in the same lane), predicts each push along the lane, and places the car ahead so that the
-pushed car reaches its rear at a drawn part (`REACH`) of its roll-out relative to it: a queue of cars close
-together, which the plan only places (their drivers and speeds are the ones sampled). The next link starts from
-the closing speed the prediction gives at that contact.
+struck car (1 + RESTITUTION) m_striker / (m_striker + m_struck) of the closing speed. `place_chain` finds the
+written links (a rear-end whose striker was struck earlier in the sequence, by a car behind it in its lane, and
+whose struck car starts ahead of it in the same lane), predicts each push along the lane (the first striker
+approaching as its own car following drives it), and places the car ahead so that the pushed car reaches its rear
+at a drawn part (`REACH`) of its roll-out relative to it: a queue of cars close together, which the plan only
+places (their drivers and speeds are the ones sampled). The next link starts from the closing speed the
+prediction gives at that contact.
 
 It covers a car ahead that stands or drives on at its planned speed (`VariationPlan._lane_motion`); a pushed car
 whose driver the predicted impact leaves in control drives on and brakes: no link is planned after it.
@@ -154,7 +155,7 @@ def approach(plan: VariationPlan, a: int, times: np.ndarray) -> tuple[np.ndarray
     return s, v
 
 
-def plan(plan: VariationPlan) -> int:
+def place_chain(plan: VariationPlan) -> int:
     """Place the car ahead of each written push (`links`) where the pushed car reaches it (module docstring), in
     PASSES (the striker brakes for the cars it sees ahead, so where they stand changes how hard it strikes).
     Returns how many links it placed; stops at the first it cannot."""
@@ -168,7 +169,7 @@ def plan(plan: VariationPlan) -> int:
 
 
 def _place(plan: VariationPlan, chain: list[Link]) -> int:
-    """One pass of `plan`."""
+    """One pass of `place_chain`."""
     found = first_impact(plan, chain[0].pusher, chain[0].pushed)
     if found is None:
         return 0
