@@ -44,6 +44,7 @@ ROBUST = 0.15  # [s] a shift is counted with the shifts this near it: the meetin
 HORIZON = 30.0  # [s] a predicted path ends after this long at the latest
 CLASS_MARGIN = 2.0  # [deg] a chosen touch's relative heading is this far inside its class's range (a predicted
 # path's heading is off the driven one by about that much where a turn is cut)
+PATHS_KEPT = 256  # [-] predicted drives kept per batch's route arrays (driven_path)
 AREA_WEIGHT = 0.05  # [-] a written area matched counts this much against one more robust shift
 
 
@@ -78,11 +79,15 @@ def needs_moving(arrays, r_s: int, cs_s: float, r_t: int, cs_t: float, klass: st
 
 def driven_path(arrays, m: Mover) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """`drive`, kept on the route arrays per mover (a batch's variations share their routes, and often a mover: a
-    turning car held to its curve's speed); the arrays returned are shared, not to be written to."""
+    turning car held to its curve's speed), up to PATHS_KEPT of them; the arrays returned may be shared, not to be
+    written to."""
     paths = arrays.__dict__.setdefault("_driven_paths", {})
-    if m not in paths:
-        paths[m] = drive(arrays, m)
-    return paths[m]
+    if m in paths:
+        return paths[m]
+    path = drive(arrays, m)
+    if len(paths) < PATHS_KEPT:
+        paths[m] = path
+    return path
 
 
 def drive(arrays, m: Mover) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
