@@ -27,7 +27,7 @@ from crashscene.simulate.drivers.behaviors import (
     SPEEDING_CODES,
     speed_factor,
 )
-from crashscene.simulate.embedded import cascade, lockstep, signals, swerve, timing, touch
+from crashscene.simulate.embedded import cascade, lockstep, pushchain, signals, swerve, timing, touch
 from crashscene.simulate.embedded import skid as skid_plan
 from crashscene.simulate.embedded.control import entry_before
 from crashscene.simulate.embedded.world import RouteArrays
@@ -190,6 +190,7 @@ class VariationPlan:
         if ctx.reproduce:
             plan.knock_aside()
             plan.plan_cascade()
+            pushchain.place_chain(plan)
         plan.plan_signal_phase()
         return plan
 
