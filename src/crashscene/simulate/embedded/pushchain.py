@@ -12,7 +12,8 @@ at a drawn part (`REACH`) of its roll-out relative to it: a queue of cars close 
 places (their drivers and speeds are the ones sampled). The next link starts from the closing speed the
 prediction gives at that contact.
 
-It covers a car ahead that stands or drives on at its planned speed (`VariationPlan._lane_motion`); a pushed car
+It covers a car ahead that stands, drives on at its planned speed (`VariationPlan._lane_motion`) or, going forward
+ahead of a car standing in its lane, waits in the queue (held at its start till the push reaches it); a pushed car
 whose driver the predicted impact leaves in control drives on and brakes: no link is planned after it.
 """
 from __future__ import annotations
@@ -40,6 +41,8 @@ HORIZON = 20.0  # [s] the first impact of a chain is looked for this long after 
 STEP = 0.05  # [s] ...at this step
 UPSET_MARGIN = 1.2  # [-] a car pushed on in turn is met while the push still changes its speed by this much more
 # than it takes to upset it (crashscene.upset)
+QUEUE_WAIT = 2.0  # [s] a car waiting in a queue ahead of a pushed car is held at its start this long after the push
+# reaches it
 PASSES = 3  # [-] placements, each from the striker's approach to the cars placed in the one before
 
 
@@ -113,10 +116,16 @@ def first_impact(plan: VariationPlan, striker: int, struck: int) -> tuple[float,
 
 def motion(plan: VariationPlan, a: int, times: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(station [m], speed [m/s]) of actor a at `times` [s] as its behaviour has it (`VariationPlan._lane_motion`);
-    one that stops or stands and starts at rest (setup: a sampled speed of 0) stays where it is."""
+    one that stops or stands and starts at rest (setup: a sampled speed of 0) stays where it is, one held at its
+    start (`VariationPlan.hold`) until then."""
     if plan.speed[a] <= 0.0 and plan.ctx.columns[a].behavior in ("stop", "static"):
         return np.full(len(times), float(plan.s0[a])), np.zeros(len(times))
-    return plan._lane_motion(a, times)
+    hold = float(plan.hold[a])
+    if hold <= 0.0:
+        return plan._lane_motion(a, times)
+    s, v = plan._lane_motion(a, np.maximum(times - hold, 0.0))  # (driving off at once after it: an upper bound)
+    waiting = times < hold
+    return np.where(waiting, float(plan.s0[a]), s), np.where(waiting, 0.0, v)
 
 
 def approach(plan: VariationPlan, a: int, times: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -161,15 +170,16 @@ def place_chain(plan: VariationPlan) -> int:
     Returns how many links it placed; stops at the first it cannot."""
     chain = links(plan)
     placed = 0
+    queued: set[int] = set()  # the cars it holds at their start, waiting in the queue
     for _ in range(PASSES if chain else 0):
-        placed = _place(plan, chain)
+        placed = _place(plan, chain, queued)
         if not placed:
             break
     return placed
 
 
-def _place(plan: VariationPlan, chain: list[Link]) -> int:
-    """One pass of `place_chain`."""
+def _place(plan: VariationPlan, chain: list[Link], queued: set[int]) -> int:
+    """One pass of `place_chain`; `queued`: the cars it holds at their start (updated)."""
     found = first_impact(plan, chain[0].pusher, chain[0].pushed)
     if found is None:
         return 0
@@ -182,10 +192,19 @@ def _place(plan: VariationPlan, chain: list[Link]) -> int:
         if u - v_struck < CONTROL_DELTA_V:
             break  # the pushed car's driver keeps control and brakes: no roll-out to plan on
         times = t + np.arange(0.0, HORIZON, STEP)
+        held = float(plan.hold[link.ahead])
+        if v_struck == 0.0 and cols[link.ahead].behavior == "go_forward" and (held == 0.0 or link.ahead in queued):
+            # the car ahead of one standing in its lane waits in the queue: it is held at its start (the queue moves
+            # on QUEUE_WAIT after the push has reached it)
+            queued.add(link.ahead)
+            plan.hold[link.ahead] = float(times[-1])
         s_q, v_q = motion(plan, link.ahead, times)
         part = REACH[0] + (REACH[1] - REACH[0]) * float(plan.draws.cascade[link.ahead])
         v_ahead = float(v_q[0])
         if u - v_ahead <= 0.5:
+            plan.hold[link.ahead] = held
+            if held == 0.0:
+                queued.discard(link.ahead)
             break
         if i + 1 < len(chain):  # the car ahead is pushed on in turn: met early enough that the push upsets it,
             # where that leaves it within REACH
@@ -197,9 +216,14 @@ def _place(plan: VariationPlan, chain: list[Link]) -> int:
         shift = rear_then - (s_q[k] - plan.length[link.ahead] / 2)
         new = _room(plan, link.ahead, float(plan.s0[link.ahead] + shift), (link.pushed,))
         if new is None:
+            plan.hold[link.ahead] = held
+            if held == 0.0:
+                queued.discard(link.ahead)
             break
         plan.s0[link.ahead] = new
         plan.moved[link.ahead] = True
+        if link.ahead in queued:
+            plan.hold[link.ahead] = float(times[k]) + QUEUE_WAIT
         placed += 1
         # the next push: the car ahead struck at the predicted closing speed, where it is then
         t, station = float(times[k]), float(s_q[k] + shift)
