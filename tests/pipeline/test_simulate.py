@@ -81,8 +81,10 @@ def test_any_worker_count_writes_the_same_bytes(case, tmp_path):
         simulate_scenario(scenario, tmp_path / f"w{workers}", n=320, seed=9, mode="reproduce", workers=workers)
     for workers in (2, 3):
         for name in names:
-            ours = (tmp_path / f"w{workers}" / name).read_bytes().replace(f"/w{workers}/".encode(), b"/w1/")
-            assert ours == (tmp_path / "w1" / name).read_bytes(), (workers, name)  # scenes name their run dir's map
+            ours, theirs = (tmp_path / f"w{workers}" / name).read_bytes(), (tmp_path / "w1" / name).read_bytes()
+            # scenes name their run dir's map (the 4 bytes of the dir's name can also occur by chance in compressed
+            # data, so the names are swapped only in a file that differs)
+            assert ours == theirs or ours.replace(f"/w{workers}/".encode(), b"/w1/") == theirs, (workers, name)
     simulate_scenario(scenario, tmp_path / "tail", n=120, seed=9, first=200, mode="reproduce", workers=2,
                       monitor=False)
     for name in TABLES:
