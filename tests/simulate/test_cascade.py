@@ -85,6 +85,23 @@ def test_clip_slide_starts_where_a_car_driving_straight_on_touches_the_slower_ca
     assert yaw[10] < -0.05 and np.all(np.diff(yaw[:10]) < 0.0)
 
 
+@pytest.mark.parametrize("partner_speed, slides", [(19.7, False), (12.0, True)])
+def test_a_clip_slides_only_when_it_upsets_the_car(partner_speed, slides):
+    """A clip that changes the car's velocity and yaw rate too little to upset it (crashscene.upset) leaves its
+    driver driving on, as the simulator does: no slide is predicted for it."""
+    from crashscene.simulate.embedded.cascade import Clip, clip_slides
+
+    dt, speed = 0.1, 20.0
+    t = dt * np.arange(1, 61)
+    rows = (speed * t, np.zeros(60), np.zeros(60))
+    ahead = 4.5 + (speed - partner_speed) * 3.02  # [m] the bumpers meet 3 s on
+    touch = (ahead - 4.5) / (speed - partner_speed)
+    t_meet = dt * np.ceil(touch / dt - 1e-9)
+    car = (4.5, 1.8, 1500.0, 0.6)
+    found = clip_slides([Clip(rows, 1.0, speed, 0.0, ahead, partner_speed, -0.9, t_meet, dt, car, car, 0.8)])[0]
+    assert (found is not None) == slides
+
+
 def test_pushes_of_several_impacts_at_once_equal_each_alone():
     from crashscene.simulate.embedded.cascade import Push, pushed_paths, pushes
 

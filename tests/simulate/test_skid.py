@@ -132,3 +132,52 @@ def test_a_search_at_many_partner_speeds_finds_what_each_finds_alone(opposite, g
                                 latest=t, place=place, fine=fine) for v, t in zip(partner_speeds, latests)]
     assert together == alone
     assert sum(found is not None for found in alone) >= 2  # the case finds contacts (the test can fail)
+
+
+def first_touch_on_path(path, trigger: float, speed: float, start: float, partner_speed: float, lateral: float,
+                        partner: skid.Body) -> tuple[str, float]:
+    """Steps a car driving straight on at `speed` that starts `path` (x, y, yaw (1, K) every DT after its trigger,
+    turning left) on the simulator step after `trigger` [s], and a partner `start` [m] ahead at `lateral` [m] driving
+    straight on; the class and time of their first footprint overlap (geometry, not the plan's interval)."""
+    x, y, yaw = (q[0] for q in path)
+    n_before = int(round((trigger + DT / 2) / DT))
+    for k in range(n_before + len(x)):
+        t = (k + 1) * DT
+        me = (speed * t, 0.0, 0.0) if k < n_before else (speed * n_before * DT + x[k - n_before], y[k - n_before],
+                                                          yaw[k - n_before])
+        other = (start + partner_speed * t, lateral, 0.0)
+        if footprints_overlap(me[0], me[1], me[2], CAR.length, CAR.width, other[0], other[1], other[2],
+                              partner.length, partner.width):
+            dx, dy = other[0] - me[0], other[1] - me[1]
+            lon = dx * math.cos(me[2]) + dy * math.sin(me[2])
+            lat = -dx * math.sin(me[2]) + dy * math.cos(me[2])
+            klass = classify_contact(heading_difference(np.array(me[2]), np.array(0.0)), np.array(lon),
+                                     np.array(lat), (CAR.length + partner.length) / 2,
+                                     (CAR.width + partner.width) / 2)
+            return str(klass[()]), t
+    return "none", math.inf
+
+
+@pytest.mark.parametrize("partner", [CAR, skid.Body(3.7, 1.8)])
+def test_the_other_starts_of_a_clip_each_clip_the_car_ahead_as_written(partner):
+    """A pull-out clipping the slower car ahead: after the best start, `contact_choices` lists starts on other
+    trigger steps, each of which first touches the car ahead with the written class too."""
+    from crashscene.simulate.embedded import swerve
+
+    speed, gap, offset = 21.0, 30.0, 3.5
+    path = swerve.paths([(speed, offset, 2.0, 0.6 * CAR.length, math.radians(60), math.radians(35), DT)])[0]
+    wanted = skid.Wanted("sideswipe", "right", "rear")
+    partner_speeds = [17.0, 12.5]
+    latests = [(gap - (CAR.length + partner.length) / 2) / (speed - v) - DT for v in partner_speeds]
+    args = (path, 1.0, speed, gap, partner_speeds, False, 0.0, CAR, partner, skid.CLASS_HEADING["sideswipe"], wanted,
+            DT)
+    choices = skid.contact_choices(*args, latests=latests, place=False, fine=8, count=6)
+    best = skid.first_contacts(*args, latests=latests, place=False, fine=8)
+    assert [c[0] for c in choices] == best
+    assert sum(len(c) for c in choices) > len(choices)  # other starts are found (the test can fail)
+    for v, found in zip(partner_speeds, choices):
+        assert len(found) <= 6 and len({round((trigger + DT / 2) / DT) for _, trigger, _, _ in found}) == len(found)
+        for _, trigger, t_meet, shift in found:
+            klass, t = first_touch_on_path(path, trigger, speed, gap + shift, v, 0.0, partner)
+            assert klass == "sideswipe"
+            assert t == pytest.approx(trigger + DT / 2 + t_meet, abs=DT + 1e-9)

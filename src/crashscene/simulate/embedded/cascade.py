@@ -30,6 +30,7 @@ from crashscene.geometry import (
 from crashscene.simulate.backend import DEFAULT_DT as SIM_DT
 from crashscene.simulate.embedded import impact, lockstep, rollout
 from crashscene.simulate.embedded.vehicles import limits_for
+from crashscene.upset import upsets
 
 DT = 0.05  # [s] integration step of the prediction
 HORIZON = 4.0  # [s] how long after the impact the pushed car is followed
@@ -274,7 +275,8 @@ def clip_slides(clips: list[Clip]) -> list[tuple[float, tuple[np.ndarray, np.nda
     """The slide of each car after it clips a car driving straight on ahead of it, as the simulator gives it
     (impact.exchange, then tyre_slide): (time [s] from the start of its manoeuvre to the touch, (along, across,
     yaw) every DT after it); the frame: along the road from where the manoeuvre starts, across from the centre
-    line. None for a clip whose rows do not reach t_meet. All clips are integrated at once, each element by
+    line. None for a clip whose rows do not reach t_meet, or that does not upset the car (crashscene.upset: its
+    driver drives on). All clips are integrated at once, each element by
     element as it would be alone."""
     out: list = [None] * len(clips)
     live, before, after, t_before = [], [], [], []
@@ -324,10 +326,14 @@ def clip_slides(clips: list[Clip]) -> list[tuple[float, tuple[np.ndarray, np.nda
     va = np.stack([v_a * np.cos(yaw_a), v_a * np.sin(yaw_a)])  # along its heading, as the simulator has it
     vb = np.stack([p_speed, np.zeros(n)])
     nx, ny, px, py = impact.contact_frame(xa, ya, yaw_a, la, wa, xb, yb, yaw_b, lb, wb)
-    va, w_a, _, _, _ = impact.exchange(nx, ny, px, py, xa, ya, va, step[2] / dt, ma, impact.yaw_inertia(ma, la, wa),
+    va0, w0 = va, step[2] / dt
+    va, w_a, _, _, _ = impact.exchange(nx, ny, px, py, xa, ya, va0, w0, ma, impact.yaw_inertia(ma, la, wa),
                                        xb, yb, vb, np.zeros(n), mb, impact.yaw_inertia(mb, lb, wb))
+    # a clip that does not upset the car leaves its driver driving on (the simulator's rule): no slide follows
+    slides = upsets(np.hypot(*(va - va0)), w_a - w0)
     along, across, turn = slide_path(xa, ya, yaw_a, va[0], va[1], w_a, friction, la, wa, DT, int(HORIZON / DT),
                                      ra * la)
     for j, i in enumerate(live):
-        out[i] = t_before[j] + float(f[j]) * clips[i].dt, (along[j], across[j], turn[j])
+        if slides[j]:
+            out[i] = t_before[j] + float(f[j]) * clips[i].dt, (along[j], across[j], turn[j])
     return out

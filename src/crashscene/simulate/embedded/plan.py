@@ -27,7 +27,7 @@ from crashscene.simulate.drivers.behaviors import (
     SPEEDING_CODES,
     speed_factor,
 )
-from crashscene.simulate.embedded import cascade, lockstep, signals, swerve, timing, touch
+from crashscene.simulate.embedded import cascade, lockstep, pushchain, signals, swerve, timing, touch
 from crashscene.simulate.embedded import skid as skid_plan
 from crashscene.simulate.embedded.control import entry_before
 from crashscene.simulate.embedded.world import RouteArrays
@@ -45,6 +45,7 @@ START_MARGIN = 5.0  # [m] an actor moved back along its route stays this far fro
 CLIP_CLOSING = 3.0  # [m/s] a vehicle pulling out around the one ahead and clipping it comes up at least this fast
 CLIP_SPEEDS = 5  # [-] partner speeds (down to the slowest of its range) a clip followed by a later contact tries
 CLIP_PARTS = 8  # [-] a clip's partner may start within a step's closing further ahead, in this many parts
+CLIP_STARTS = 8  # [-] pull-out starts (trigger steps) with the written clip a clip followed by a later contact tries
 CHAIN_GAP = 4.0  # [m] at least this between the bumpers of actors reordered along their lane
 SPEEDING_RUN = 2.0  # [s] a striker charged with speeding drives this long before its impact (rules: 1 s over)
 CASCADE_SETTLE = 1.5  # [s] a striker steering to the corner it is to hit is there this long before the impact
@@ -190,6 +191,7 @@ class VariationPlan:
         if ctx.reproduce:
             plan.knock_aside()
             plan.plan_cascade()
+            pushchain.place_chain(plan)
         plan.plan_signal_phase()
         return plan
 
@@ -350,14 +352,14 @@ class VariationPlan:
         and where they touch (`ClipTiming`); None if none."""
         found, path, relative = self._clip_searches(a, partner, contact, rate, [float(self.speeds[partner])],
                                                     [t_reach])
-        return self._clip_timing(a, partner, found[0], path, relative)
+        return self._clip_timing(a, partner, found[0][0] if found[0] else None, path, relative)
 
     def _clip_searches(self, a: int, partner: int, contact: str, rate: float, partner_speeds: list[float],
-                       t_reaches: list[float]) -> tuple[list, tuple[np.ndarray, np.ndarray, np.ndarray],
-                                                        tuple[float, float]]:
-        """The first contacts (skid.first_contacts) of actor a's pull-out with the partner ahead at each of
-        `partner_speeds` [m/s], each before a reaches it straight on (`t_reaches` [s]), searched at once; with
-        a's path and the partner's place (gap, lateral [m]) relative to a's start."""
+                       t_reaches: list[float], count: int = 1
+                       ) -> tuple[list, tuple[np.ndarray, np.ndarray, np.ndarray], tuple[float, float]]:
+        """The first contacts (skid.contact_choices: up to `count` starts, the best first) of actor a's pull-out
+        with the partner ahead at each of `partner_speeds` [m/s], each before a reaches it straight on (`t_reaches`
+        [s]), searched at once; with a's path and the partner's place (gap, lateral [m]) relative to a's start."""
         other = self.scene.actors[partner]
         gap, lateral = _relative(self.ctx.arrays, self.route[a], self.s0[a], other.x, other.y, exact=True)
         offset = float(self.lateral_target[a] - self.d0[a])
@@ -366,13 +368,13 @@ class VariationPlan:
         wanted = skid_plan.Wanted(contact, self.contact_area(a, partner), self.contact_area(partner, a),
                                   skidder_first=a < partner)
         sign = 1.0 if offset >= 0 else -1.0
-        found = skid_plan.first_contacts(path, sign, float(self.speeds[a]), gap, partner_speeds, False,
-                                         lateral - float(self.d0[a]),
-                                         skid_plan.Body(float(self.length[a]), float(self.width[a])),
-                                         skid_plan.Body(float(self.length[partner]), float(self.width[partner])),
-                                         skid_plan.CLASS_HEADING[contact], wanted, dt,
-                                         latests=[t_reach - dt for t_reach in t_reaches], place=False,
-                                         fine=CLIP_PARTS)
+        found = skid_plan.contact_choices(path, sign, float(self.speeds[a]), gap, partner_speeds, False,
+                                          lateral - float(self.d0[a]),
+                                          skid_plan.Body(float(self.length[a]), float(self.width[a])),
+                                          skid_plan.Body(float(self.length[partner]), float(self.width[partner])),
+                                          skid_plan.CLASS_HEADING[contact], wanted, dt,
+                                          latests=[t_reach - dt for t_reach in t_reaches], place=False,
+                                          fine=CLIP_PARTS, count=count)
         return found, path, (gap, lateral)
 
     def _clip_timing(self, a: int, partner: int, found: tuple[int, float, float, float] | None,
@@ -399,9 +401,11 @@ class VariationPlan:
     def _clip_then_meet(self, a: int, partner: int, gap: float, contact: str, rate: float) -> bool:
         """A clip followed by a written contact of the striker with a third actor that drives freely straight on
         (the striker's own motion after the clip carries it there): the partner comes as much slower (within its
-        range) as makes the striker's slide after the clip (cascade.clip_slide, the simulator's impact and tyre
-        model) meet the third actor with the written class, and the third actor is placed to meet it there
-        (`_meet_at`); False when the sequence is another one or no such meeting is found."""
+        range), and the pull-out starts on the one of its trigger steps whose first contact is the written clip
+        (skid.contact_choices: up to CLIP_STARTS of them at each partner speed), that makes the striker's slide
+        after the clip (cascade.clip_slides, the simulator's impact, upset and tyre model) meet the third actor with
+        the written class, and the third actor is placed to meet it there (`_meet_at`); False when the sequence is
+        another one or no such meeting is found."""
         found = self._after_clip(a, partner)
         if found is None:
             return False
@@ -423,14 +427,15 @@ class VariationPlan:
         # every partner speed's first contact at once (actor a's path and the partner's place are the same)
         found, path, relative = (self._clip_searches(a, partner, contact, rate,
                                                      [float(self.planned[partner] * scale) for scale in scales],
-                                                     t_reaches) if scales else ([], None, None))
-        for scale, one in zip(scales, found):
-            self.scale[partner], self.speeds[partner] = scale, self.planned[partner] * scale
-            timed = self._clip_timing(a, partner, one, path, relative)
-            shifted = (self.s0[partner], self.moved[partner])
-            self.s0[partner], self.moved[partner] = saved[2], saved[3]
-            if timed is not None:
-                tried.append((scale, timed, shifted))
+                                                     t_reaches, CLIP_STARTS) if scales else ([], None, None))
+        for scale, choices in zip(scales, found):
+            for one in choices:
+                self.scale[partner], self.speeds[partner] = scale, self.planned[partner] * scale
+                timed = self._clip_timing(a, partner, one, path, relative)
+                shifted = (self.s0[partner], self.moved[partner])
+                self.s0[partner], self.moved[partner] = saved[2], saved[3]
+                if timed is not None:
+                    tried.append((scale, timed, shifted))
         me = (float(self.length[a]), float(self.width[a]), cols[a].limits.mass, cols[a].limits.wheelbase_ratio)
         them = (float(self.length[partner]), float(self.width[partner]), cols[partner].limits.mass,
                 cols[partner].limits.wheelbase_ratio)

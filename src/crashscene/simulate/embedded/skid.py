@@ -209,6 +209,20 @@ def first_contacts(paths: tuple[np.ndarray, np.ndarray, np.ndarray], sign: float
     """`first_contact` at each of `partner_speeds` [m/s] (with its `latests` [s], LATEST by default), searched
     at once (what depends only on the path, the partner's lateral offset and the bodies is measured once): each
     result is the one `first_contact` gives for that speed alone."""
+    return [found[0] if found else None for found in
+            contact_choices(paths, sign, speed, gap, partner_speeds, opposite, partner_lateral, me, partner,
+                            rotation, wanted, dt, boundary, latests, place, fine)]
+
+
+def contact_choices(paths: tuple[np.ndarray, np.ndarray, np.ndarray], sign: float, speed: float, gap: float,
+                    partner_speeds: list[float], opposite: bool, partner_lateral: float, me: Body, partner: Body,
+                    rotation: float, wanted: Wanted, dt: float, boundary: float | None = None,
+                    latests: list[float] | None = None, place: bool = True, fine: int = 1, count: int = 1
+                    ) -> list[list[tuple[int, float, float, float]]]:
+    """`first_contacts` with, after each speed's best first contact, up to `count` - 1 other starts whose first
+    contact is as written too (`_ranked_each`: the written class and, as the best has them, the written areas), the
+    best of each other trigger step (of each other placement, when the partner is placed), best first: the starts a
+    plan may choose among for what follows the contact (a clip's slide). [] for a speed with none."""
     x, y, yaw = paths
     n_cand, n_steps = x.shape
     latests = [LATEST] * len(partner_speeds) if latests is None else latests
@@ -237,37 +251,38 @@ def first_contacts(paths: tuple[np.ndarray, np.ndarray, np.ndarray], sign: float
         starts = ((gap - closing * dt * np.arange(n_trig))[:, None] + parts[None, :]).ravel()  # its offset then
         passes.append(((starts, False, parts), (gap - closing * t0 + shifts, True, parts)) if place
                       else ((starts, False, parts),))
-    out: list[tuple[int, float, float, float] | None] = [None] * len(partner_speeds)
+    out: list[list[tuple[int, float, float, float]]] = [[] for _ in partner_speeds]
     for attempt in range(2 if place else 1):
-        todo = [g for g in range(len(partner_speeds)) if out[g] is None]
+        todo = [g for g in range(len(partner_speeds)) if not out[g]]
         if not todo:
             break
         placed = attempt == 1
-        bests = _best_each([alongs[g] for g in todo], fixed, lo, hi, [passes[g][attempt][0] for g in todo], me,
-                           partner, rotation, wanted, sigma, tau, crossed, np.abs(shifts) if placed else None,
-                           central=fine > 1)
-        for g, best in zip(todo, bests):
-            if best is None:
-                continue
-            c, j, k = best
-            trigger = t0 if placed else (j // fine) * dt
-            shift = float(shifts[j]) if placed else float(passes[g][attempt][2][j % fine])
-            # triggered half a step before the simulator step it is planned on
-            out[g] = (c, max(trigger - dt / 2, 0.0), float(tau[k]), shift)
+        ranked = _ranked_each([alongs[g] for g in todo], fixed, lo, hi, [passes[g][attempt][0] for g in todo], me,
+                              partner, rotation, wanted, sigma, tau, crossed, np.abs(shifts) if placed else None,
+                              central=fine > 1, fine=fine, count=count)
+        for g, choices in zip(todo, ranked):
+            for c, j, k in choices:
+                trigger = t0 if placed else (j // fine) * dt
+                shift = float(shifts[j]) if placed else float(passes[g][attempt][2][j % fine])
+                # triggered half a step before the simulator step it is planned on
+                out[g].append((c, max(trigger - dt / 2, 0.0), float(tau[k]), shift))
     return out
 
 
-def _best_each(alongs, fixed, lo, hi, offsets_each, me: Body, partner: Body, rotation: float, wanted: Wanted,
-               sigma: float, tau: np.ndarray, crossed, shift_cost: np.ndarray | None, central: bool = False
-               ) -> list[tuple[int, int, int] | None]:
-    """(candidate, offset index, step) of the best first contact over the partner's offsets (O,) at the loss
-    of control, for each (my poses along the road, the partner's offsets) pair (`alongs`, `offsets_each`),
+def _ranked_each(alongs, fixed, lo, hi, offsets_each, me: Body, partner: Body, rotation: float, wanted: Wanted,
+                 sigma: float, tau: np.ndarray, crossed, shift_cost: np.ndarray | None, central: bool = False,
+                 fine: int = 1, count: int = 1) -> list[list[tuple[int, int, int]]]:
+    """[(candidate, offset index, step), ...] of the best first contact over the partner's offsets (O,) at the
+    loss of control, for each (my poses along the road, the partner's offsets) pair (`alongs`, `offsets_each`),
     measured at once (each element as it would be alone): the written class; ranked by the miss of the
     rotation, my centre in the partner's lane (`crossed` of my offset across from the partner, CROSS_COST), the
     written areas (AREA_COST) and the placement's cost; with `central`, the middle of the run of offsets about
-    as good as the best. alongs: my poses along the road from the partner's centre less its offset (C, K + 1)
-    from the loss of control on; fixed: the same across from it and my yaw, the same for every pair."""
-    out: list[tuple[int, int, int] | None] = [None] * len(alongs)
+    as good as the best. After it, up to `count` - 1 others of the same candidate on other trigger steps (offset
+    index // `fine`), each its step's best taken the same way, that miss in the lane and the areas no more than
+    the best does, fewest misses first. alongs: my poses along the road from the partner's centre less its
+    offset (C, K + 1) from the loss of control on; fixed: the same across from it and my yaw, the same for every
+    pair."""
+    out: list[list[tuple[int, int, int]]] = [[] for _ in alongs]
     found = _first_steps([along[:, 1:] for along in alongs], lo, hi, offsets_each)
     if found is None:
         return out
@@ -285,7 +300,8 @@ def _best_each(alongs, fixed, lo, hi, offsets_each, me: Body, partner: Body, rot
         return out
     group, cc, jj, kk, px, py, pyaw = group[ok], cc[ok], jj[ok], kk[ok], px[ok], py[ok], pyaw[ok]
     # in the partner's lane a step before they touch (a recorded step before the contact)
-    miss = np.abs(np.abs(pyaw) - rotation) + 0.02 * tau[kk] + np.where(crossed(fixed[0][cc, kk]), 0.0, CROSS_COST)
+    penalty = np.where(crossed(fixed[0][cc, kk]), 0.0, CROSS_COST)  # the misses of what is written, not of degree
+    miss = np.abs(np.abs(pyaw) - rotation) + 0.02 * tau[kk] + penalty
     if shift_cost is not None:
         miss = miss + PLACE_COST + 0.005 * shift_cost[jj]
     if wanted.area is not None or wanted.partner_area is not None:
@@ -294,21 +310,38 @@ def _best_each(alongs, fixed, lo, hi, offsets_each, me: Body, partner: Body, rot
         mine, theirs = lockstep.together(_areas, [(px, py, pyaw, me, partner, other_yaw)])[0]
         fits = ((mine == wanted.area) | (wanted.area is None)) & ((theirs == wanted.partner_area)
                                                                   | (wanted.partner_area is None))
+        penalty = penalty + np.where(fits, 0.0, AREA_COST)
         miss = miss + np.where(fits, 0.0, AREA_COST)
     bounds = np.searchsorted(group, np.arange(len(alongs) + 1))  # each pair's contacts: a run of them
     for g in range(len(alongs)):
         b0, b1 = int(bounds[g]), int(bounds[g + 1])
         if b0 == b1:
             continue
-        g_miss, g_cc, g_jj = miss[b0:b1], cc[b0:b1], jj[b0:b1]
-        order = np.argsort(g_miss, kind="stable")
-        i = int(order[0])
-        if central:  # the middle of the run of offsets about as good as the best
-            run = np.nonzero((g_cc == g_cc[i]) & (g_miss <= g_miss[i] + CENTRAL_TOLERANCE))[0]
-            run = run[np.argsort(g_jj[run], kind="stable")]
-            i = int(run[len(run) // 2])
-        out[g] = (int(g_cc[i]), int(g_jj[i]), int(kk[b0 + i]))
+        g_miss, g_cc, g_jj, g_penalty = miss[b0:b1], cc[b0:b1], jj[b0:b1], penalty[b0:b1]
+        i = _pick(g_miss, g_cc, g_jj, np.ones(b1 - b0, dtype=bool), central)
+        chosen = [i]
+        if count > 1:
+            # the same candidate on other trigger steps, as much in the lane and on the written areas as the best
+            step = g_jj // fine
+            same = (g_cc == g_cc[i]) & (g_penalty <= g_penalty[i])
+            others = [s for s in np.unique(step[same]) if s != step[i]]
+            picks = [_pick(g_miss, g_cc, g_jj, same & (step == s), central) for s in others]
+            picks.sort(key=lambda p: (g_miss[p], p))
+            chosen += picks[:count - 1]
+        out[g] = [(int(g_cc[i]), int(g_jj[i]), int(kk[b0 + i])) for i in chosen]
     return out
+
+
+def _pick(miss: np.ndarray, cc: np.ndarray, jj: np.ndarray, among: np.ndarray, central: bool) -> int:
+    """The index of the best contact `among` (bool mask) a pair's: the least miss; with `central`, the middle of the
+    run of offsets of its candidate about as good as it (a narrow window: a glancing contact)."""
+    idx = np.nonzero(among)[0]
+    i = int(idx[np.argsort(miss[idx], kind="stable")[0]])
+    if central:
+        run = idx[(cc[idx] == cc[i]) & (miss[idx] <= miss[i] + CENTRAL_TOLERANCE)]
+        run = run[np.argsort(jj[run], kind="stable")]
+        i = int(run[len(run) // 2])
+    return i
 
 
 def _areas(items: list) -> list[tuple[np.ndarray, np.ndarray]]:
