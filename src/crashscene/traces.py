@@ -13,10 +13,13 @@ monitor treats the rules that need them as not_applicable.
 """
 from __future__ import annotations
 
+import functools
 import hashlib
+import inspect
 from pathlib import Path
 
 import pyarrow as pa
+import pyarrow.compute as pc
 import pyarrow.parquet as pq
 
 SIGNAL_STATES = ("none", "green", "yellow", "red")  # state of the signal governing the actor's next stop line
@@ -114,19 +117,67 @@ def stored_digest(run_dir: str | Path) -> str | None:
     return value.decode("ascii") if value else None
 
 
+# Parquet layout, written out (pyarrow's defaults) because `_page_aligned` relies on it
+ROW_GROUP_ROWS = 1024 * 1024  # rows per row group
+PAGE_ROWS = 20_000  # rows per data page at most
+PAGE_BYTES = 2**20  # [bytes] a data page's size at most
+ALIGNED_STRING_BYTES = 40  # [bytes] longest string value for which PAGE_ROWS rows always fit in PAGE_BYTES
+_LAYOUT = {"row_group_size": ROW_GROUP_ROWS, "max_rows_per_page": PAGE_ROWS, "data_page_size": PAGE_BYTES}
+
+
 def write_table(run_dir: str | Path, name: str, table: pa.Table) -> Path:
     """Write one of TABLES to `run_dir/<name>.parquet`, cast to its schema (column order fixed); the table's
-    schema metadata (the scenario digest) is kept."""
+    schema metadata (the scenario digest) is kept.
+
+    The same rows give the same bytes however they are chunked (the blocks of different worker counts, the
+    simulator's chunks): the writer's pages follow the chunks it is handed, so the columns are cut where a page
+    starts anyway (`_page_aligned`, no copy but of the pieces that straddle a page start), or else combined
+    into one chunk each (a copy of the table)."""
     schema = TABLES[name]
     metadata = table.schema.metadata
-    # one chunk per column: Parquet's pages follow the chunks the writer is handed, so the blocks of different
-    # worker counts (or simulator chunks) would write the same values as different bytes
-    table = table.select(schema.names).cast(schema).combine_chunks()
+    table = table.select(schema.names).cast(schema)
+    aligned = _page_aligned(table)
+    table = aligned if aligned is not None else table.combine_chunks()
     if metadata:
         table = table.replace_schema_metadata(metadata)
     path = Path(run_dir) / f"{name}.parquet"
-    pq.write_table(table, path, compression="zstd")
+    pq.write_table(table, path, compression="zstd", **(_LAYOUT if aligned is not None else {}))
     return path
+
+
+def _page_aligned(table: pa.Table) -> pa.Table | None:
+    """`table` with its columns chunked exactly at the rows where a data page starts, or None when a page may
+    start elsewhere (or this pyarrow cannot fix the rows per page).
+
+    With every page at most PAGE_ROWS rows and PAGE_ROWS rows of every column within PAGE_BYTES (fixed-width
+    values, strings of at most ALIGNED_STRING_BYTES), pages start at each row group's start and every PAGE_ROWS
+    rows after it, whatever the values; the writer then sees the same batches of values as from one chunk."""
+    if "max_rows_per_page" not in _write_table_parameters():
+        return None
+    for column in table.columns:
+        if pa.types.is_string(column.type):
+            longest = pc.max(pc.binary_length(column)).as_py() if len(column) else None
+            if longest is not None and longest > ALIGNED_STRING_BYTES:
+                return None
+        elif not pa.types.is_primitive(column.type):
+            return None
+    n = table.num_rows
+    starts = [g + k for g in range(0, n, ROW_GROUP_ROWS) for k in range(0, min(ROW_GROUP_ROWS, n - g), PAGE_ROWS)]
+    bounds = list(zip(starts, starts[1:] + [n]))
+
+    def cut(column: pa.ChunkedArray) -> pa.ChunkedArray:
+        pieces = []
+        for lo, hi in bounds:
+            parts = [chunk for chunk in column.slice(lo, hi - lo).chunks if len(chunk)]
+            pieces.append(parts[0] if len(parts) == 1 else pa.concat_arrays(parts))
+        return pa.chunked_array(pieces, type=column.type)
+
+    return pa.Table.from_arrays([cut(column) for column in table.columns], schema=table.schema)
+
+
+@functools.cache
+def _write_table_parameters() -> frozenset[str]:
+    return frozenset(inspect.signature(pq.write_table).parameters)
 
 
 def read_table(run_dir: str | Path, name: str) -> pa.Table:

@@ -13,6 +13,7 @@ import functools
 import itertools
 import json
 import multiprocessing
+import os
 import pickle
 import shutil
 import sys
@@ -291,14 +292,15 @@ def simulate_blocks(backend: str, settings: SimulationSettings, request: Simulat
 
 
 def _write_early(result: BatchResult) -> bool:
-    """Whether the tables can be written while the blocks are judged: `write_table` copies the traces into one
-    chunk, which beside the judges' arrays would exceed the memory budget for large traces."""
+    """Whether the tables can be written while the blocks are judged: `write_table` may copy the traces into one
+    chunk (long strings, see `crashscene.traces._page_aligned`), which beside the judges' arrays would exceed the
+    memory budget for large traces."""
     traces = result.tables.get("traces")
     return traces is None or traces.nbytes <= EARLY_WRITE_BYTES
 
 
 def _concatenated(parts: list[BatchResult], start: float) -> BatchResult:
-    """The blocks' tables in index order (`write_table` writes each as one chunk: the same bytes as one process)."""
+    """The blocks' tables in index order (`write_table` writes them as the same bytes as one process's)."""
     tables = {name: pa.concat_tables([part.tables[name] for part in parts]) for name in parts[0].tables}
     notes = list(dict.fromkeys(note for part in parts for note in part.notes))
     return BatchResult(backend=parts[0].backend, tables=tables, seconds=time.perf_counter() - start, notes=notes)
@@ -372,6 +374,31 @@ def arrow_without_pandas() -> None:
         sys.meta_path.remove(_PandasMissing)
 
 
+MALLOC_KEEP_BYTES = 32 * 2**20  # [bytes] freed heap memory glibc keeps for reuse (and its largest heap block)
+_M_TRIM_THRESHOLD, _M_MMAP_THRESHOLD = -1, -3  # glibc's mallopt parameters (malloc.h)
+
+
+def keep_freed_memory() -> bool:
+    """Let this process (and the workers it forks) reuse the memory of freed arrays instead of handing it back to
+    the kernel and faulting fresh zeroed pages in for the next array (glibc only; False elsewhere).
+
+    glibc maps each array over 128 kB (a column of a block's traces, a step's per-variation temporaries) on its
+    own and unmaps it when freed, so every array of every step, record and judgement pays its page faults again
+    (a fifth of the command's CPU time was the kernel's). Arrays up to MALLOC_KEEP_BYTES now come from the heap,
+    which hands back only what exceeds MALLOC_KEEP_BYTES free at its top. For processes that run simulations (the
+    command line); the memory peak stays about what the arrays alive at once take."""
+    import ctypes
+    import ctypes.util
+
+    try:
+        libc = ctypes.CDLL(ctypes.util.find_library("c"))
+        mallopt = libc.mallopt
+    except (OSError, AttributeError, TypeError):
+        return False
+    return bool(mallopt(_M_MMAP_THRESHOLD, MALLOC_KEEP_BYTES)) and bool(mallopt(_M_TRIM_THRESHOLD,
+                                                                                 MALLOC_KEEP_BYTES))
+
+
 class _PandasMissing:
     """An import finder for which pandas does not exist (put first on `sys.meta_path` while pyarrow looks)."""
 
@@ -385,8 +412,11 @@ class _PandasMissing:
 def _import_before_fork(judging: bool) -> None:
     """Load once in the parent what every forked worker would otherwise load for itself: pyarrow's pandas
     integration, unless `arrow_without_pandas` spared it (pyarrow imports pandas on its first conversion of a
-    list, 0.15-0.5 s a process; the parent converts anyway when it writes the tables) and the monitor's modules."""
+    list, 0.15-0.5 s a process; the parent converts anyway when it writes the tables), numpy.ma (numpy imports it
+    on the first np.median or np.unique, 20 ms a process; the parent's criticality summary calls them too) and
+    the monitor's modules."""
     pa.array([0.0])
+    import numpy.ma  # noqa: F401
     if judging:
         import crashscene.monitor.arrays
         import crashscene.monitor.check_traces
@@ -416,19 +446,39 @@ def _simulate_block(lo: int, hi: int, send) -> None:
 
 
 def _send(conn, kind: str, payload: Any) -> None:
-    """Pickle `payload` with its Arrow buffers out of band, each sent as it is (no copy of the tables)."""
+    """Pickle `payload` with its Arrow buffers out of band, each written to the pipe as it is (no copy of the
+    tables)."""
     buffers: list = []
     head = pickle.dumps(payload, protocol=5, buffer_callback=buffers.append)
-    conn.send((kind, len(buffers)))
+    raws = [buffer.raw() for buffer in buffers]
+    conn.send((kind, [raw.nbytes for raw in raws]))
     conn.send_bytes(head)
-    for buffer in buffers:
-        conn.send_bytes(buffer.raw())
+    for raw in raws:
+        done = 0
+        while done < raw.nbytes:
+            done += os.write(conn.fileno(), raw[done:])
 
 
 def _receive(conn) -> tuple[str, Any]:
-    kind, n_buffers = conn.recv()
+    """What `_send` sent; each out-of-band buffer is read from the pipe straight into an Arrow buffer of its own
+    (one copy, where `Connection.recv_bytes` makes three and faults twice the pages in)."""
+    kind, sizes = conn.recv()
     head = conn.recv_bytes()
-    return kind, pickle.loads(head, buffers=[conn.recv_bytes() for _ in range(n_buffers)])
+    with open(conn.fileno(), "rb", buffering=0, closefd=False) as pipe:
+        buffers = [_read_exactly(pipe, size) for size in sizes]
+    return kind, pickle.loads(head, buffers=buffers)
+
+
+def _read_exactly(pipe, size: int) -> pa.Buffer:
+    buffer = pa.allocate_buffer(size)
+    view = memoryview(buffer).cast("B")
+    done = 0
+    while done < size:
+        read = pipe.readinto(view[done:])
+        if not read:
+            raise EOFError(f"the pipe closed {size - done} bytes before the end of a buffer")
+        done += read
+    return buffer
 
 
 def summarize(tables: dict[str, pa.Table]) -> dict[str, Any]:

@@ -353,12 +353,13 @@ def _timing_plans(scenario: Scenario, scenes: list[SampledScene], columns: list[
                       skid_paths=skid.SkidPaths(mu, settings.dt), contacts=contact_sequence(scenario))
     prepare_skids(ctx, layout.route, start.s0, start.speed)
     plans = _TimingPlans.empty(*start.x.shape)
+    median_lane_width = np.median(lane_width, axis=1).tolist()  # [m] per variation, one call for the batch
 
     def build(v: int) -> VariationPlan:
         scene = scenes[v]
         return VariationPlan.build(ctx, scene, variation_rng(scene.seed, scene.index), layout.route[v], start.s0[v],
                                    start.d0[v], start.speed[v], start.length[v], start.width[v], tables[v][0],
-                                   layout.lateral_target[v], float(np.median(lane_width[v])))
+                                   layout.lateral_target[v], median_lane_width[v])
 
     # a reproduce plan of a crash sequence may integrate slides: the variations' plans in lockstep, so that their
     # slides are integrated at once (each plan reads only its own variation's rows)
