@@ -2,6 +2,7 @@
 bytes for the same seed on a cascade."""
 from __future__ import annotations
 
+import math
 import warnings
 
 import numpy as np
@@ -106,13 +107,35 @@ def test_pushes_of_several_impacts_at_once_equal_each_alone():
 
     items = [Push(20.0, 0.0, np.array([-0.4, 0.3]), 1500.0, 1500.0, 4.5, 1.8, 4.5, 1.8, 0.8),
              Push(14.0, 11.0, np.array([0.5]), 15000.0, 1500.0, 12.0, 2.5, 4.2, 1.7, 0.5, True, (0.55, 0.6)),
-             Push(25.0, 3.0, np.array([0.3, 0.4, 0.6]), 1800.0, 1400.0, 4.8, 1.9, 4.4, 1.8, 0.7)]
+             Push(25.0, 3.0, np.array([0.3, 0.4, 0.6]), 1800.0, 1400.0, 4.8, 1.9, 4.4, 1.8, 0.7),
+             Push(25.0, 3.0, np.array([0.3, 0.6]), 1800.0, 1400.0, 4.8, 1.9, 4.4, 1.8, 0.7, stepped=False),
+             Push(18.0, 0.0, np.array([0.5]), 1500.0, 1500.0, 4.5, 1.8, 4.5, 1.8, 0.8, dt=0.05)]
     together = pushes(items)
     for item, (struck, striker) in zip(items, together):
         alone = pushed_paths(item.v_striker, item.v_struck, item.offsets, item.m_striker, item.m_struck,
                              item.l_striker, item.w_striker, item.l_struck, item.w_struck, item.friction,
-                             item.head_on, striker=True, wheelbase_ratios=item.wheelbase_ratios)
+                             item.head_on, striker=True, wheelbase_ratios=item.wheelbase_ratios, stepped=item.stepped)
+        if item.dt != items[0].dt:
+            continue  # pushed_paths steps at the simulator's default step
         for a, b in zip((*alone[0], *alone[1]), (*struck, *striker)):
             assert a.shape == b.shape and np.array_equal(a, b)
     # without the striker's slide the struck car's is the same
     assert all(np.array_equal(a, b) for a, b in zip(pushes(items[:1], striker=False)[0][0], together[0][0]))
+
+
+def test_a_push_stepped_through_the_contact_turns_an_angled_striker_as_the_simulator_does():
+    from crashscene.simulate.embedded.cascade import Push, pushes
+
+    # a striker drifting 1.3 deg to the right into the right rear corner of a parked car at 27 m/s: at the
+    # simulator's 0.1 s step the two turn into each other after the first exchange and exchange again, and the
+    # striker is thrown to the left (one exchange at the first touch turns it right; measured in the simulator:
+    # left, +15 deg 0.1 s after the touch, tests/simulate/test_rollout.py)
+    common = (27.0, 0.0, np.array([0.3]), 1500.0, 1500.0, 4.5, 1.8, 4.5, 1.8, 0.8)
+    (_, (_, _, stepped)), (_, (_, _, once)) = pushes([Push(*common, approach=math.radians(-1.3)),
+                                                      Push(*common, stepped=False)])
+    assert stepped[0, 4] > math.radians(20.0) and once[0, 4] < 0.0
+    # a 3 m/s touch upsets neither (crashscene.upset): stepped as the simulator steps it, the parked car is pushed
+    # straight on and keeps its heading, where one exchange's slide turns it
+    slow = (3.0, 0.0, np.array([0.6]), 1500.0, 1500.0, 4.5, 1.8, 4.5, 1.8, 0.8)
+    (stepped, _), (once, _) = pushes([Push(*slow), Push(*slow, stepped=False)])
+    assert np.all(stepped[2] == 0.0) and np.all(stepped[1] == 0.0) and np.abs(once[2]).max() > 0.01

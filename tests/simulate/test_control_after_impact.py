@@ -73,3 +73,29 @@ def test_a_driver_still_in_control_after_a_contact_holds_its_lanes_centre(straig
         later = trace["t"] > contact["t"] + 3.0
         d = trace["y"] + LANE / 2  # [m] left of the lane's centre (the straight map runs along x)
         assert np.all(d[before] > 0.5) and np.all(np.abs(d[later]) < 0.25)
+
+
+
+def test_a_driver_to_leave_the_road_holds_the_offset_it_starts_at_until_its_trigger(straight_map):
+    # a plan that starts a drifting driver partway across (plan.VariationPlan._drift_into: into the corner of a
+    # parked car) has it drift from its trigger on, as its prediction of the impact (cascade.Push.approach) has it:
+    # before the trigger it holds that offset, it does not steer back to its lane's centre
+    from crashscene.dsl import loads
+
+    from .test_swerve import DRIFT
+
+    scenes = [SampledScene(index=i, seed=5, scenario_hash="h", map_file=str(straight_map), params={},
+                           actors=[actor("ego", 40.0 + i, -LANE / 2 + 1.0, 0.0, 20.0, behavior="leave_road")])
+              for i in range(3)]
+    settings = SimulationSettings(mode="reproduce", horizon=4.0)
+    roadmap = RoadMap.load(straight_map)
+    batch = setup.build(loads(DRIFT.replace("cross_centerline", "leave_road")), scenes, roadmap, settings)
+    batch.d0[:, 0], batch.trigger_time[:, 0], batch.lateral_target[:, 0] = 1.0, 2.0, -6.0
+    recorder = Recorder(roadmap, settings)
+    run_batch(batch, recorder)
+    tables = recorder.tables(scenes)
+    for v in range(3):
+        trace = actor_trace(tables, v, "ego")
+        d = trace["y"] + LANE / 2  # [m] left of the lane's centre (the straight map runs along x)
+        before, later = trace["t"] <= 2.0, trace["t"] >= 3.5
+        assert np.all(np.abs(d[before] - 1.0) < 0.05) and np.all(d[later] < 0.5)

@@ -176,7 +176,8 @@ class BehaviorDriver(Driver):
             passing = triggered & (obs.t < ctx.trigger_time + OVERTAKE_TIME)
             offset = np.where(passing, ctx.lateral_target, 0.0)
         elif behavior == "leave_road":
-            offset = np.where(triggered, ctx.lateral_target, 0.0)
+            # before its trigger it holds the offset it starts at (a plan starts it partway across a drift it times)
+            offset = np.where(triggered, ctx.lateral_target, ctx.initial_offset)
             beyond = triggered & (np.abs(obs.d) > np.abs(ctx.lateral_target) * 0.8)
             accel = np.where(beyond, -DECELERATE_RATE, accel)
         elif behavior == "lose_control":

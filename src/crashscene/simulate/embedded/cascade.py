@@ -2,8 +2,10 @@
 
 A rear-end can push the struck car out of its lane when it strikes one rear corner: the impulse
 (`impact.exchange`, the simulator's own model) turns the struck car and it slides (`impact.tyre_slide`) the
-way its nose points. `pushed_path` integrates that motion from the moment of contact, so that the plan
-can place the third vehicle of the written sequence where the pushed car will be, when it is there.
+way its nose points. `pushed_path` predicts that motion from the moment of contact, the two bodies stepped
+through it as the simulator steps them (`rollout`: at its step the two go on touching and exchange again, which
+can turn the striker the other way than the first exchange does), so that the plan can place the third vehicle
+of the written sequence where the pushed car will be, when it is there.
 `slide_path` is that slide for any vehicle already sliding; `clip_slide`, the slide of a car that clips the car
 ahead while pulling out, so that the plan can place a third vehicle where the clip sends it. How the third vehicle
 meets the moving one (`meeting_mode`: it drives into it, or the moving one comes alongside into its side) decides
@@ -25,7 +27,8 @@ from crashscene.geometry import (
     touch_fraction,
     wrap_angle,
 )
-from crashscene.simulate.embedded import impact, lockstep
+from crashscene.simulate.backend import DEFAULT_DT as SIM_DT
+from crashscene.simulate.embedded import impact, lockstep, rollout
 from crashscene.simulate.embedded.vehicles import limits_for
 from crashscene.upset import upsets
 
@@ -52,13 +55,14 @@ def pushed_path(v_striker: float, v_struck: float, side: float, m_striker: float
 def pushed_paths(v_striker: float, v_struck: float, offsets: np.ndarray, m_striker: float, m_struck: float,
                  l_striker: float, w_striker: float, l_struck: float, w_struck: float, friction: float,
                  head_on: bool = False, striker: bool = False, wheelbase_ratios: tuple[float, float] = (
-                     CAR_WHEELBASE_RATIO, CAR_WHEELBASE_RATIO)):
+                     CAR_WHEELBASE_RATIO, CAR_WHEELBASE_RATIO), stepped: bool = True):
     """`pushed_path` for several striker centres at once, `offsets` (N,) times the struck car's width to its
     left: (forward, left, yaw) (N, steps); with `striker`, also the striker's own slide after the impact in the
     same frame, ((forward, left, yaw), (x, y, yaw)); `wheelbase_ratios` [-] the striker's and the struck car's
-    (vehicles.VehicleLimits)."""
+    (vehicles.VehicleLimits); `stepped`: as Push.stepped."""
     struck, mine = pushes([Push(v_striker, v_struck, np.asarray(offsets, dtype=float), m_striker, m_struck, l_striker,
-                                w_striker, l_struck, w_struck, friction, head_on, wheelbase_ratios)], striker)[0]
+                                w_striker, l_struck, w_struck, friction, head_on, wheelbase_ratios,
+                                stepped=stepped)], striker)[0]
     return (struck, mine) if striker else struck
 
 
@@ -80,6 +84,12 @@ class Push:
     friction: float
     head_on: bool = False
     wheelbase_ratios: tuple[float, float] = (CAR_WHEELBASE_RATIO, CAR_WHEELBASE_RATIO)
+    dt: float = SIM_DT  # [s] the simulator's step, which the contact is stepped at (`rollout`)
+    approach: float = 0.0  # [rad] the striker's heading off the struck car's (left positive) as it touches it
+    approach_rate: float = 0.0  # [rad/s] ...and how fast its driver turns it then (a drift into the car)
+    stepped: bool = True  # the contact stepped as the simulator steps it (`rollout`), else one exchange at the
+    # first touch and each body's slide from it (a striker its driver drives on into the car is carried on by the
+    # caller: plan.VariationPlan._room_to_leave)
 
 
 def pushes(items: list[Push], striker: bool = True) -> list[tuple[tuple[np.ndarray, ...], tuple[np.ndarray, ...] | None]]:
@@ -101,20 +111,46 @@ def pushes(items: list[Push], striker: bool = True) -> list[tuple[tuple[np.ndarr
     ya = np.concatenate([p.offsets for p in items]) * w_struck
     zero = np.zeros(len(xa))
     yaw_a = np.where(head_on, math.pi, 0.0)
-    nx, ny, px, py = impact.contact_frame(xa, ya, yaw_a, l_striker, w_striker, zero, zero, zero, l_struck, w_struck)
+    v_striker, v_struck = each(lambda p: p.v_striker), each(lambda p: p.v_struck)
+    vxa = np.where(head_on, -v_striker, v_striker)
     ma, mb = each(lambda p: p.m_striker), each(lambda p: p.m_struck)
-    ia = impact.yaw_inertia(ma, l_striker, w_striker)
-    ib = impact.yaw_inertia(mb, l_struck, w_struck)
-    v_striker = each(lambda p: p.v_striker)
-    va = np.stack([np.where(head_on, -v_striker, v_striker), zero])
-    vb = np.stack([each(lambda p: p.v_struck), zero])
-    va, wa, vb, wb, _ = impact.exchange(nx, ny, px, py, xa, ya, va, zero, ma, ia, zero, zero, vb, zero, mb, ib)
-    steps = int(HORIZON / DT)
+    ra, rb = each(lambda p: p.wheelbase_ratios[0]) * l_striker, each(lambda p: p.wheelbase_ratios[1]) * l_struck
     friction = each(lambda p: p.friction)
-    struck = slide_path(zero, zero, zero, vb[0], vb[1], wb, friction, l_struck, w_struck, DT, steps,
-                        each(lambda p: p.wheelbase_ratios[1]) * l_struck)
-    mine = slide_path(xa, ya, yaw_a, va[0], va[1], wa, friction, l_striker, w_striker, DT, steps,
-                      each(lambda p: p.wheelbase_ratios[0]) * l_striker) if striker else None
+    steps = int(HORIZON / DT)
+    struck, mine = np.zeros((3, len(xa), steps)), np.zeros((3, len(xa), steps))
+    dt = each(lambda p: p.dt)
+    stepped = each(lambda p: p.stepped).astype(bool)
+    once = np.nonzero(~stepped)[0]
+    if len(once):
+        r = once
+        nx, ny, px, py = impact.contact_frame(xa[r], ya[r], yaw_a[r], l_striker[r], w_striker[r], zero[r], zero[r],
+                                              zero[r], l_struck[r], w_struck[r])
+        va, wa, vb, wb, _ = impact.exchange(
+            nx, ny, px, py, xa[r], ya[r], np.stack([vxa[r], zero[r]]), zero[r], ma[r],
+            impact.yaw_inertia(ma[r], l_striker[r], w_striker[r]), zero[r], zero[r], np.stack([v_struck[r], zero[r]]),
+            zero[r], mb[r], impact.yaw_inertia(mb[r], l_struck[r], w_struck[r]))
+        struck[:, r] = slide_path(zero[r], zero[r], zero[r], vb[0], vb[1], wb, friction[r], l_struck[r], w_struck[r],
+                                  DT, steps, rb[r])
+        mine[:, r] = slide_path(xa[r], ya[r], yaw_a[r], va[0], va[1], wa, friction[r], l_striker[r], w_striker[r], DT,
+                                steps, ra[r])
+    free = np.zeros(len(xa), dtype=bool)
+    # the pair one simulator step before they touch, stepped through the contact as the simulator steps them; the
+    # striker comes at its approach heading (one exchange at the first touch takes it square)
+    heading = yaw_a + each(lambda p: p.approach)
+    vx_s, vy_s = v_striker * np.cos(heading), v_striker * np.sin(heading)
+    striker_body = rollout.Bodies(xa - vx_s * dt, ya - vy_s * dt, heading, vx_s, vy_s, zero, l_striker, w_striker, ma,
+                                  ra, free, each(lambda p: p.approach_rate))
+    struck_body = rollout.Bodies(-v_struck * dt, zero, zero, v_struck, zero, zero, l_struck, w_struck, mb, rb, free)
+    for one_dt in np.unique(dt[stepped]):
+        r = np.nonzero(stepped & (dt == one_dt))[0]
+        pa, pb, first = rollout.stepped(striker_body.take(r), struck_body.take(r), friction[r], float(one_dt), steps,
+                                        DT)
+        # in the struck car's frame at the moment of contact (it drove straight on until then)
+        x0 = v_struck[r] * (np.nan_to_num(first, nan=float(one_dt)) - float(one_dt))
+        struck[:, r] = pb[0] - x0[:, None], pb[1], pb[2]
+        mine[:, r] = pa[0] - x0[:, None], pa[1], pa[2]
+    mine = tuple(mine) if striker else None
+    struck = tuple(struck)
     by_item = lockstep.per_item(struck, sizes)
     mine_by_item = lockstep.per_item(mine, sizes) if striker else [None] * len(items)
     return list(zip(by_item, mine_by_item))

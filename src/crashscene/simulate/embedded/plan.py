@@ -885,7 +885,8 @@ class VariationPlan:
         fwd, left, yaw = cascade.pushed_paths(float(self.speeds[si]), float(v_t[k1]),
                                               np.array([side * c for side, c in choices]), cols[si].limits.mass,
                                               cols[ti].limits.mass, float(self.length[si]), float(self.width[si]),
-                                              float(self.length[ti]), float(self.width[ti]), self.ctx.friction)
+                                              float(self.length[ti]), float(self.width[ti]), self.ctx.friction,
+                                              stepped=False)
         # a striker that keeps its driver (a heavy one, crashscene.upset) drives on and pushes it again: it is carried
         # on at least at the striker's speed while it is in the lane
         fwd = np.maximum(fwd, float(self.speeds[si]) * cascade.DT * np.arange(1, fwd.shape[1] + 1))
@@ -953,11 +954,19 @@ class VariationPlan:
         # that is moving (and braking for what it sees coming) is hit at the usual corner
         corners = cascade.CORNERS if v_t == 0.0 or head_on else (cascade.CORNER,)
         offsets = np.array([side * c for side in (preferred, -preferred) for c in corners])
-        # every offset's push at once, with every other variation's (lockstep.run)
-        (fwd, left, yaw), striker = lockstep.together(cascade.pushes, [cascade.Push(
-            float(self.speeds[si]), float(v_t), offsets, cols[si].limits.mass, cols[ti].limits.mass,
+        _, lat_s = _relative(arrays, self.route[si], self.s0[si], px, py)
+        drifting = cols[si].behavior in LATERAL_BEHAVIORS and not head_on
+        # every offset's push at once, with every other variation's (lockstep.run); a drifting striker comes at the
+        # heading its drift has when it reaches that corner (`_drift_into`)
+        approaches = [self._drift_approach(si, t1, lat_s + o * self.width[ti]) if drifting else (0.0, 0.0)
+                      for o in offsets]
+        found = lockstep.together(cascade.pushes, [cascade.Push(
+            float(self.speeds[si]), float(v_t), np.array([o]), cols[si].limits.mass, cols[ti].limits.mass,
             float(self.length[si]), float(self.width[si]), float(self.length[ti]), float(self.width[ti]),
-            self.ctx.friction, head_on, (cols[si].limits.wheelbase_ratio, cols[ti].limits.wheelbase_ratio))])[0]
+            self.ctx.friction, head_on, (cols[si].limits.wheelbase_ratio, cols[ti].limits.wheelbase_ratio),
+            self.ctx.skid_paths.dt, *approach) for o, approach in zip(offsets, approaches)])
+        fwd, left, yaw = (np.concatenate([one[0][q] for one in found]) for q in range(3))
+        striker = tuple(np.concatenate([one[1][q] for one in found]) for q in range(3))
         again = cascade.touch_again((fwd, left, yaw), striker, float(self.length[ti]), float(self.width[ti]),
                                     float(self.length[si]), float(self.width[si]))
         best, best_score = None, (-1, False, -math.inf)
@@ -983,7 +992,6 @@ class VariationPlan:
         # the striker holds its centre off the struck car's centre line, toward the corner it hits (its own
         # left is the struck car's right when it comes the other way)
         offset = side * self.width[ti] * (-1.0 if head_on else 1.0)
-        _, lat_s = _relative(arrays, self.route[si], self.s0[si], px, py)
         if cols[si].behavior in LATERAL_BEHAVIORS and head_on:
             self.lateral_target[si] += offset
             self._settle_before(si, t1)
@@ -1009,21 +1017,37 @@ class VariationPlan:
         """Actor a drifts (its lateral manoeuvre, swerve.path) into the corner of a stopped car it strikes at t1 [s],
         its centre `target` [m] off its route then: the manoeuvre is under way its lead time before (less when that
         would start it outside its lane), from where it takes it to the corner."""
-        rate = timing.lateral_rate(self.ctx.columns[a].behavior)
-        rows = self._pull_out_path(a, rate)
-        sign = 1.0 if self.lateral_target[a] >= self.d0[a] else -1.0
+        k, rows, sign = self._drift_lead(a, t1, target)
         dt = self.ctx.skid_paths.dt
         across = np.abs(rows[1][0])  # [m] how far across it is every dt after its trigger
-        room = max(self.lane_width - self.width[a], 0.0) / 2  # [m] its start stays within its lane
-        lead = min(self.lead_time(a), t1)
-        k = int(round(lead / dt)) - 1
-        while k > 0 and abs(target - sign * across[k] - self.d0[a]) > room:
-            k -= 1
         lead = (k + 1) * dt if k >= 0 else 0.0
         shift = target - sign * (float(across[k]) if k >= 0 else 0.0) - self.d0[a]
         self.d0[a] += shift
         self.drifted[a] += shift
         self.trigger[a] = max(t1 - lead, 0.0)
+
+    def _drift_approach(self, a: int, t1: float, target: float) -> tuple[float, float]:
+        """(heading off its route [rad], yaw rate [rad/s]) of actor a as it strikes at t1 [s] drifting into a corner
+        `target` [m] off its route (`_drift_lead`)."""
+        k, rows, sign = self._drift_lead(a, t1, target)
+        if k < 0:
+            return 0.0, 0.0
+        yaw = rows[2][0]
+        rate = (yaw[k] - yaw[k - 1]) / self.ctx.skid_paths.dt if k >= 1 else 0.0
+        return sign * float(yaw[k]), sign * float(rate)
+
+    def _drift_lead(self, a: int, t1: float, target: float) -> tuple[int, tuple[np.ndarray, ...], float]:
+        """(the step of its path actor a is at when it strikes at t1 [s] (-1: it starts there), its drift path
+        (swerve.path, turning left), the side it turns to) when it drifts into a corner `target` [m] off its route
+        (`_drift_into`): its lead time, less when that would start it outside its lane."""
+        rows = self._pull_out_path(a, timing.lateral_rate(self.ctx.columns[a].behavior))
+        sign = 1.0 if self.lateral_target[a] >= self.d0[a] else -1.0
+        across = np.abs(rows[1][0])  # [m] how far across it is every dt after its trigger
+        room = max(self.lane_width - self.width[a], 0.0) / 2  # [m] its start stays within its lane
+        k = int(round(min(self.lead_time(a), t1) / self.ctx.skid_paths.dt)) - 1
+        while k > 0 and abs(target - sign * across[k] - self.d0[a]) > room:
+            k -= 1
+        return k, rows, sign
 
     def _meet_at(self, a: int, reach: float, arrive: float, passing: tuple[int, ...] = ()) -> bool:
         """Actor a covers `reach` [m] along its route by `arrive` [s]: it starts where that takes its own speed, else

@@ -1,0 +1,157 @@
+"""Two vehicles through a contact, stepped as the embedded simulator steps them: the prediction a plan makes of
+what a contact does.
+
+One impulse exchange at the moment of first contact (`cascade.pushes`) is not what the simulator gives when the
+bodies go on touching: at its step (10 Hz) two cars that struck each other off-centre turn into each other within
+the next step, and every step they still overlap and approach they exchange again, the contact normal then taken
+across the penetrated bodies (simulator._check_collisions). A car rear-ended on one corner can so throw the striker
+the other way than the first exchange turns it. `rollout` steps a pair the way the simulator does (its order:
+move, then overlap, back to the moment of first contact at an onset, exchange while they approach; a vehicle an
+exchange upsets slides on its tyres, `impact.tyre_slide`, one it does not keeps its driver, who drives on at the
+speed the impulse leaves, turning as it did), vectorised over many pairs, so that a plan can choose among its options by what
+the simulator will do with them.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from crashscene.geometry import footprints_overlap, touch_fraction, wrap_angle
+from crashscene.simulate.embedded import impact
+from crashscene.upset import upsets
+
+
+@dataclass
+class Bodies:
+    """N vehicles (arrays (N,)): pose [m, m, rad], velocity [m/s], yaw rate [rad/s], size [m], mass [kg],
+    wheelbase [m], whether each is out of its driver's control (`free`: it slides on its tyres), and the yaw rate
+    [rad/s] its driver steers while it is not (`turn`, held through the rollout; none: straight on)."""
+
+    x: np.ndarray
+    y: np.ndarray
+    yaw: np.ndarray
+    vx: np.ndarray
+    vy: np.ndarray
+    w: np.ndarray
+    length: np.ndarray
+    width: np.ndarray
+    mass: np.ndarray
+    wheelbase: np.ndarray
+    free: np.ndarray
+    turn: np.ndarray | None = None
+
+    def copy(self) -> Bodies:
+        turn = np.zeros(len(self.x)) if self.turn is None else self.turn
+        return Bodies(*(np.array(getattr(self, f), copy=True) for f in self.__dataclass_fields__ if f != "turn"),
+                      turn=np.array(turn, dtype=float, copy=True))
+
+    def take(self, rows: np.ndarray) -> Bodies:
+        """The bodies at `rows` (copies)."""
+        whole = self.copy()
+        return Bodies(*(getattr(whole, f)[rows] for f in self.__dataclass_fields__))
+
+
+def stepped(a: Bodies, b: Bodies, friction: float | np.ndarray, dt: float, steps: int, dt_out: float
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """`rollout` of N pairs that touch within their first step, resampled from their first contact on: (x, y, yaw)
+    of a and of b (3, N, steps) every dt_out [s] after it (the simulator's pose at each of its steps taken at the
+    step's time, as it records it, linearly between; from the first step's end where they never touch), and the
+    time [s] of the first contact from the start (NaN where they never touch)."""
+    sim_steps = int(np.ceil(steps * dt_out / dt)) + 2
+    pa, pb, first, _ = rollout(a, b, friction, dt, sim_steps)
+    times = dt * np.arange(1, sim_steps + 1)
+    want = np.where(np.isnan(first), dt, first)[:, None] + dt_out * np.arange(1, steps + 1)[None, :]
+    out = []
+    for p in (pa, pb):
+        yaw = np.unwrap(p[2], axis=1)
+        out.append(np.stack([_interp(want, times, q) for q in (p[0], p[1], yaw)]))
+    return out[0], out[1], first
+
+
+def _interp(want: np.ndarray, times: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """values (N, K) at `times` (K,), linearly at `want` (N, M) (held beyond the ends)."""
+    k = np.clip(np.searchsorted(times, want) - 1, 0, len(times) - 2)
+    f = np.clip((want - times[k]) / (times[k + 1] - times[k]), 0.0, 1.0)
+    rows = np.arange(len(values))[:, None]
+    return values[rows, k] + f * (values[rows, k + 1] - values[rows, k])
+
+
+def rollout(a: Bodies, b: Bodies, friction: float | np.ndarray, dt: float, steps: int
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The poses of N pairs (a, b) every dt [s] for `steps` steps, stepped as the simulator steps them (module
+    docstring): (x, y, yaw) of a and of b, each (3, N, steps), the time [s] of each pair's first contact (NaN when
+    they never touch) and whether each of a, b was upset by then (2, N) at the end. The inputs are not changed."""
+    a, b = a.copy(), b.copy()
+    n = len(a.x)
+    out = np.zeros((2, 3, n, steps))
+    touching = footprints_overlap(a.x, a.y, a.yaw, a.length, a.width, b.x, b.y, b.yaw, b.length, b.width)
+    collided = np.zeros((2, n), dtype=bool)
+    first = np.full(n, np.nan)
+    friction = np.broadcast_to(np.asarray(friction, dtype=float), (n,))
+    for k in range(steps):
+        prev = [(q.x.copy(), q.y.copy(), q.yaw.copy()) for q in (a, b)]
+        for i, q in enumerate((a, b)):
+            _move(q, collided[i], friction, dt)
+        overlap = footprints_overlap(a.x, a.y, a.yaw, a.length, a.width, b.x, b.y, b.yaw, b.length, b.width)
+        onset = overlap & ~touching
+        touching = overlap
+        if onset.any():
+            frac = _back_to_contact(a, b, prev, onset)
+            first = np.where(onset & np.isnan(first), (k + frac) * dt, first)
+        if overlap.any():
+            _exchange(a, b, overlap)
+            collided[:, overlap] = True
+        for i, q in enumerate((a, b)):
+            out[i, :, :, k] = q.x, q.y, q.yaw
+    return out[0], out[1], first, np.stack([a.free, b.free])
+
+
+def _move(q: Bodies, collided: np.ndarray, friction: np.ndarray, dt: float) -> None:
+    """One step of each body: a free one slides on its tyres (trapezoidal, as simulator._move), a driven one
+    drives on at its speed, turning at the yaw rate its driver had (held: its steering over one step)."""
+    speed = np.hypot(q.vx, q.vy)
+    vx, vy, w = impact.tyre_slide(q.vx, q.vy, q.yaw, q.w, friction, q.length, q.width, q.wheelbase, dt)
+    slide_x, slide_y = q.x + 0.5 * (q.vx + vx) * dt, q.y + 0.5 * (q.vy + vy) * dt
+    slide_yaw = q.yaw + 0.5 * (q.w + w) * dt
+    free = q.free & collided
+    mid = q.yaw + 0.5 * q.turn * dt
+    q.x = np.where(free, slide_x, q.x + speed * np.cos(mid) * dt)
+    q.y = np.where(free, slide_y, q.y + speed * np.sin(mid) * dt)
+    q.yaw = wrap_angle(np.where(free, slide_yaw, q.yaw + q.turn * dt))
+    q.vx = np.where(free, vx, speed * np.cos(q.yaw))
+    q.vy = np.where(free, vy, speed * np.sin(q.yaw))
+    q.w = np.where(free, w, q.turn)
+
+
+def _back_to_contact(a: Bodies, b: Bodies, prev, hit: np.ndarray) -> np.ndarray:
+    """Both bodies of each hit pair moved back along their last step to the moment of first contact
+    (simulator._back_to_contact); the fraction of the step it began at (1 elsewhere)."""
+    idx = np.nonzero(hit)[0]
+    frac = np.ones(len(hit))
+
+    def pose(q: Bodies, p, f):
+        x0, y0, yaw0 = (v[idx] for v in p)
+        return (x0 + f * (q.x[idx] - x0), y0 + f * (q.y[idx] - y0), yaw0 + f * wrap_angle(q.yaw[idx] - yaw0))
+
+    hi = touch_fraction(lambda f: pose(a, prev[0], f), lambda f: pose(b, prev[1], f), a.length[idx], a.width[idx],
+                        b.length[idx], b.width[idx], len(idx))
+    for q, p in ((a, prev[0]), (b, prev[1])):
+        q.x[idx], q.y[idx], q.yaw[idx] = pose(q, p, hi)
+    frac[idx] = hi
+    return frac
+
+
+def _exchange(a: Bodies, b: Bodies, overlap: np.ndarray) -> None:
+    """The impulse between the bodies of each overlapping pair (simulator._exchange); a body it upsets is free."""
+    i = np.nonzero(overlap)[0]
+    nx, ny, px, py = impact.contact_frame(a.x[i], a.y[i], a.yaw[i], a.length[i], a.width[i], b.x[i], b.y[i],
+                                          b.yaw[i], b.length[i], b.width[i])
+    va, vb = np.stack([a.vx[i], a.vy[i]]), np.stack([b.vx[i], b.vy[i]])
+    ia = impact.yaw_inertia(a.mass[i], a.length[i], a.width[i])
+    ib = impact.yaw_inertia(b.mass[i], b.length[i], b.width[i])
+    va1, wa1, vb1, wb1, _ = impact.exchange(nx, ny, px, py, a.x[i], a.y[i], va, a.w[i], a.mass[i], ia, b.x[i],
+                                            b.y[i], vb, b.w[i], b.mass[i], ib)
+    for q, v1, w1, v0, w0 in ((a, va1, wa1, va, a.w[i]), (b, vb1, wb1, vb, b.w[i])):
+        q.free[i] |= upsets(np.hypot(*(v1 - v0)), w1 - w0)
+        q.vx[i], q.vy[i], q.w[i] = v1[0], v1[1], w1
