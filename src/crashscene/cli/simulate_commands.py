@@ -44,11 +44,10 @@ def simulate(
 ) -> None:
     """Render, sample and simulate FILE; write traces, the monitor's verdicts and summary.json into --out."""
     from crashscene.dsl import DslError, load_file
-    from crashscene.pipeline.simulate import arrow_without_pandas, keep_freed_memory, simulate_scenario
+    from crashscene.pipeline.simulate import arrow_without_pandas, simulate_scenario
     from crashscene.simulate.backend import AdsError, SimulationError
 
     arrow_without_pandas()
-    keep_freed_memory()
     try:
         scenario = load_file(file)
     except DslError as exc:

@@ -374,31 +374,6 @@ def arrow_without_pandas() -> None:
         sys.meta_path.remove(_PandasMissing)
 
 
-MALLOC_KEEP_BYTES = 32 * 2**20  # [bytes] freed heap memory glibc keeps for reuse (and its largest heap block)
-_M_TRIM_THRESHOLD, _M_MMAP_THRESHOLD = -1, -3  # glibc's mallopt parameters (malloc.h)
-
-
-def keep_freed_memory() -> bool:
-    """Let this process (and the workers it forks) reuse the memory of freed arrays instead of handing it back to
-    the kernel and faulting fresh zeroed pages in for the next array (glibc only; False elsewhere).
-
-    glibc maps each array over 128 kB (a column of a block's traces, a step's per-variation temporaries) on its
-    own and unmaps it when freed, so every array of every step, record and judgement pays its page faults again
-    (a fifth of the command's CPU time was the kernel's). Arrays up to MALLOC_KEEP_BYTES now come from the heap,
-    which hands back only what exceeds MALLOC_KEEP_BYTES free at its top. For processes that run simulations (the
-    command line); the memory peak stays about what the arrays alive at once take."""
-    import ctypes
-    import ctypes.util
-
-    try:
-        libc = ctypes.CDLL(ctypes.util.find_library("c"))
-        mallopt = libc.mallopt
-    except (OSError, AttributeError, TypeError):
-        return False
-    return bool(mallopt(_M_MMAP_THRESHOLD, MALLOC_KEEP_BYTES)) and bool(mallopt(_M_TRIM_THRESHOLD,
-                                                                                 MALLOC_KEEP_BYTES))
-
-
 class _PandasMissing:
     """An import finder for which pandas does not exist (put first on `sys.meta_path` while pyarrow looks)."""
 
