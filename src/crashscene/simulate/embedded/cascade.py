@@ -122,7 +122,7 @@ def pushes(items: list[Push], striker: bool = True) -> list[tuple[tuple[np.ndarr
     stepped = each(lambda p: p.stepped).astype(bool)
     once = np.nonzero(~stepped)[0]
     if len(once):
-        r = once
+        r = once  # [-] the rows predicted with one exchange
         nx, ny, px, py = impact.contact_frame(xa[r], ya[r], yaw_a[r], l_striker[r], w_striker[r], zero[r], zero[r],
                                               zero[r], l_struck[r], w_struck[r])
         va, wa, vb, wb, _ = impact.exchange(
@@ -131,8 +131,9 @@ def pushes(items: list[Push], striker: bool = True) -> list[tuple[tuple[np.ndarr
             zero[r], mb[r], impact.yaw_inertia(mb[r], l_struck[r], w_struck[r]))
         struck[:, r] = slide_path(zero[r], zero[r], zero[r], vb[0], vb[1], wb, friction[r], l_struck[r], w_struck[r],
                                   DT, steps, rb[r])
-        mine[:, r] = slide_path(xa[r], ya[r], yaw_a[r], va[0], va[1], wa, friction[r], l_striker[r], w_striker[r], DT,
-                                steps, ra[r])
+        if striker:  # the striker's own slide only when asked for (the room check asks for the struck car's)
+            mine[:, r] = slide_path(xa[r], ya[r], yaw_a[r], va[0], va[1], wa, friction[r], l_striker[r], w_striker[r],
+                                    DT, steps, ra[r])
     free = np.zeros(len(xa), dtype=bool)
     # the pair one simulator step before they touch, stepped through the contact as the simulator steps them; the
     # striker comes at its approach heading (one exchange at the first touch takes it square)

@@ -19,6 +19,7 @@ import numpy as np
 
 from crashscene.geometry import footprints_overlap, touch_fraction, wrap_angle
 from crashscene.simulate.embedded import impact
+from crashscene.simulate.embedded.swerve import bicycle_move
 from crashscene.upset import upsets
 
 
@@ -115,10 +116,10 @@ def _move(q: Bodies, collided: np.ndarray, friction: np.ndarray, dt: float) -> N
     slide_x, slide_y = q.x + 0.5 * (q.vx + vx) * dt, q.y + 0.5 * (q.vy + vy) * dt
     slide_yaw = q.yaw + 0.5 * (q.w + w) * dt
     free = q.free & collided
-    mid = q.yaw + 0.5 * q.turn * dt
-    q.x = np.where(free, slide_x, q.x + speed * np.cos(mid) * dt)
-    q.y = np.where(free, slide_y, q.y + speed * np.sin(mid) * dt)
-    q.yaw = wrap_angle(np.where(free, slide_yaw, q.yaw + q.turn * dt))
+    drive_x, drive_y, drive_yaw = bicycle_move(q.x, q.y, q.yaw, speed, q.turn, dt)
+    q.x = np.where(free, slide_x, drive_x)
+    q.y = np.where(free, slide_y, drive_y)
+    q.yaw = wrap_angle(np.where(free, slide_yaw, drive_yaw))
     q.vx = np.where(free, vx, speed * np.cos(q.yaw))
     q.vy = np.where(free, vy, speed * np.sin(q.yaw))
     q.w = np.where(free, w, q.turn)

@@ -310,8 +310,9 @@ def _ranked_each(alongs, fixed, lo, hi, offsets_each, me: Body, partner: Body, r
         mine, theirs = lockstep.together(_areas, [(px, py, pyaw, me, partner, other_yaw)])[0]
         fits = ((mine == wanted.area) | (wanted.area is None)) & ((theirs == wanted.partner_area)
                                                                   | (wanted.partner_area is None))
-        penalty = penalty + np.where(fits, 0.0, AREA_COST)
-        miss = miss + np.where(fits, 0.0, AREA_COST)
+        area_miss = np.where(fits, 0.0, AREA_COST)
+        penalty = penalty + area_miss
+        miss = miss + area_miss
     bounds = np.searchsorted(group, np.arange(len(alongs) + 1))  # each pair's contacts: a run of them
     for g in range(len(alongs)):
         b0, b1 = int(bounds[g]), int(bounds[g + 1])

@@ -176,17 +176,18 @@ def class_meeting(arrays, striker: Mover, struck: Mover, wanted: tuple[str, str 
     t_at = tt[None, :] - t_t0 + t_s0 + shifts[:, None]
     inside = (t_at >= ts[0]) & (t_at <= ts[-1])
 
+    yaws = np.unwrap(yaws)
+
     def striker_pose(t):
-        return np.interp(t, ts, xs), np.interp(t, ts, ys), np.interp(t, ts, np.unwrap(yaws))
+        return np.interp(t, ts, xs), np.interp(t, ts, ys), np.interp(t, ts, yaws)
 
     px, py, pyaw = striker_pose(t_at)
     gap = footprint_separation(px, py, pyaw, striker.length, striker.width, xt[None, :], yt[None, :],
                                yawt[None, :], struck.length, struck.width)
     touching = (gap <= 0) & inside
     n_shift = len(shifts)
-    found = touching.any(axis=1) & ~touching[:, 0]
     k = np.argmax(touching, axis=1)
-    rows = np.nonzero(found & (k > 0))[0]
+    rows = np.nonzero(k > 0)[0]  # a first touch after the shift's first step (argmax is 0 where none touches)
     ok = np.zeros(n_shift, dtype=bool)
     score = np.zeros(n_shift)
     stations = np.full((n_shift, 6), np.nan)  # the two stations [m], times [s] and speeds [m/s] of each touch
@@ -202,18 +203,18 @@ def class_meeting(arrays, striker: Mover, struck: Mover, wanted: tuple[str, str 
                     yawt[k0] + f * (yawt[k1] - yawt[k0]))
 
         n = len(rows)
-        f = touch_fraction(mine, theirs, np.full(n, striker.length), np.full(n, striker.width),
-                           np.full(n, struck.length), np.full(n, struck.width), n)
-        xa, ya, yawa = mine(f)
+        ls, ws, lt, wt = (np.full(n, size) for size in (striker.length, striker.width, struck.length, struck.width))
+        f = touch_fraction(mine, theirs, ls, ws, lt, wt, n)
+        t_s = t_at[rows, k0] + f * (t_at[rows, k1] - t_at[rows, k0])
+        xa, ya, yawa = striker_pose(t_s)
         xb, yb, yawb = theirs(f)
         lon, lat = relative_position(xa, ya, yawa, xb, yb)
-        got = classify_contact(heading_difference(yawa, yawb), lon, lat, (striker.length + struck.length) / 2,
-                               (striker.width + struck.width) / 2)
-        a_s, a_t = contact_areas(xa, ya, yawa, np.full(n, striker.length), np.full(n, striker.width), xb, yb, yawb,
-                                 np.full(n, struck.length), np.full(n, struck.width))
+        rel = heading_difference(yawa, yawb)
+        got = classify_contact(rel, lon, lat, (striker.length + struck.length) / 2, (striker.width + struck.width) / 2)
+        a_s, a_t = contact_areas(xa, ya, yawa, ls, ws, xb, yb, yawb, lt, wt)
         # the class with a margin (the predicted heading is off the driven one by a few degrees), the written
         # areas only to choose among equally robust touches
-        ok[rows] = (got == klass) & (cascade.class_margin(heading_difference(yawa, yawb), klass) >= CLASS_MARGIN)
+        ok[rows] = (got == klass) & (cascade.class_margin(rel, klass) >= CLASS_MARGIN)
         # a driver charged with not yielding entered the other's path before the other was past it (rules.md: the
         # other's time to reach the conflict area is measured then): at the touch its front is ahead of the other's
         # centre, along the other's heading
@@ -223,7 +224,6 @@ def class_meeting(arrays, striker: Mover, struck: Mover, wanted: tuple[str, str 
                 fy = pose[1] + me.length / 2 * np.sin(pose[2])
                 ok[rows] &= relative_position(*other, fx, fy)[0] >= 0.0
         score[rows] = np.where(ok[rows], 1.0 + AREA_WEIGHT * ((a_s == area_s).astype(float) + (a_t == area_t)), 0.0)
-        t_s = t_at[rows, k0] + f * (t_at[rows, k1] - t_at[rows, k0])
         vs, vt = np.gradient(ss, ts), np.gradient(st, tt)
         stations[rows] = np.stack([np.interp(t_s, ts, ss), st[k0] + f * (st[k1] - st[k0]), t_s, tt[k0] + f * DT,
                                    np.interp(t_s, ts, vs), vt[k0] + f * (vt[k1] - vt[k0])], axis=1)

@@ -161,9 +161,19 @@ class RouteArrays:
         return float(np.sum(ds / (0.5 * (v[1:] + v[:-1])))) * (s1 - s0) / (dist[-1] if dist[-1] > 0 else 1.0)
 
     @cached_property
+    def _abs_curvature(self) -> np.ndarray:
+        """|curvature| [1/m] (R, K)."""
+        return np.abs(self.curvature)
+
+    @cached_property
+    def _flat_abs_curvature(self) -> np.ndarray:
+        """|curvature| [1/m] flat, row after row (route r's sample k at r * K + k: `curve_lookahead`'s gather)."""
+        return np.ascontiguousarray(self._abs_curvature).ravel()
+
+    @cached_property
     def _abs_curvature_levels(self) -> list[np.ndarray]:
         """|curvature| (R, K) and its sparse table: level j holds the largest value of samples [k, k + 2^j)."""
-        levels = [np.abs(self.curvature)]
+        levels = [self._abs_curvature]
         while 2 ** len(levels) <= levels[0].shape[1]:
             half = 2 ** (len(levels) - 1)
             levels.append(np.maximum(levels[-1][:, :-half], levels[-1][:, half:]))
@@ -194,9 +204,7 @@ class RouteArrays:
         dist = reach[..., None] * (LOOKAHEAD_FRACTIONS if n == len(LOOKAHEAD_FRACTIONS) else np.linspace(0.0, 1.0, n))
         f = np.clip((s[..., None] + dist) * (1.0 / ROUTE_DS), 0.0, self.curvature.shape[1] - 1)
         flat = np.asarray(r)[..., None] * self.curvature.shape[1] + f.astype(np.int64)
-        if not hasattr(self, "_flat_kappa"):
-            self._flat_kappa = np.abs(np.ascontiguousarray(self.curvature)).ravel()
-        kappa = self._flat_kappa[flat]
+        kappa = self._flat_abs_curvature[flat]
         curvature = np.where(dist <= near[..., None], kappa, 0.0).max(axis=-1)
         speed = np.sqrt(np.min(2.5 / np.maximum(kappa, 1e-4) + 4.0 * dist, axis=-1))
         return curvature, speed
