@@ -7,7 +7,7 @@ from pydantic import Field
 
 from crashscene.geometry import footprint_separation, heading_difference, relative_position, wrap_angle
 from crashscene.monitor.context import EvalContext
-from crashscene.monitor.judging import contact_steps
+from crashscene.monitor.judging import contact_steps, judged_until
 from crashscene.monitor.rules.base import Disposition, Rule, RuleOutcome, RuleParams, register_rule
 from crashscene.monitor.timeseries import first_index, margin_in, runs, steps_for
 
@@ -123,11 +123,12 @@ class WrongSide(Rule):
         # their whole traces, each such actor up to the end of that stay
         rows, whole = ctx.whole.rows, ctx.whole.arrays
         upset = ctx.driven_until[rows]
-        own = self._own_stay_starts(whole, upset, ctx.grace)
+        opposing = self._opposing(whole)
+        own = self._own_stay_starts(whole, upset, ctx.grace, opposing)
         if not (own >= 0).any():
             return out
-        stay_end = np.where(own >= 0, _run_ends(self._opposing(whole), own), -1)
-        last = np.where(upset >= 0, upset + ctx.grace, -1)
+        stay_end = np.where(own >= 0, _run_ends(opposing, own), -1)
+        last = judged_until(upset, ctx.grace)
         last = np.where(own >= 0, np.maximum(last, stay_end), last)
         arrays = whole.select(np.arange(len(rows)))
         arrays.truncate(last)
@@ -150,11 +151,11 @@ class WrongSide(Rule):
         """(V, A, T) the centre in an opposing lane outside junctions."""
         return a.flag("opposing_lane") & ~a.flag("in_junction") & a.alive
 
-    def _own_stay_starts(self, a, upset: np.ndarray, grace: int) -> np.ndarray:
+    def _own_stay_starts(self, a, upset: np.ndarray, grace: int, opposing: np.ndarray | None = None) -> np.ndarray:
         """(V, A) first step of a stay in an opposing lane that begins within `grace` steps after the actor's
         upsetting contact (at step `upset`, -1 none) while, at the last recorded step before that contact, the
         actor's centre was on its own side and moving towards the opposite lane by itself faster than
-        `own_lateral_speed`; -1 none."""
+        `own_lateral_speed`; -1 none. `opposing`: `_opposing(a)` when the caller has it."""
         p: WrongSideParams = self.params
         out = np.full(upset.shape, -1, dtype=np.int64)
         n_steps = a.shape[2]
@@ -162,7 +163,8 @@ class WrongSide(Rule):
         if not len(vv):
             return out
         k = upset[vv, aa]
-        opposing = self._opposing(a)
+        if opposing is None:
+            opposing = self._opposing(a)
         start = np.full(len(vv), -1, dtype=np.int64)
         for off in range(grace, -1, -1):  # the earliest start wins
             s = np.minimum(k + off, n_steps - 1)
@@ -251,9 +253,8 @@ def _run_ends(mask: np.ndarray, start: np.ndarray) -> np.ndarray:
     """(V, A) last step of the True run of `mask` (V, A, T) that contains step `start` (V, A; >= 0)."""
     n_steps = mask.shape[2]
     steps = np.arange(n_steps)
-    after_gap = ~mask & (steps >= np.maximum(start, 0)[..., None])
-    first_gap = np.where(after_gap.any(axis=2), np.argmax(after_gap, axis=2), n_steps)
-    return first_gap - 1
+    first_gap = first_index(~mask & (steps >= np.maximum(start, 0)[..., None]))
+    return np.where(first_gap >= 0, first_gap, n_steps) - 1
 
 
 class LaneChangeParams(RuleParams):
