@@ -526,12 +526,13 @@ def _exchange(batch: batch_setup.BatchSetup, state: State, recorder: Recorder, o
         vy = np.where(free, state.vy[idx, k], state.v[idx, k] * np.sin(state.yaw[idx, k]))
         return np.stack([vx, vy]), state.yaw_rate[idx, k]
 
-    nx, ny, px, py = impact.contact_frame(state.x[idx, a], state.y[idx, a], state.yaw[idx, a], L[idx, a], W[idx, a],
-                                          state.x[idx, b], state.y[idx, b], state.yaw[idx, b], L[idx, b], W[idx, b])
+    poses = (state.x[idx, a], state.y[idx, a], state.yaw[idx, a], L[idx, a], W[idx, a],
+             state.x[idx, b], state.y[idx, b], state.yaw[idx, b], L[idx, b], W[idx, b])
+    nx, ny, px, py, penetration = impact.contact(*poses)
     (va, wa), (vb, wb) = kin(a), kin(b)
-    va1, wa1, vb1, wb1, _ = impact.exchange(nx, ny, px, py, state.x[idx, a], state.y[idx, a], va, wa,
-                                            state.mass[idx, a], state.inertia[idx, a], state.x[idx, b],
-                                            state.y[idx, b], vb, wb, state.mass[idx, b], state.inertia[idx, b])
+    ma, mb = state.mass[idx, a], state.mass[idx, b]
+    va1, wa1, vb1, wb1, _ = impact.exchange(nx, ny, px, py, poses[0], poses[1], va, wa, ma, state.inertia[idx, a],
+                                            poses[5], poses[6], vb, wb, mb, state.inertia[idx, b])
     n_v = batch.n_variations
     dva, dvb, cx, cy = (np.full(n_v, np.nan) for _ in range(4))
     dva[idx] = np.hypot(*(va1 - va))
@@ -545,9 +546,8 @@ def _exchange(batch: batch_setup.BatchSetup, state: State, recorder: Recorder, o
         state.free[idx, k] |= upsets(np.hypot(*(vel - vel0)), w - w0)  # else its driver drives on
         state.collided[idx, k] = True
     # the bodies do not pass through each other: pushed apart until they barely touch (impact.separate)
-    dxa, dya, dxb, dyb = impact.separate(state.x[idx, a], state.y[idx, a], state.yaw[idx, a], L[idx, a], W[idx, a],
-                                         state.mass[idx, a], state.x[idx, b], state.y[idx, b], state.yaw[idx, b],
-                                         L[idx, b], W[idx, b], state.mass[idx, b])
+    # (the exchange changed velocities only: the poses, normal and penetration are the contact's)
+    dxa, dya, dxb, dyb = impact.separate(*poses[:5], ma, *poses[5:], mb, frame=(nx, ny, penetration))
     state.x[idx, a] += dxa
     state.y[idx, a] += dya
     state.x[idx, b] += dxb
