@@ -195,18 +195,25 @@ class RouteArrays:
         v_curve2 = lat_accel / np.maximum(kappa, 1e-4)
         return np.sqrt(np.min(v_curve2 + 2.0 * decel * dist, axis=-1))
 
+    @cached_property
+    def _flat_curve_speed2(self) -> np.ndarray:
+        """[m2/s2] the squared speed each sample's curve allows at 2.5 m/s2 lateral, flat as `_flat_abs_curvature`."""
+        return 2.5 / np.maximum(self._flat_abs_curvature, 1e-4)
+
     def curve_lookahead(self, r: np.ndarray, s: np.ndarray, v: np.ndarray, n: int = 12
                         ) -> tuple[np.ndarray, np.ndarray]:
         """(largest |curvature| [1/m] on the next max(20 m, 3 s), curve speed [m/s] as `curve_speed` with
         2.5 m/s2 lateral and 2 m/s2 braking over that distance plus the braking distance), one gather."""
+        r, s, v = np.asarray(r), np.asarray(s), np.asarray(v)
         near = np.maximum(20.0, 3.0 * v)
         reach = near + v * v / 4.0
-        dist = reach[..., None] * (LOOKAHEAD_FRACTIONS if n == len(LOOKAHEAD_FRACTIONS) else np.linspace(0.0, 1.0, n))
-        f = np.clip((s[..., None] + dist) * (1.0 / ROUTE_DS), 0.0, self.curvature.shape[1] - 1)
-        flat = np.asarray(r)[..., None] * self.curvature.shape[1] + f.astype(np.int64)
-        kappa = self._flat_abs_curvature[flat]
-        curvature = np.where(dist <= near[..., None], kappa, 0.0).max(axis=-1)
-        speed = np.sqrt(np.min(2.5 / np.maximum(kappa, 1e-4) + 4.0 * dist, axis=-1))
+        fractions = LOOKAHEAD_FRACTIONS if n == len(LOOKAHEAD_FRACTIONS) else np.linspace(0.0, 1.0, n)
+        # the samples along the first axis: the reductions over them are elementwise over contiguous rows
+        dist = fractions.reshape((-1,) + (1,) * reach.ndim) * reach
+        f = np.minimum(np.maximum((s + dist) * (1.0 / ROUTE_DS), 0.0), self.curvature.shape[1] - 1)
+        flat = r * self.curvature.shape[1] + f.astype(np.int64)
+        curvature = np.where(dist <= near, self._flat_abs_curvature[flat], 0.0).max(axis=0)
+        speed = np.sqrt((self._flat_curve_speed2[flat] + 4.0 * dist).min(axis=0))
         return curvature, speed
 
     def max_abs_curvature(self, r: np.ndarray, s: np.ndarray, ahead: np.ndarray, n: int = 8) -> np.ndarray:
