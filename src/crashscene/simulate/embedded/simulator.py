@@ -436,23 +436,31 @@ def _move(batch: batch_setup.BatchSetup, state: State, accel_cmd: np.ndarray, la
     x_new, y_new, yaw_new = bicycle_move(state.x, state.y, state.yaw, v_mid, yaw_rate, dt)
     sliding = state.free & ~state.gone
     if sliding.any():
-        vx, vy, w = impact.slide(state.vx, state.vy, state.yaw, state.yaw_rate, batch.friction, batch.length,
-                                 batch.width, dt)
-        if state.collided.any():  # after an impact: the tyre forces of each axle (a planned skid keeps `slide`)
-            tx, ty, tw = impact.tyre_slide(state.vx, state.vy, state.yaw, state.yaw_rate, batch.friction,
-                                           batch.length, batch.width, wheelbase, dt)
-            vx, vy, w = (np.where(state.collided, new, old) for new, old in ((tx, vx), (ty, vy), (tw, w)))
-        held = ~(t_next - state.lost_time > batch.spin_hold)  # NaN hold: held until rest
-        spinning = state.lost & ~state.collided & held & (np.hypot(vx, vy) > impact.REST_SPEED)
-        w = np.where(spinning, state.spin, w)  # out of control the yaw is held until an impact or rest
+        # only the sliding (variation, actor) elements, gathered flat: each element's arithmetic is its own
+        rows = np.flatnonzero(sliding)
+        vx0, vy0, yaw0, w0, collided, lost = (arr.reshape(-1)[rows] for arr in (
+            state.vx, state.vy, state.yaw, state.yaw_rate, state.collided, state.lost))
+        length, width = batch.length.reshape(-1)[rows], batch.width.reshape(-1)[rows]
+        vx, vy, w = impact.slide(vx0, vy0, yaw0, w0, batch.friction, length, width, dt)
+        if collided.any():  # after an impact: the tyre forces of each axle (a planned skid keeps `slide`)
+            tx, ty, tw = impact.tyre_slide(vx0, vy0, yaw0, w0, batch.friction, length, width,
+                                           wheelbase.reshape(-1)[rows], dt)
+            vx, vy, w = (np.where(collided, new, old) for new, old in ((tx, vx), (ty, vy), (tw, w)))
+        held = ~(t_next - state.lost_time.reshape(-1)[rows] > batch.spin_hold.reshape(-1)[rows])  # NaN: until rest
+        spinning = lost & ~collided & held & (np.hypot(vx, vy) > impact.REST_SPEED)
+        w = np.where(spinning, state.spin.reshape(-1)[rows], w)  # out of control the yaw is held until an impact
+        # or rest
         v_slide = np.hypot(vx, vy)
-        x_new = np.where(sliding, state.x + 0.5 * (state.vx + vx) * dt, x_new)
-        y_new = np.where(sliding, state.y + 0.5 * (state.vy + vy) * dt, y_new)
-        yaw_new = np.where(sliding, state.yaw + 0.5 * (state.yaw_rate + w) * dt, yaw_new)
-        accel = np.where(sliding, (v_slide - state.v) / dt, accel)
-        yaw_rate = np.where(sliding, w, yaw_rate)
-        v_new = np.where(sliding, v_slide, v_new)
-        state.vx, state.vy = np.where(sliding, vx, 0.0), np.where(sliding, vy, 0.0)
+        # (x_new ... v_new are this step's own arrays: written in place)
+        np.put(x_new, rows, state.x.reshape(-1)[rows] + 0.5 * (vx0 + vx) * dt)
+        np.put(y_new, rows, state.y.reshape(-1)[rows] + 0.5 * (vy0 + vy) * dt)
+        np.put(yaw_new, rows, yaw0 + 0.5 * (w0 + w) * dt)
+        np.put(accel, rows, (v_slide - state.v.reshape(-1)[rows]) / dt)
+        np.put(yaw_rate, rows, w)
+        np.put(v_new, rows, v_slide)
+        state.vx, state.vy = np.zeros_like(state.vx), np.zeros_like(state.vy)
+        np.put(state.vx, rows, vx)
+        np.put(state.vy, rows, vy)
     step_len = np.hypot(x_new - state.x, y_new - state.y)
     state.x, state.y = x_new, y_new
     state.yaw = wrap_angle(yaw_new)
