@@ -173,3 +173,23 @@ def test_curve_lookahead_gives_the_samples_last_gathers_floats(four_way_map):
         assert np.array_equal(speed, np.sqrt(np.min(2.5 / np.maximum(kappa, 1e-4) + 4.0 * dist, axis=-1)))
         curved += int(np.count_nonzero(curvature > 0))
     assert curved > 100  # the turn's curve was looked at
+
+
+@pytest.mark.parametrize("apart, meets", [(0.3, True), (0.45, True), (0.55, False), (3.5, False)])
+def test_routes_that_never_cross_meet_where_they_come_within_the_merge_tolerance(apart, meets):
+    """Two routes that never cross meet (a merge) where one first comes within MERGE_TOLERANCE of the other; the
+    tolerance is tested with an indexed distance (shapely.dwithin on prepared lines), not the full distance."""
+    from types import SimpleNamespace
+
+    from crashscene.simulate.embedded.world import MERGE_TOLERANCE, _conflicts
+
+    s = np.arange(0.0, 400.0, ROUTE_DS)
+    gap = np.where(s < 200.0, 5.0, apart)  # the second lane closes in to `apart` from 200 m on
+    routes = [SimpleNamespace(xy=np.c_[s, np.zeros_like(s)], yaw=np.zeros_like(s), key=("lane_a",)),
+              SimpleNamespace(xy=np.c_[s, gap + 0.02 * np.sin(s)], yaw=np.zeros_like(s), key=("lane_b",))]
+    conflict_s, angle = _conflicts(routes)
+    assert (apart < MERGE_TOLERANCE) == meets
+    if meets:
+        assert 199.0 <= conflict_s[0, 1] <= 201.0 and 199.0 <= conflict_s[1, 0] <= 206.0  # b jogs in by 4.5 m
+    else:
+        assert np.isnan(conflict_s).all() and np.isnan(angle).all()
