@@ -193,3 +193,21 @@ def test_routes_that_never_cross_meet_where_they_come_within_the_merge_tolerance
         assert 199.0 <= conflict_s[0, 1] <= 201.0 and 199.0 <= conflict_s[1, 0] <= 206.0  # b jogs in by 4.5 m
     else:
         assert np.isnan(conflict_s).all() and np.isnan(angle).all()
+
+
+def test_point_reads_the_step_table_with_the_interpolations_floats(four_way_map):
+    """point interpolates x + dx u from a table of steps to the next sample: the floats of x0 + (x1 - x0) u with the
+    samples read directly (and yaw_at is point's yaw), on and past both ends of the routes."""
+    roadmap = RoadMap.load(four_way_map)
+    arrays = RouteArrays.pack([roadmap.route("road1_lane0", "left"), roadmap.route("road1_lane0", "straight")])
+    rng = np.random.default_rng(6)
+    n_k = arrays.xy.shape[1]
+    r = rng.integers(0, 2, (3, 500))
+    s = rng.uniform(-10.0, n_k * ROUTE_DS + 10.0, r.shape)
+    f = np.clip(s * (1.0 / ROUTE_DS), 0.0, n_k - 1.000001)
+    k = f.astype(np.int64)
+    u = f - k
+    want = [q0 + (q1 - q0) * u for q0, q1 in ((arrays.xy[r, k, i], arrays.xy[r, k + 1, i]) for i in (0, 1))]
+    x, y, yaw = arrays.point(r, s)
+    assert np.array_equal(x, want[0]) and np.array_equal(y, want[1]) and np.array_equal(yaw, arrays.yaw[r, k])
+    assert np.array_equal(arrays.yaw_at(r, s), yaw)

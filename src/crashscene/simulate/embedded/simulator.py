@@ -470,7 +470,7 @@ def _move(batch: batch_setup.BatchSetup, state: State, accel_cmd: np.ndarray, la
     state.yaw_rate = yaw_rate
 
     # project back onto the route: predict with the route heading, then correct along the tangent
-    _, _, ryaw = routes.point(r, state.s)
+    ryaw = routes.yaw_at(r, state.s)
     s_pred = state.s + (state.x - state.prev_x) * np.cos(ryaw) + (state.y - state.prev_y) * np.sin(ryaw)
     state.s, state.d, _ = routes.local_coordinates(r, state.x, state.y, s_pred)
     newly_gone = ~state.gone & (state.s >= routes.length[r] - batch.length / 2 - 0.5) & ~state.lost & ~state.free

@@ -86,22 +86,31 @@ class RouteArrays:
         k = f.astype(np.int64)
         return k, f - k
 
+    @cached_property
+    def _flat_samples(self) -> tuple[np.ndarray, ...]:
+        """(x, dx, y, dy, yaw) of the centre line flat, row after row (route r's sample k at r * K + k), dx and dy
+        the step to the next sample (`point` interpolates x + dx u: the same floats as x + (x_next - x) u)."""
+        x, y, yaw = (np.ascontiguousarray(q).ravel() for q in (self.xy[..., 0], self.xy[..., 1], self.yaw))
+        dx, dy = np.zeros_like(x), np.zeros_like(y)
+        dx[:-1], dy[:-1] = x[1:] - x[:-1], y[1:] - y[:-1]  # (a row's last step is never read: k <= K - 2)
+        return x, dx, y, dy, yaw
+
+    def _flat_index(self, r: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(flat sample index, interpolation fraction) of stations s [m] on routes r (broadcast together)."""
+        n_k = self.xy.shape[1]
+        f = np.minimum(np.maximum(s * (1.0 / ROUTE_DS), 0.0), n_k - 1.000001)  # np.clip's floats, less overhead
+        k = f.astype(np.int64)
+        return np.asarray(r) * n_k + k, f - k
+
     def point(self, r: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(x, y, yaw) of the route centre line at station s; r and s broadcast together."""
-        if not hasattr(self, "_flat_x"):
-            self._flat_x = np.ascontiguousarray(self.xy[..., 0]).ravel()
-            self._flat_y = np.ascontiguousarray(self.xy[..., 1]).ravel()
-            self._flat_yaw = np.ascontiguousarray(self.yaw).ravel()
-        n_k = self.xy.shape[1]
-        f = np.clip(s * (1.0 / ROUTE_DS), 0.0, n_k - 1.000001)
-        k = f.astype(np.int64)
-        u = f - k
-        flat = np.asarray(r) * n_k + k
-        x0 = self._flat_x[flat]
-        y0 = self._flat_y[flat]
-        x = x0 + (self._flat_x[flat + 1] - x0) * u
-        y = y0 + (self._flat_y[flat + 1] - y0) * u
-        return x, y, self._flat_yaw[flat]
+        x, dx, y, dy, yaw = self._flat_samples
+        flat, u = self._flat_index(r, s)
+        return x[flat] + dx[flat] * u, y[flat] + dy[flat] * u, yaw[flat]
+
+    def yaw_at(self, r: np.ndarray, s: np.ndarray) -> np.ndarray:
+        """The route's heading [rad] at station s (`point`'s yaw alone)."""
+        return self._flat_samples[4][self._flat_index(r, s)[0]]
 
     def local_coordinates(self, r: np.ndarray, x: np.ndarray, y: np.ndarray, s: np.ndarray,
                           iterations: int = 2) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -115,7 +124,7 @@ class RouteArrays:
         for _ in range(iterations):
             qx, qy, qyaw = self.point(r, s)
             s = s + (x - qx) * np.cos(qyaw) + (y - qy) * np.sin(qyaw)
-        s = np.clip(s, 0.0, self.length[r])
+        s = np.minimum(np.maximum(s, 0.0), self.length[r])  # np.clip's floats
         qx, qy, qyaw = self.point(r, s)
         return s, -(x - qx) * np.sin(qyaw) + (y - qy) * np.cos(qyaw), qyaw
 
