@@ -492,20 +492,20 @@ def _check_collisions(batch: batch_setup.BatchSetup, state: State, recorder: Rec
     L, W = batch.length, batch.width
     together = len(ia) > 1  # one pair: tested on its own
     if together:
-        overlap_all = ~(gone[:, ia] | gone[:, ib]) & footprints_overlap(x[:, ia], y[:, ia], yaw[:, ia], L[:, ia],
-                                                                        W[:, ia], x[:, ib], y[:, ib], yaw[:, ib],
-                                                                        L[:, ib], W[:, ib])
+        overlap_all = ~(gone[:, ia] | gone[:, ib]) & _overlapping(x[:, ia], y[:, ia], yaw[:, ia], L[:, ia],
+                                                                  W[:, ia], x[:, ib], y[:, ib], yaw[:, ib],
+                                                                  L[:, ib], W[:, ib])
     moved = np.zeros(len(x), dtype=bool)  # variations where an exchange moved vehicles back to their contact:
     # the remaining pairs are tested again there, on the new state (elsewhere the state is the one tested at once)
     for p, (a, b) in enumerate(zip(ia.tolist(), ib.tolist())):
         if not together:
             active = ~(state.gone[:, a] | state.gone[:, b])
-            overlap = active & footprints_overlap(state.x[:, a], state.y[:, a], state.yaw[:, a], L[:, a], W[:, a],
-                                                  state.x[:, b], state.y[:, b], state.yaw[:, b], L[:, b], W[:, b])
+            overlap = active & _overlapping(state.x[:, a], state.y[:, a], state.yaw[:, a], L[:, a], W[:, a],
+                                            state.x[:, b], state.y[:, b], state.yaw[:, b], L[:, b], W[:, b])
         elif moved.any():
             rows = np.flatnonzero(moved)
             overlap = overlap_all[:, p].copy()
-            overlap[rows] = ~(gone[rows, a] | gone[rows, b]) & footprints_overlap(
+            overlap[rows] = ~(gone[rows, a] | gone[rows, b]) & _overlapping(
                 state.x[rows, a], state.y[rows, a], state.yaw[rows, a], L[rows, a], W[rows, a],
                 state.x[rows, b], state.y[rows, b], state.yaw[rows, b], L[rows, b], W[rows, b])
         else:
@@ -520,6 +520,23 @@ def _check_collisions(batch: batch_setup.BatchSetup, state: State, recorder: Rec
         frac = _back_to_contact(batch, state, onset, a, b)
         _exchange(batch, state, recorder, overlap, onset, a, b, t - (1.0 - frac) * batch.settings.dt)
         moved |= onset  # _back_to_contact moved a and b there; _exchange changed velocities only
+
+
+NEAR_MARGIN = 0.01  # [m] footprints whose centres are further apart than their half diagonals and this never touch
+
+
+def _overlapping(xa, ya, yawa, la, wa, xb, yb, yawb, lb, wb) -> np.ndarray:
+    """`footprints_overlap` of arrays of one shape, its separating-axis test run only where the centres are within
+    the two half diagonals (two footprints that touch share a point, so their centres are no further apart; the
+    margin covers rounding): the same answers, most pairs rejected by one distance."""
+    with np.errstate(invalid="ignore"):  # a NaN pose is never near
+        near = np.hypot(xb - xa, yb - ya) <= (np.hypot(la, wa) + np.hypot(lb, wb)) / 2 + NEAR_MARGIN
+    out = np.zeros(near.shape, dtype=bool)
+    if near.any():
+        i = np.flatnonzero(near)
+        out.reshape(-1)[i] = footprints_overlap(*(q.reshape(-1)[i] for q in (xa, ya, yawa, la, wa, xb, yb, yawb,
+                                                                               lb, wb)))
+    return out
 
 
 def _exchange(batch: batch_setup.BatchSetup, state: State, recorder: Recorder, overlap: np.ndarray,
