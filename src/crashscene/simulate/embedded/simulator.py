@@ -441,11 +441,8 @@ def _move(batch: batch_setup.BatchSetup, state: State, accel_cmd: np.ndarray, la
         vx0, vy0, yaw0, w0, collided, lost = (arr.reshape(-1)[rows] for arr in (
             state.vx, state.vy, state.yaw, state.yaw_rate, state.collided, state.lost))
         length, width = batch.length.reshape(-1)[rows], batch.width.reshape(-1)[rows]
-        vx, vy, w = impact.slide(vx0, vy0, yaw0, w0, batch.friction, length, width, dt)
-        if collided.any():  # after an impact: the tyre forces of each axle (a planned skid keeps `slide`)
-            tx, ty, tw = impact.tyre_slide(vx0, vy0, yaw0, w0, batch.friction, length, width,
-                                           wheelbase.reshape(-1)[rows], dt)
-            vx, vy, w = (np.where(collided, new, old) for new, old in ((tx, vx), (ty, vy), (tw, w)))
+        vx, vy, w = _slide_step(vx0, vy0, yaw0, w0, collided, batch.friction, length, width,
+                                wheelbase.reshape(-1)[rows], dt)
         held = ~(t_next - state.lost_time.reshape(-1)[rows] > batch.spin_hold.reshape(-1)[rows])  # NaN: until rest
         spinning = lost & ~collided & held & (np.hypot(vx, vy) > impact.REST_SPEED)
         w = np.where(spinning, state.spin.reshape(-1)[rows], w)  # out of control the yaw is held until an impact
@@ -476,6 +473,22 @@ def _move(batch: batch_setup.BatchSetup, state: State, accel_cmd: np.ndarray, la
     newly_gone = ~state.gone & (state.s >= routes.length[r] - batch.length / 2 - 0.5) & ~state.lost & ~state.free
     state.gone_time = np.where(newly_gone, t_next, state.gone_time)
     state.gone |= newly_gone
+
+
+def _slide_step(vx, vy, yaw, yaw_rate, collided, friction: float, length, width, wheelbase, dt: float):
+    """(vx, vy, yaw_rate) of sliding vehicles after a step: after an impact (`collided`) the tyre forces of each
+    axle (impact.tyre_slide), before any (a planned skid) impact.slide; each model run on its own vehicles only."""
+    if collided.all() or not collided.any():
+        if collided.all():
+            return impact.tyre_slide(vx, vy, yaw, yaw_rate, friction, length, width, wheelbase, dt)
+        return impact.slide(vx, vy, yaw, yaw_rate, friction, length, width, dt)
+    out = np.empty((3, len(vx)))
+    skid = ~collided
+    out[:, skid] = impact.slide(vx[skid], vy[skid], yaw[skid], yaw_rate[skid], friction, length[skid], width[skid],
+                                dt)
+    out[:, collided] = impact.tyre_slide(vx[collided], vy[collided], yaw[collided], yaw_rate[collided], friction,
+                                         length[collided], width[collided], wheelbase[collided], dt)
+    return out[0], out[1], out[2]
 
 
 def _check_collisions(batch: batch_setup.BatchSetup, state: State, recorder: Recorder, t: float,
