@@ -27,7 +27,7 @@ from crashscene.simulate.drivers.behaviors import (
     SPEEDING_CODES,
     speed_factor,
 )
-from crashscene.simulate.embedded import cascade, lockstep, pushchain, signals, slap, swerve, timing, touch
+from crashscene.simulate.embedded import cascade, clipahead, lockstep, pushchain, signals, slap, swerve, timing, touch
 from crashscene.simulate.embedded import skid as skid_plan
 from crashscene.simulate.embedded.control import entry_before
 from crashscene.simulate.embedded.world import RouteArrays
@@ -437,6 +437,9 @@ class VariationPlan:
                 self.s0[partner], self.moved[partner] = saved[2], saved[3]
                 if timed is not None:
                     tried.append((scale, timed, shifted))
+        if clipahead.ahead_in_lane(self, partner, third):  # the clipped car is in the way: stepped with it
+            self.scale[partner], self.speeds[partner] = saved[0], saved[1]
+            return clipahead.plan_ahead(self, a, partner, third, later[0], tried)
         me = (float(self.length[a]), float(self.width[a]), cols[a].limits.mass, cols[a].limits.wheelbase_ratio)
         them = (float(self.length[partner]), float(self.width[partner]), cols[partner].limits.mass,
                 cols[partner].limits.wheelbase_ratio)
