@@ -89,7 +89,7 @@ class Push:
     approach_rate: float = 0.0  # [rad/s] ...and how fast its driver turns it then (a drift into the car)
     stepped: bool = True  # the contact stepped as the simulator steps it (`rollout`), else one exchange at the
     # first touch and each body's slide from it (a striker its driver drives on into the car is carried on by the
-    # caller: plan.VariationPlan._room_to_leave)
+    # caller: knock._room_to_leave)
 
 
 def pushes(items: list[Push], striker: bool = True) -> list[tuple[tuple[np.ndarray, ...], tuple[np.ndarray, ...] | None]]:

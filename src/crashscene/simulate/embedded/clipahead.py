@@ -26,8 +26,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from crashscene.geometry import classify_contact, heading_difference
-from crashscene.simulate.embedded import cascade, rollout
+from crashscene.simulate.embedded import cascade, lockstep, pushchain, rollout
 from crashscene.simulate.embedded.skid import Body, overlap_interval
+from crashscene.simulate.embedded.stations import relative_to_route, same_lane
 
 if TYPE_CHECKING:
     from crashscene.simulate.embedded.plan import VariationPlan
@@ -180,21 +181,16 @@ def _classes(poses: np.ndarray, ahead: Ahead, t_touch: float, shifts: np.ndarray
 
 def ahead_in_lane(plan: VariationPlan, partner: int, third: int) -> bool:
     """Whether the third actor starts ahead of the clipped car in its lane (this module's configuration)."""
-    from crashscene.simulate.embedded.plan import _same_lane
-
-    return _same_lane(plan.route, plan.d0, partner, third) and plan.s0[third] > plan.s0[partner]
+    return same_lane(plan.route, plan.d0, partner, third) and plan.s0[third] > plan.s0[partner]
 
 
 def plan_ahead(plan: VariationPlan, a: int, partner: int, third: int, klass: str, tried: list) -> bool:
     """Actor a's clip of `partner` followed by its written contact of class `klass` with `third`, ahead of the
-    partner in its lane: among the clips `tried` ((partner speed scale, plan.ClipTiming, the partner's shifted start
-    (s0, moved)) each, from VariationPlan._clip_then_meet), the one and the third actor's start (`place_ahead`, moved
+    partner in its lane: among the clips `tried` ((partner speed scale, clip.ClipTiming, the partner's shifted start
+    (s0, moved)) each, from clip._clip_then_meet), the one and the third actor's start (`place_ahead`, moved
     along its lane only) with which the striker's stepped slide meets it first as written, its pull-out trigger,
     the partner's speed and start and the third's start set; False (nothing changed) when none does, or when the
     partner's driver would brake for the third actor before the clip (`pushchain.approach`)."""
-    from crashscene.simulate.embedded import lockstep, pushchain
-    from crashscene.simulate.embedded.plan import _relative
-
     cols, arrays, dt = plan.ctx.columns, plan.ctx.arrays, plan.ctx.skid_paths.dt
     if not tried or plan.speeds[third] <= 0.0:
         return False
@@ -207,7 +203,7 @@ def plan_ahead(plan: VariationPlan, a: int, partner: int, third: int, klass: str
              for (_, timed, _), p_speed in zip(tried, speeds)]
     pairs = lockstep.together(clip_pairs, clips)
     other = plan.scene.actors[third]
-    gap3, across3 = _relative(arrays, plan.route[a], plan.s0[a], other.x, other.y, exact=True)
+    gap3, across3 = relative_to_route(arrays, plan.route[a], plan.s0[a], other.x, other.y, exact=True)
     me, them = Body(me_t[0], me_t[1]), Body(them_t[0], them_t[1])
     body3 = Body(float(plan.length[third]), float(plan.width[third]))
     v3 = float(plan.speeds[third])
