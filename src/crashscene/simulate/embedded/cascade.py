@@ -217,10 +217,7 @@ def class_margin(relative_yaw: np.ndarray, klass: str, side: bool = False) -> np
 def contact_class(relative_yaw: np.ndarray, side: bool = False) -> np.ndarray:
     """The classes (rules.md, geometry.classify_contact) of end-on contacts at these relative headings [rad]; with
     `side`, of side-to-side ones (a near-parallel one is a sideswipe)."""
-    klass = classify_contact(np.abs(wrap_angle(np.asarray(relative_yaw, dtype=float))))
-    if side:
-        klass[(klass == "rear_end") | (klass == "head_on")] = "sideswipe"
-    return klass
+    return classify_contact(np.abs(wrap_angle(np.asarray(relative_yaw, dtype=float))), end_on=not side)
 
 
 AREAS = ("front", "left", "rear", "right")  # a body's faces, counter-clockwise from its heading
