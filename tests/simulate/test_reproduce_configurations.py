@@ -286,8 +286,9 @@ def test_a_left_turner_is_struck_and_slapped_again_by_the_same_car(tmp_path):
 # A pull-out in a queue clips the car ahead, and the report has the striker spin into the next car of the queue
 # (simulate.embedded.clipahead): the clip is predicted with the clipped car's motion, which the clip pushes on ahead of
 # the striker, so no start of the next car has the striker meet it first (benchmarks/bench_clip_reach.py) and the plan
-# moves none: the queue is left as sampled, its cars driving (before, the car ahead was held standing at its start to
-# meet a slide that ignored the clipped car; the clipped car braked for it and no pull-out clip happened)
+# moves none: the queue is left as sampled, its cars driving; first contact 20 of 20, sequence 0 of 20. Before, the car
+# ahead was held standing at its start to meet a slide that ignored the clipped car: the clipped car braked for it and
+# was pushed into it (first contact 20 of 20, the written sequence in 1 of 20, by chance).
 QUEUE_CLIP = scenario(
     "divided", "speed_limit_sign", 55,
     actor("ego", "change_lane_left", "reference: road, relation: behind")
