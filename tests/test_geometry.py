@@ -88,3 +88,14 @@ def test_side_by_side_contacts_are_sideswipes():
     lon, lat = np.array([4.6, 1.0, 1.0]), np.array([0.2, 1.9, 1.9])
     got = classify_contact(rel, lon, lat, np.full(3, 4.5), np.full(3, 1.9))
     assert got.tolist() == ["rear_end", "sideswipe", "sideswipe"]
+
+
+def test_end_on_says_how_contacts_without_offsets_touch():
+    # side to side, a near-parallel contact is a sideswipe; an angle stays an angle (cascade.contact_class)
+    rel = np.radians([5.0, 45.0, 90.0, 175.0])
+    assert classify_contact(rel, end_on=False).tolist() == ["sideswipe", "sideswipe", "angle", "sideswipe"]
+    assert classify_contact(rel, end_on=True).tolist() == classify_contact(rel).tolist()
+    assert classify_contact(rel, end_on=np.array([True, True, False, False])).tolist() == \
+        ["rear_end", "sideswipe", "angle", "sideswipe"]
+    with pytest.raises(ValueError, match="not both"):
+        classify_contact(rel, np.zeros(4), np.zeros(4), np.ones(4), np.ones(4), end_on=True)

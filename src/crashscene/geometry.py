@@ -116,18 +116,23 @@ def touch_fraction(pose_a, pose_b, la, wa, lb, wb, n: int) -> np.ndarray:
     return hi
 
 
-def classify_contact(rel_heading, lon=None, lat=None, half_len=None, half_wid=None) -> np.ndarray:
+def classify_contact(rel_heading, lon=None, lat=None, half_len=None, half_wid=None, end_on=None) -> np.ndarray:
     """Collision class names (rules.md) for contacts, given their relative heading [rad].
 
     `rear_end` under 30 deg, `head_on` over 150 deg, `angle` within 60-120 deg,
     `sideswipe` otherwise. Given b's offset in a's frame (`lon`, `lat` [m]) and
     the sums of the two half lengths / half widths [m], a near-parallel contact
     is end-on (rear-end or head-on) only when the longitudinal gap is closer to
-    touching than the lateral one, and a sideswipe when side to side; without
-    them every contact counts as end-on.
+    touching than the lateral one, and a sideswipe when side to side; `end_on`
+    (a bool, or one per contact) says which instead, for contacts whose offsets
+    are not known; with neither, every contact counts as end-on.
     """
     deg = np.degrees(np.asarray(rel_heading, dtype=float))
-    if lon is None:
+    if end_on is not None:
+        if lon is not None:
+            raise ValueError("classify_contact: give the offsets (lon, lat, ...) or end_on, not both")
+        end_on = np.broadcast_to(np.asarray(end_on, dtype=bool), deg.shape)
+    elif lon is None:
         end_on = np.ones(deg.shape, dtype=bool)
     else:
         end_on = (np.abs(lon) - half_len) > (np.abs(lat) - half_wid)

@@ -59,6 +59,18 @@ def test_a_striker_keeping_its_lane_meets_the_vehicles_in_the_order_of_their_pos
     assert _relations(narrative, off=[IN_ORDER]) == without_the_rule
 
 
+def test_the_order_a_striker_meets_the_vehicles_in_places_them():
+    from crashscene.extract.rules_positions import order_along_one_lane, struck_in_turn
+
+    chain = [("V4", "V3"), ("V4", "V3"), ("V4", "V2"), ("V1", "V5"), ("V4", "V1")]
+    assert struck_in_turn(chain) == {"V4": ["V3", "V2", "V1"], "V1": ["V5"]}
+    closure = order_along_one_lane(chain)
+    assert {("V4", "V3"), ("V3", "V2"), ("V2", "V1"), ("V3", "V1"), ("V4", "V5"), ("V2", "V5")} <= closure
+    # struck again after another one: behind and ahead of it at once
+    assert struck_in_turn([("V3", "V2"), ("V3", "V1"), ("V3", "V2")]) == {"V3": ["V2", "V1", "V2"]}
+    assert order_along_one_lane([("V3", "V2"), ("V3", "V1"), ("V3", "V2")]) is None
+
+
 def test_a_position_the_text_states_is_kept():
     stated = THREE.replace("V1 and V2 slowed for traffic.", "V1 and V2 slowed for traffic; V2 was ahead of V1.")
     assert stated != THREE and _relations(stated)["npc1"] == "front"

@@ -8,7 +8,7 @@ import pytest
 from crashscene.monitor import evaluate
 from crashscene.monitor.arrays import build_arrays
 from crashscene.monitor.conflicts import path_conflicts
-from crashscene.monitor.judging import contact_change, contact_steps, upset_steps
+from crashscene.monitor.judging import contact_change, contact_indices, contact_steps, upset_steps
 from crashscene.upset import CONTROL_DELTA_V, CONTROL_YAW_RATE
 from tests.monitor.builders import DT, tables, track
 from tests.monitor.conftest import rule_row
@@ -81,6 +81,18 @@ def test_a_vehicle_stopped_where_it_touched_is_upset():
     # the stopped npc1's velocity did not change: it keeps its driver; the ego is upset at the contact's step
     assert upset_steps(arrays, collisions, 5)[0].tolist() == [CONTACT_STEP, -1]
     assert contact_steps(np.array([1.95, 2.0]), DT).tolist() == [20, 20]
+
+
+def test_contact_indices_map_each_contact_to_its_variation_actors_and_step():
+    # a contact 0.3 steps after step 19: its state is recorded at step 20; the nearest step is 19
+    actors = {"ego": track(STEPS, speed=10.0), "npc1": track(STEPS, x0=60.0, speed=0.0, behavior="stop")}
+    contact = {"variation": 0, "t": (CONTACT_STEP - 0.7) * DT, "actor_a": "npc1", "actor_b": "ego",
+               "speed_a": 0.0, "speed_b": 10.0, "yaw_a": 0.0, "yaw_b": 0.0, "x": 0.0, "y": 0.0}
+    t = tables(actors, collisions=[contact])
+    arrays = build_arrays(t)
+    v, a, b, step = contact_indices(arrays, t["collisions"])
+    assert (v.tolist(), a.tolist(), b.tolist(), step.tolist()) == ([0], [1], [0], [CONTACT_STEP])
+    assert contact_indices(arrays, t["collisions"], rounded=True)[3].tolist() == [CONTACT_STEP - 1]
 
 
 def test_a_conflict_path_ends_where_the_impact_upset_the_vehicle():

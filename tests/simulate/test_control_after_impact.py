@@ -77,7 +77,7 @@ def test_a_driver_still_in_control_after_a_contact_holds_its_lanes_centre(straig
 
 
 def test_a_driver_to_leave_the_road_holds_the_offset_it_starts_at_until_its_trigger(straight_map):
-    # a plan that starts a drifting driver partway across (plan.VariationPlan._drift_into: into the corner of a
+    # a plan that starts a drifting driver partway across (cascade_plan._drift_into: into the corner of a
     # parked car) has it drift from its trigger on, as its prediction of the impact (cascade.Push.approach) has it:
     # before the trigger it holds that offset, it does not steer back to its lane's centre
     from crashscene.dsl import loads

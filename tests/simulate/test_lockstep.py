@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from crashscene.simulate.embedded import cascade, lockstep, skid, swerve
-from crashscene.simulate.embedded.plan import _nearest
+from crashscene.simulate.embedded.meetings import nearest_points
 
 
 def _job(k: int, seen: list):
@@ -136,7 +136,7 @@ def test_nearest_is_argmin_of_every_distance(seed):
         x[0] = np.nan
     dist = np.hypot(points[None, :, 0] - x[:, None], points[None, :, 1] - y[:, None])
     want = np.argmin(dist, axis=1)
-    got, got_dist = _nearest(points, x, y)
+    got, got_dist = nearest_points(points, x, y)
     assert np.array_equal(got, want)
     assert np.array_equal(got_dist, dist[np.arange(n), want], equal_nan=True)
 

@@ -339,14 +339,15 @@ def _lane_order_findings(s: Scenario) -> list[Finding]:
     if not closure:
         return []  # no rear-end contact in the ego's lane, or contacts that contradict each other
     found = []
+    contacts = ", ".join(f"{a}->{b}" for a, b in chain)
     for name in sorted(in_lane - {"ego"}):
         relation = s.actors[name].position.relation.value
         entailed = "behind" if (name, "ego") in closure else "front" if ("ego", name) in closure else None
         if entailed and entailed != relation:
             found.append(Finding(f"actors.{name}.position.relation",
                                  f"{name} is placed {relation} the ego, but the crash sequence's rear-end contacts "
-                                 f"({', '.join(f'{a}->{b}' for a, b in chain)}) place it {entailed}: a striker "
-                                 "keeping its lane meets the vehicles in it in the order of their positions"))
+                                 f"({contacts}) place it {entailed}: a striker keeping its lane meets the vehicles "
+                                 "in it in the order of their positions"))
     return found
 
 

@@ -173,19 +173,26 @@ def _position_stated(text: str, label: str) -> bool:
 KEEPS_ITS_LANE = ("go_forward", "decelerate", "stop", "static")  # manoeuvres that keep the vehicle in its lane
 
 
+def struck_in_turn(chain: list[tuple[str, str]]) -> dict[str, list[str]]:
+    """Each striker of `chain` ((striker, struck) pairs in sequence order) with the vehicles it strikes, in the
+    order it strikes them: a vehicle struck again straight after itself once, struck again after another one
+    again (which places it both behind and ahead of that one: `order_along_one_lane` finds the contradiction)."""
+    met: dict[str, list[str]] = {}
+    for striker, struck in chain:
+        turn = met.setdefault(striker, [])
+        if not turn or turn[-1] != struck:
+            turn.append(struck)
+    return met
+
+
 def order_along_one_lane(chain: list[tuple[str, str]]) -> set[tuple[str, str]] | None:
     """The pairs (x, y), x behind y along one lane, that rear-end contacts between lane-keeping vehicles entail:
     `chain` is their (striker, struck) pairs in sequence order. A striker is behind what it rear-ends, and of two
-    vehicles one striker rear-ends, the one struck earlier is behind the one struck later; the pairs are chained
-    (x behind y behind z: x behind z). None when the contacts contradict each other (a cycle)."""
-    behind: set[tuple[str, str]] = set()
-    met: dict[str, list[str]] = {}
-    for striker, struck in chain:
-        behind.add((striker, struck))
-        ahead = met.setdefault(striker, [])
-        behind.update((earlier, struck) for earlier in ahead if earlier != struck)
-        if struck not in ahead:
-            ahead.append(struck)
+    vehicles one striker rear-ends, the one struck earlier is behind the one struck later (`struck_in_turn`); the
+    pairs are chained (x behind y behind z: x behind z). None when the contacts contradict each other (a cycle)."""
+    behind = set(chain)
+    for turn in struck_in_turn(chain).values():
+        behind.update((earlier, later) for k, earlier in enumerate(turn) for later in turn[k + 1:] if earlier != later)
     closure = set(behind)
     while True:
         more = {(x, z) for x, y in closure for y2, z in closure if y == y2 and x != z} - closure
@@ -223,10 +230,8 @@ def revise_positions_by_the_sequence(state: RulesState, actors: dict, collisions
     closure = order_along_one_lane(chain)
     if closure is None:
         return  # the sequence contradicts itself: it places nothing
-    met: dict[str, list[str]] = {}
-    for striker, struck in chain:
-        if struck not in met.setdefault(striker, []):
-            met[striker].append(struck)
+    chains = "; ".join(f"{striker} rear-ended {', then '.join(struck)}"
+                       for striker, struck in struck_in_turn(chain).items())
     for label in sorted(state.unstated_positions):
         position = actors[state.vehicles[label].role]["position"]
         if position.get("reference") != "ego" or position.get("heading") != "same_direction":
@@ -234,6 +239,5 @@ def revise_positions_by_the_sequence(state: RulesState, actors: dict, collisions
         relation = "behind" if (label, "V1") in closure else "front" if ("V1", label) in closure else None
         if relation and relation != position["relation"]:
             position["relation"] = relation
-            chains = "; ".join(f"{striker} rear-ended {', then '.join(struck)}" for striker, struck in met.items())
             state.evidence[f"actors.{state.vehicles[label].role}.position"] = clip(
                 f"from the crash sequence ({chains}): {label} is {relation} V1 along one lane")

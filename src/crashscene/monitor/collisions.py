@@ -33,6 +33,7 @@ from crashscene.geometry import (
     relative_position,
 )
 from crashscene.monitor.arrays import TraceArrays
+from crashscene.monitor.judging import contact_indices
 from crashscene.traces import COLLISION_SCHEMA
 
 COLLISION_CLASSES = ("rear_end", "head_on", "angle", "sideswipe")
@@ -214,12 +215,9 @@ def first_contact_steps(arrays: TraceArrays, collisions: pa.Table) -> np.ndarray
     out = np.full(arrays.shape[:2], -1, dtype=np.int64)
     if not collisions.num_rows:
         return out
-    role_index = {r: i for i, r in enumerate(arrays.roles)}
-    v = np.searchsorted(arrays.variations, collisions.column("variation").to_numpy())
-    step = np.round(collisions.column("t").to_numpy() / arrays.dt).astype(np.int64)
+    v, *pair, step = contact_indices(arrays, collisions, rounded=True)
     big = np.iinfo(np.int64).max
     best = np.full(arrays.shape[:2], big, dtype=np.int64)
-    for col in ("actor_a", "actor_b"):
-        a = np.array([role_index[r] for r in collisions.column(col).to_pylist()], dtype=np.int64)
+    for a in pair:
         np.minimum.at(best, (v, a), step)
     return np.where(best < big, best, -1)

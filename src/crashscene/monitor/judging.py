@@ -70,6 +70,20 @@ def contact_steps(t: np.ndarray, dt: float) -> np.ndarray:
     return np.ceil(np.asarray(t, dtype=float) / dt - 1e-6).astype(np.int64)
 
 
+def contact_indices(arrays: TraceArrays, collisions: pa.Table, rounded: bool = False
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(variation, actor_a, actor_b, step) of each row of a collisions table, as indices into `arrays`: the
+    variation's row, the two actors' columns, and the contact's step, the first recorded one at or after it
+    (`contact_steps`), or with `rounded` the nearest one."""
+    role_index = {r: i for i, r in enumerate(arrays.roles)}
+    v = np.searchsorted(arrays.variations, collisions.column("variation").to_numpy())
+    a, b = (np.array([role_index[r] for r in collisions.column(col).to_pylist()], dtype=np.int64)
+            for col in ("actor_a", "actor_b"))
+    t = collisions.column("t").to_numpy()
+    step = np.round(t / arrays.dt).astype(np.int64) if rounded else contact_steps(t, arrays.dt)
+    return v, a, b, step
+
+
 def still_touching(arrays: TraceArrays, v: np.ndarray, a: np.ndarray, b: np.ndarray, step: np.ndarray
                    ) -> np.ndarray:
     """Whether the footprints of actors a and b in variation v overlap at `step` (False where either has no row)."""
@@ -91,13 +105,9 @@ def upset_steps(arrays: TraceArrays, collisions: pa.Table | None, grace: int) ->
     out = np.full(arrays.shape[:2], NEVER, dtype=np.int64)
     if collisions is None or not collisions.num_rows:
         return out
-    role_index = {r: i for i, r in enumerate(arrays.roles)}
-    v = np.searchsorted(arrays.variations, collisions.column("variation").to_numpy())
-    step = contact_steps(collisions.column("t").to_numpy(), arrays.dt)
+    v, *pair, step = contact_indices(arrays, collisions)
     big = np.iinfo(np.int64).max
     best = np.full(arrays.shape[:2], big, dtype=np.int64)
-    pair = [np.array([role_index[r] for r in collisions.column(col).to_pylist()], dtype=np.int64)
-            for col in ("actor_a", "actor_b")]
     through = still_touching(arrays, v, pair[0], pair[1], step + grace)
     for a in pair:
         dv, dw = contact_change(arrays, v, a, step)

@@ -7,7 +7,7 @@ from pydantic import Field
 
 from crashscene.geometry import footprint_separation, heading_difference, relative_position, wrap_angle
 from crashscene.monitor.context import EvalContext
-from crashscene.monitor.judging import contact_steps, judged_until
+from crashscene.monitor.judging import contact_indices, judged_until
 from crashscene.monitor.rules.base import Disposition, Rule, RuleOutcome, RuleParams, register_rule
 from crashscene.monitor.timeseries import first_index, margin_in, runs, steps_for
 
@@ -373,13 +373,10 @@ class UnsafeLaneChange(Rule):
         rows = [k for k, role in enumerate(striker) if role is not None]
         if not rows:
             return out
-        role_index = {r: i for i, r in enumerate(a.roles)}
-        cols = table.take(rows).to_pydict()
-        v = np.searchsorted(a.variations, np.asarray(cols["variation"]))
-        i = np.array([role_index[r] for r in cols["striking_actor"]], dtype=np.int64)
-        other = [b if s == r else s for s, b, r in zip(cols["actor_a"], cols["actor_b"], cols["striking_actor"])]
-        j = np.array([role_index[r] for r in other], dtype=np.int64)
-        step = np.minimum(contact_steps(np.asarray(cols["t"], dtype=float), ctx.dt), a.shape[2] - 1)
+        v, first, second, step = (q[rows] for q in contact_indices(a, table))
+        i = np.array([a.roles.index(striker[k]) for k in rows], dtype=np.int64)
+        j = np.where(i == first, second, first)  # the one it strikes
+        step = np.minimum(step, a.shape[2] - 1)
         in_progress = changing[v, i, step] | changing[v, i, np.maximum(step - 1, 0)]
         if not in_progress.any():
             return out

@@ -89,7 +89,7 @@ class Push:
     approach_rate: float = 0.0  # [rad/s] ...and how fast its driver turns it then (a drift into the car)
     stepped: bool = True  # the contact stepped as the simulator steps it (`rollout`), else one exchange at the
     # first touch and each body's slide from it (a striker its driver drives on into the car is carried on by the
-    # caller: plan.VariationPlan._room_to_leave)
+    # caller: knock._room_to_leave)
     lead: float = 0.0  # [s] how long after the simulator's last step before it the touch happens (`step_lead`); the
     # whole step when 0: where in its step the simulator finds the touch decides how deep the next steps' overlaps
     # are, so the repeated exchanges and what they turn the cars
@@ -245,10 +245,7 @@ def class_margin(relative_yaw: np.ndarray, klass: str, side: bool = False) -> np
 def contact_class(relative_yaw: np.ndarray, side: bool = False) -> np.ndarray:
     """The classes (rules.md, geometry.classify_contact) of end-on contacts at these relative headings [rad]; with
     `side`, of side-to-side ones (a near-parallel one is a sideswipe)."""
-    klass = classify_contact(np.abs(wrap_angle(np.asarray(relative_yaw, dtype=float))))
-    if side:
-        klass[(klass == "rear_end") | (klass == "head_on")] = "sideswipe"
-    return klass
+    return classify_contact(np.abs(wrap_angle(np.asarray(relative_yaw, dtype=float))), end_on=not side)
 
 
 AREAS = ("front", "left", "rear", "right")  # a body's faces, counter-clockwise from its heading

@@ -1,7 +1,7 @@
 """The written contact after a cascade's later one: the car that later contact sets moving (spun by a sideswipe,
 pushed by a rear-end) meets a fourth vehicle, and the cascade plan chooses its options by it.
 
-A cascade plan (`plan.VariationPlan.plan_cascade`) chooses where its striker hits the first car (the corner) and
+A cascade plan (`cascade_plan.plan_cascade`) chooses where its striker hits the first car (the corner) and
 where along the third car's side the deflected car strikes it (`ALONGS`), by the third car's meeting alone. When the
 written sequence goes on with a contact of the third car (or of the deflected one) with a fourth vehicle that drives
 straight on, the motion that contact leaves decides whether the sequence can follow: a sideswipe on the third car's
@@ -16,12 +16,14 @@ lane, timed to meet it there.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from crashscene.simulate.embedded import cascade, lockstep, rollout
+from crashscene.simulate.embedded.meetings import later_terms, matches, place_third, pushed_meetings, third_reach
+from crashscene.simulate.embedded.stations import relative_to_route
 from crashscene.simulate.roads import ROUTE_DS
 
 if TYPE_CHECKING:
@@ -31,7 +33,7 @@ CORNERS = (0.05, 0.1, 0.15, 0.2, 0.25, 0.3, 0.35, 0.4, 0.5, 0.6)  # [-] the stri
 # as a fraction of its width (cascade.CORNERS), tried when a fourth contact must follow: a smaller offset deflects
 # the striker less, so that it comes alongside the third car more or less far forward
 ALONGS = (-0.15, -0.05, 0.05, 0.15, 0.25, 0.35, 0.45)  # [-] where along the third car's side (a fraction of its
-# length ahead of its centre) the deflected car first reaches it (plan.SIDE_ALONG without a fourth contact)
+# length ahead of its centre) the deflected car first reaches it (meetings.SIDE_ALONG without a fourth contact)
 HORIZON = 4.0  # [s] the third car's motion after the contact is followed this long
 SPREAD = 0.15  # [m] the third car is also tried this much further back and ahead at the touch (`choose`)
 AIM_MISS = 0.3  # [m] a fourth actor is aimed at the moving car when its lane lets it drive this near its centre
@@ -82,20 +84,16 @@ def next_contact(plan: VariationPlan, planned: tuple[int, ...], mover: int, thir
     nxt = roles.index(striking if roles[moving] == struck else struck)
     if nxt in planned or cols[nxt].is_ads or cols[nxt].behavior != "go_forward":
         return None
-    from crashscene.simulate.embedded.plan import _later
-
-    return Next(nxt, moving, _later(seq[at[0] + 1], roles[moving]))
+    return Next(nxt, moving, later_terms(seq[at[0] + 1], roles[moving]))
 
 
 def lanes(plan: VariationPlan, nxt: int, beside: int) -> list[float]:
     """[m] the lateral shifts of actor nxt's start its written position allows: none, and when it starts in a lane
     beside actor `beside`'s, one lane width for each lane of its carriageway further out on that side
     (PlanContext.lanes_beside)."""
-    from crashscene.simulate.embedded.plan import _relative
-
     arrays = plan.ctx.arrays
     other = plan.scene.actors[beside]
-    _, lat = _relative(arrays, plan.route[nxt], plan.s0[nxt], other.x, other.y)
+    _, lat = relative_to_route(arrays, plan.route[nxt], plan.s0[nxt], other.x, other.y)
     across = float(plan.d0[nxt]) - lat  # [m] how far nxt is on the beside actor's left
     table = plan.ctx.lanes_beside
     if abs(across) < plan.lane_width / 2 or table is None or not len(table):
@@ -169,14 +167,14 @@ def route_pose(plan: VariationPlan, a: int, station: float, lateral: float) -> t
     return px - math.sin(pyaw) * lateral, py + math.cos(pyaw) * lateral, pyaw
 
 
-PLACED = ("s0", "moved", "scale", "speeds", "hold")  # what placing an actor changes (VariationPlan._place_third)
+PLACED = ("s0", "moved", "scale", "speeds", "hold")  # what placing an actor changes (meetings.place_third)
 
 
 @dataclass(frozen=True)
 class Choice:
     """The cascade's options chosen for a fourth contact: the striker's corner (`offset`, row `row` of the
     candidates), where along the third car's side the deflected car reaches it (`along`), the third car's
-    meeting (plan._pushed_meetings), and the fourth actor's lateral shift [m], meeting and arrival [s] (None when
+    meeting (meetings.pushed_meetings), and the fourth actor's lateral shift [m], meeting and arrival [s] (None when
     no candidate's predicted motion meets it)."""
 
     row: int
@@ -195,12 +193,10 @@ def choose(plan: VariationPlan, nxt: Next, candidates: list[tuple[int, float, tu
     push the first car again before it), each with the deflected car's path (world x, y, yaw, vx, vy, yaw rate
     every cascade.DT after the first touch at t1 [s]), and every `alongs` fraction: the one whose predicted contact
     with the third car leaves the written next contact (`predict`, met in one of the `lanes` of the fourth actor):
-    first by the third car's meeting having its written class and area (plan._matches), then by not pushing again,
+    first by the third car's meeting having its written class and area (meetings.matches), then by not pushing again,
     then by the next contact's class and areas where the third car comes SPREAD earlier or later too (the least of
     the three: a sideswipe's outcome can turn on a few centimetres), then by the nominal one's (`_follow_key`),
     then by how far inside its class's heading range the third car's meeting is."""
-    from crashscene.simulate.embedded.plan import _matches
-
     dt = plan.ctx.skid_paths.dt
     options, touches = [], []
     for row, offset, meeting, clean in candidates:
@@ -213,28 +209,34 @@ def choose(plan: VariationPlan, nxt: Next, candidates: list[tuple[int, float, tu
             if speed is None:
                 continue
             station = float(plan.s0[third]) + third_reach(plan, third, meeting, later, along) - speed * lead
-            options.append((row, offset, along, meeting, clean))
-            touches += [Touch(mover_pose, mover_motion, route_pose(plan, third, station + d, float(plan.d0[third])),
-                              speed, _body(plan, mover), _body(plan, third), plan.ctx.friction, dt)
-                        for d in (0.0, -SPREAD, SPREAD)]
+            options.append((row, offset, along, meeting, clean, station))
+            touches.append(Touch(mover_pose, mover_motion, route_pose(plan, third, station, float(plan.d0[third])),
+                                 speed, _body(plan, mover), _body(plan, third), plan.ctx.friction, dt))
     if not options:
         return None
     predicted = predict(touches)
     follows = _follows(plan, nxt, third, predicted)
+    # the options whose next contact has its written class: the third car SPREAD earlier and later too
+    check = [i for i in range(len(options)) if i in follows and follows[i][1][2] == nxt.later[0]]
+    spread = _follows(plan, nxt, third, predict([
+        replace(touches[i], third_pose=route_pose(plan, third, options[i][5] + d, float(plan.d0[third])))
+        for i in check for d in (-SPREAD, SPREAD)]))
+    least = {i: min(_follow_key(f, nxt)[0] if f else -1 for f in (follows[i], spread.get(2 * j), spread.get(2 * j + 1)))
+             for j, i in enumerate(check)}
     none = (-1, False, -math.inf)
     best, best_key = 0, None
-    for i, (row, offset, along, meeting, clean) in enumerate(options):
-        nominal, *spread = (follows.get(3 * i + d) for d in range(3))
-        least = min(_follow_key(f, nxt)[0] if f else -1 for f in (nominal, *spread))
-        key = (_matches(meeting, later), clean, least, *(_follow_key(nominal, nxt) if nominal else none), meeting[5])
+    for i, (row, offset, along, meeting, clean, _) in enumerate(options):
+        nominal = follows.get(i)
+        key = (matches(meeting, later), clean, least.get(i, _follow_key(nominal, nxt)[0] if nominal else -1),
+               *(_follow_key(nominal, nxt) if nominal else none), meeting[5])
         if best_key is None or key > best_key:
             best, best_key = i, key
-    row, offset, along, meeting, _ = options[best]
-    follow = follows.get(3 * best)
+    row, offset, along, meeting, _, _ = options[best]
+    follow = follows.get(best)
     if follow is None:
         return Choice(row, offset, along, meeting)
     touch = t1 + (meeting[0] + 1) * cascade.DT
-    arrive = touch - cascade.step_lead(touch, dt) + predicted[3 * best][1] + (follow[1][0] + 1) * cascade.DT
+    arrive = touch - cascade.step_lead(touch, dt) + predicted[best][1] + (follow[1][0] + 1) * cascade.DT
     return Choice(row, offset, along, meeting, follow[0], follow[1], arrive)
 
 
@@ -249,7 +251,7 @@ def _follows(plan: VariationPlan, nxt: Next, third: int, predicted: list) -> dic
     for shift in lanes(plan, nxt.actor, third):
         plan.d0[nxt.actor] += shift
         try:
-            found = plan._pushed_meetings(nxt.moving, nxt.actor, moving, [(0.0, 0.0, 0.0)] * len(live), nxt.later)
+            found = pushed_meetings(plan, nxt.moving, nxt.actor, moving, [(0.0, 0.0, 0.0)] * len(live), nxt.later)
         finally:
             plan.d0[nxt.actor] -= shift
         for i, path, meeting in zip(live, moving, found):
@@ -266,10 +268,8 @@ def _aimed(plan: VariationPlan, nxt: Next, path: Path, meeting: tuple, shift: fl
     has it, in the lane `shift` [m] across: within that lane, it drives where the moving car's centre is predicted
     to be then (its front meets the moving car end to end, not with a side); aimed when that is within its lane
     (AIM_MISS)."""
-    from crashscene.simulate.embedded.plan import _relative
-
     a, k = nxt.actor, meeting[0]
-    _, lat = _relative(plan.ctx.arrays, plan.route[a], plan.s0[a], float(path[0][k]), float(path[1][k]))
+    _, lat = relative_to_route(plan.ctx.arrays, plan.route[a], plan.s0[a], float(path[0][k]), float(path[1][k]))
     lane = float(plan.d0[a]) + shift
     room = max(plan.lane_width - float(plan.width[a]), 0.0) / 2
     within = float(np.clip(lat - lane, -room, room))
@@ -278,29 +278,18 @@ def _aimed(plan: VariationPlan, nxt: Next, path: Path, meeting: tuple, shift: fl
 
 def _follow_key(follow: tuple[float, tuple, bool], nxt: Next) -> tuple[int, bool, float]:
     """How well a predicted next meeting has the written next contact: its class and the moving car's area
-    (plan._matches), then whether the fourth actor can drive at it (`_aimed`), then how far inside the class's
+    (meetings.matches), then whether the fourth actor can drive at it (`_aimed`), then how far inside the class's
     heading range it is [deg]."""
-    from crashscene.simulate.embedded.plan import _matches
-
-    return _matches(follow[1], nxt.later), follow[2], follow[1][5]
-
-
-def third_reach(plan: VariationPlan, third: int, meeting: tuple, later: tuple[str, str, str], along: float) -> float:
-    """[m] how far along its route actor `third`'s centre moves from its start to meet as plan._place_third
-    places it (`along`: where along its side it is reached, in side meetings)."""
-    _, gap_k, _, _, extent, _ = meeting
-    if cascade.meeting_mode(later[0], later[2]) == "side":
-        return gap_k - along * plan.length[third]
-    return gap_k - plan.length[third] / 2 - extent
+    return matches(follow[1], nxt.later), follow[2], follow[1][5]
 
 
 def _placed_speed(plan: VariationPlan, third: int, meeting: tuple, later: tuple[str, str, str], arrive: float,
                   passing: tuple[int, ...], along: float) -> float | None:
-    """[m/s] the speed actor `third` meets at when placed as plan._place_third places it (a dry run: the plan is
+    """[m/s] the speed actor `third` meets at when placed as meetings.place_third places it (a dry run: the plan is
     left as it was); None when it cannot be placed."""
     saved = [getattr(plan, name).copy() for name in PLACED]
     try:
-        if not plan._place_third(third, meeting, later, arrive, passing, along):
+        if not place_third(plan, third, meeting, later, arrive, passing, along):
             return None
         return float(plan.speeds[third])
     finally:
@@ -323,7 +312,7 @@ def place(plan: VariationPlan, nxt: Next, choice: Choice) -> bool:
     saved = [getattr(plan, name).copy() for name in PLACED + ("d0", "lateral_target", "drifted")]
     for name in ("d0", "lateral_target", "drifted"):
         getattr(plan, name)[a] += choice.shift
-    if plan._place_third(a, choice.follow, nxt.later, choice.arrive):
+    if place_third(plan, a, choice.follow, nxt.later, choice.arrive):
         return True
     for name, value in zip(PLACED + ("d0", "lateral_target", "drifted"), saved):
         getattr(plan, name)[:] = value

@@ -12,7 +12,7 @@ at a drawn part (`REACH`) of its roll-out relative to it: a queue of cars close 
 places (their drivers and speeds are the ones sampled). The next link starts from the closing speed the
 prediction gives at that contact.
 
-It covers a car ahead that stands, drives on at its planned speed (`VariationPlan._lane_motion`) or, going forward
+It covers a car ahead that stands, drives on at its planned speed (`stations.lane_motion`) or, going forward
 ahead of a car standing in its lane, waits in the queue (held at its start till the push reaches it); a pushed car
 whose driver the predicted impact leaves in control drives on and brakes: no link is planned after it.
 """
@@ -28,6 +28,7 @@ from crashscene.monitor.rules import Disposition
 from crashscene.simulate.drivers.base import idm_accel
 from crashscene.simulate.drivers.behaviors import LATE_REACTION, REACTION, rules_for
 from crashscene.simulate.embedded import impact
+from crashscene.simulate.embedded.stations import START_MARGIN, lane_motion, same_lane
 from crashscene.units import G
 from crashscene.upset import CONTROL_DELTA_V
 
@@ -59,14 +60,12 @@ def links(plan: VariationPlan) -> list[Link]:
     """The written chain of pushes starting at the sequence's first contact: each a rear-end by the car struck from
     behind in the link before (the first: in the first contact), on the car ahead of it in its lane (same start
     lane, starting ahead of it), that drives freely (not the ADS; it goes forward, stops or stands)."""
-    from crashscene.simulate.embedded.plan import _same_lane
-
     seq, cols = plan.ctx.contacts, plan.ctx.columns
     roles = [c.role for c in cols]
     if not seq or seq[0][2] != "rear_end" or not all(r in roles for r in seq[0][:2]):
         return []
     pusher, pushed = roles.index(seq[0][0]), roles.index(seq[0][1])
-    if not _same_lane(plan.route, plan.d0, pusher, pushed) or plan.s0[pushed] <= plan.s0[pusher]:
+    if not same_lane(plan.route, plan.d0, pusher, pushed) or plan.s0[pushed] <= plan.s0[pusher]:
         return []
     out: list[Link] = []
     for striking, struck, klass, *_ in seq[1:]:
@@ -75,7 +74,7 @@ def links(plan: VariationPlan) -> list[Link]:
         ahead = roles.index(struck)
         if cols[ahead].is_ads or cols[ahead].behavior not in ("go_forward", "stop", "static") \
                 or ahead in (pusher, pushed) or any(ahead in (k.pusher, k.pushed) for k in out) \
-                or not _same_lane(plan.route, plan.d0, pushed, ahead) or plan.s0[ahead] <= plan.s0[pushed]:
+                or not same_lane(plan.route, plan.d0, pushed, ahead) or plan.s0[ahead] <= plan.s0[pushed]:
             break
         out.append(Link(pusher, pushed, ahead))
         pusher, pushed = pushed, ahead
@@ -103,7 +102,7 @@ def meeting(closing: float, decel: float, part: float) -> tuple[float, float, fl
 def first_impact(plan: VariationPlan, striker: int, struck: int) -> tuple[float, float, float, float] | None:
     """(time [s], the struck car's station [m], the striker's and the struck car's speeds [m/s]) when the striker
     reaches the struck car's rear: the struck car and every other car in the lane as their behaviours have them
-    (`VariationPlan._lane_motion`), the striker as its driver drives (`approach`); None if not within HORIZON."""
+    (`stations.lane_motion`), the striker as its driver drives (`approach`); None if not within HORIZON."""
     times = np.arange(0.0, HORIZON, STEP)
     s_a, v_a = approach(plan, striker, times)
     s_b, v_b = motion(plan, struck, times)
@@ -115,15 +114,15 @@ def first_impact(plan: VariationPlan, striker: int, struck: int) -> tuple[float,
 
 
 def motion(plan: VariationPlan, a: int, times: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(station [m], speed [m/s]) of actor a at `times` [s] as its behaviour has it (`VariationPlan._lane_motion`);
+    """(station [m], speed [m/s]) of actor a at `times` [s] as its behaviour has it (`stations.lane_motion`);
     one that stops or stands and starts at rest (setup: a sampled speed of 0) stays where it is, one held at its
     start (`VariationPlan.hold`) until then."""
     if plan.speed[a] <= 0.0 and plan.ctx.columns[a].behavior in ("stop", "static"):
         return np.full(len(times), float(plan.s0[a])), np.zeros(len(times))
     hold = float(plan.hold[a])
     if hold <= 0.0:
-        return plan._lane_motion(a, times)
-    s, v = plan._lane_motion(a, np.maximum(times - hold, 0.0))  # (driving off at once after it: an upper bound)
+        return lane_motion(plan, a, times)
+    s, v = lane_motion(plan, a, np.maximum(times - hold, 0.0))  # (driving off at once after it: an upper bound)
     waiting = times < hold
     return np.where(waiting, float(plan.s0[a]), s), np.where(waiting, 0.0, v)
 
@@ -133,13 +132,11 @@ def approach(plan: VariationPlan, a: int, times: np.ndarray) -> tuple[np.ndarray
     car following (`idm_accel`, its rules and limits) behind the nearest car ahead in its lane that it perceives
     (not the ones it strikes in the written sequence: in reproduce mode it never saw them,
     setup.unseen_partners), seen its reaction time late."""
-    from crashscene.simulate.embedded.plan import _same_lane
-
     cols = plan.ctx.columns
     col = cols[a]
     roles = [c.role for c in cols]
     unseen = {roles.index(c[1]) for c in plan.ctx.contacts if c[0] == col.role and c[1] in roles}
-    seen = [b for b in range(len(cols)) if _same_lane(plan.route, plan.d0, a, b) and b not in unseen
+    seen = [b for b in range(len(cols)) if same_lane(plan.route, plan.d0, a, b) and b not in unseen
             and plan.s0[b] > plan.s0[a]]
     rules = rules_for(col.dispositions, plan.ctx.friction)
     delay = LATE_REACTION if Disposition.INATTENTIVE in col.traits else REACTION
@@ -242,13 +239,11 @@ def _upsetting_part(closing: float, m_pushed: float, m_ahead: float) -> float:
 def _room(plan: VariationPlan, a: int, new: float, behind: tuple[int, ...]) -> float | None:
     """`new` [m] as actor a's start when it keeps MIN_GAP from every other actor starting in its lane and stays on
     its route, else None; the actors in `behind` must stay behind it."""
-    from crashscene.simulate.embedded.plan import START_MARGIN, _same_lane
-
     route, length = plan.route, plan.length
     if new < START_MARGIN or new > plan.ctx.arrays.length[route[a]] - 100.0:
         return None
     for b in range(len(route)):
-        if not _same_lane(route, plan.d0, a, b):
+        if not same_lane(route, plan.d0, a, b):
             continue
         if abs(plan.s0[b] - new) < (length[a] + length[b]) / 2 + MIN_GAP or (b in behind and plan.s0[b] >= new):
             return None

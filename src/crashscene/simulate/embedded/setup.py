@@ -22,15 +22,8 @@ from crashscene.simulate.backend import SimulationError, SimulationSettings
 from crashscene.simulate.drivers.behaviors import NO_YIELD_CODES
 from crashscene.simulate.embedded import lockstep, skid, timing
 from crashscene.simulate.embedded.control import control_tables, entry_before, priorities
-from crashscene.simulate.embedded.plan import (
-    PlanContext,
-    VariationPlan,
-    mph,
-    prepare_skids,
-    scene_param,
-    stop_dist,
-    struck_offset,
-)
+from crashscene.simulate.embedded.arrivals import stop_dist, struck_offset
+from crashscene.simulate.embedded.plan import PlanContext, VariationPlan, mph, prepare_skids, scene_param
 from crashscene.simulate.embedded.pullout import PULL_OUT_TTA, PullOut, line_station
 from crashscene.simulate.embedded.sync import Meeting
 from crashscene.simulate.embedded.vehicles import VehicleLimits, limits_for
@@ -546,7 +539,7 @@ def _meeting(scenario: Scenario, columns: list[ActorColumn], arrays: RouteArrays
     routes' meeting point, or where the plan moved it (`touch_at` (V, 2) [m] on the striker's and the struck
     actor's routes, NaN: not moved); none where an actor waits at its line for the touch (`pull_out`). The struck
     centre is past the striker's path by `slap_offset` (V,) [m] where the plan placed the touch for a side slap to
-    follow (slap), else by plan.struck_offset."""
+    follow (slap), else by arrivals.struck_offset."""
     n_v = route.shape[0]
     meeting = Meeting.none(n_v)
     contacts = getattr(scenario, "collisions", None) or []

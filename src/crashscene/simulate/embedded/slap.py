@@ -59,7 +59,7 @@ def slaps_after(contacts, striking: str, struck: str) -> bool:
 
 def slap_offset(arrays, striker: Body, struck: Body, friction: float, dt: float) -> float | None:
     """[m] how far past the striker's path the struck centre is when the striker's front meets its side
-    (plan.struck_offset's terms; negative: short of it) for a slap to follow; None when no touch along the struck
+    (arrivals.struck_offset's terms; negative: short of it) for a slap to follow; None when no touch along the struck
     side gives both the angle first touch and the slap with their margins. Each car drives its route as its
     driver steers (touch.driven_path, from before the routes' meeting point `mover.meet`); the struck centre is
     `d` short of its meeting point, and the striker's front meets its side where the striker's path first

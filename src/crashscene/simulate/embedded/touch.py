@@ -1,7 +1,7 @@
 """Where two actors of a written junction contact touch with the written class, found on the paths they drive.
 
 A junction plan times a written contact at the point where the two routes first meet (`world._conflicts`): the
-striker's front at the struck car's side there (plan.VariationPlan._meeting_offset, sync.Meeting). Where two
+striker's front at the struck car's side there (arrivals._meeting_offset, sync.Meeting). Where two
 paths cross, that point has about the crossing's relative heading. Where they join (a turn into a lane), they
 meet almost aligned, and a contact there is a rear-end or a sideswipe by rules.md's classes; the angle class
 happens earlier on the turn, where the turner's nose enters the other's path while the turner is still turned
@@ -67,7 +67,7 @@ class Mover:
 def needs_moving(arrays, r_s: int, cs_s: float, r_t: int, cs_t: float, klass: str | None) -> bool:
     """Whether the routes' meeting point (stations cs_s on the striker's route r_s, cs_t on the struck one's r_t)
     cannot give the written class: it is an angle contact and the two headings there are outside the angle range
-    anywhere along a car's length around it on the struck route (where plan.struck_offset could place the struck
+    anywhere along a car's length around it on the struck route (where arrivals.struck_offset could place the struck
     centre); paths that cross keep their meeting."""
     if klass != "angle":
         return False

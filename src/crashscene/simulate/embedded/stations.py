@@ -1,0 +1,84 @@
+"""Where an actor of one variation's plan starts along its route, and where it is later on its lane: the
+stations a plan moves a start to (only where the lane has room), an actor's gap and lateral offset from a route
+point, and its motion along its lane as its behaviour has it (no car following).
+"""
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from crashscene.simulate.drivers.behaviors import DECELERATE_RATE, DECELERATE_TO
+from crashscene.simulate.embedded.world import RouteArrays
+from crashscene.simulate.roads import ROUTE_DS
+
+if TYPE_CHECKING:
+    from crashscene.simulate.embedded.plan import VariationPlan
+
+START_MARGIN = 5.0  # [m] an actor moved back along its route stays this far from the route's start
+STOP_DECEL = 4.0  # [m/s2] a stopping driver's braking (drivers.behaviors.DECELERATE_RATE)
+
+
+def lane_motion(plan: VariationPlan, a: int, times: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(station [m], speed [m/s]) of actor a at `times` [s] driving along its lane as its behaviour has it
+    (its planned speed; a decelerating or stopping driver brakes from its trigger on); no car following."""
+    v0, behavior = float(plan.speeds[a]), plan.ctx.columns[a].behavior
+    if behavior == "static":
+        return np.full(len(times), float(plan.s0[a])), np.zeros(len(times))
+    end = {"decelerate": DECELERATE_TO * v0, "stop": 0.0}.get(behavior, v0)
+    rate = DECELERATE_RATE if behavior == "decelerate" else STOP_DECEL
+    trig = float(plan.trigger[a]) if np.isfinite(plan.trigger[a]) else math.inf
+    braking = np.clip(times - trig, 0.0, (v0 - end) / rate)
+    speed = v0 - rate * braking
+    s = plan.s0[a] + v0 * np.minimum(times, trig) + (v0 * braking - rate * braking ** 2 / 2) \
+        + end * np.maximum(times - trig - (v0 - end) / rate, 0.0)
+    return s, speed
+
+
+def same_lane(route: np.ndarray, d0: np.ndarray | None, a: int, b: int) -> bool:
+    """Whether actors a and b start in the same lane (same route, lateral offsets within a lane); (A,) rows."""
+    return b != a and route[b] == route[a] and (d0 is None or abs(d0[b] - d0[a]) < 2.0)
+
+
+def shift_start(arrays: RouteArrays, a: int, route: np.ndarray, s0: np.ndarray, shift: float,
+                length: np.ndarray, d0: np.ndarray | None = None, passing: tuple[int, ...] = ()) -> float | None:
+    """Station `shift` [m] along actor a's route from its start (negative: back), if the route has room and
+    no other actor on the same route is in the way; else None."""
+    if shift < 0:
+        return start_back(arrays, a, route, s0, -shift, length, d0, passing)
+    new = s0[a] + shift
+    if new > arrays.length[route[a]] - 100.0:
+        return None
+    for b in range(len(route)):
+        if same_lane(route, d0, a, b) and s0[a] < s0[b] < new + (length[a] + length[b]) / 2 + 4.0:
+            return None
+    return float(new)
+
+
+def start_back(arrays: RouteArrays, a: int, route: np.ndarray, s0: np.ndarray, dist: float,
+               length: np.ndarray, d0: np.ndarray | None = None, passing: tuple[int, ...] = ()) -> float | None:
+    """Station `dist` [m] behind actor a's start on its route, if the route has room and no other actor on the
+    same route is within a car length and a margin of the new start, or between the two (unless it is
+    `passing`: leaving the lane); else None. (A,) rows of one variation."""
+    new = s0[a] - dist
+    if new < START_MARGIN:
+        return None
+    for b in range(len(route)):
+        if same_lane(route, d0, a, b) and (abs(s0[b] - new) < (length[a] + length[b]) / 2 + 4.0
+                                           or (new < s0[b] < s0[a] and b not in passing)):
+            return None
+    return float(new)
+
+
+def relative_to_route(arrays: RouteArrays, r: int, s: float, x: float, y: float, exact: bool = False
+                      ) -> tuple[float, float]:
+    """(gap along route r from station s to the point, lateral offset of the point) [m]; the gap to the nearest
+    route sample (ROUTE_DS), or with `exact` to the point's own projection on the route."""
+    xy = arrays.xy[r]
+    k = int(np.argmin(np.hypot(xy[:, 0] - x, xy[:, 1] - y)))
+    yaw = arrays.yaw[r, k]
+    dx, dy = x - xy[k, 0], y - xy[k, 1]
+    lateral = -math.sin(yaw) * dx + math.cos(yaw) * dy
+    along = math.cos(yaw) * dx + math.sin(yaw) * dy if exact else 0.0
+    return k * ROUTE_DS + along - s, lateral
