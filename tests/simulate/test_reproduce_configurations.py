@@ -297,3 +297,27 @@ def test_a_left_turner_is_struck_and_slapped_again_by_the_same_car(tmp_path):
     summary = run(SAME_PAIR_RETOUCH, tmp_path)
     assert summary["first_contact_rate"] >= 0.9
     assert summary["sequence_rate"] >= 0.9, summary["collisions"]
+
+
+# A pull-out in a queue clips the car ahead, and the report has the striker spin into the next car of the queue
+# (simulate.embedded.clipahead): the clip is predicted with the clipped car's motion, which the clip pushes on ahead of
+# the striker, so no start of the next car has the striker meet it first (benchmarks/bench_clip_reach.py) and the plan
+# moves none: the queue is left as sampled, its cars driving; first contact 20 of 20, sequence 0 of 20. Before, the car
+# ahead was held standing at its start to meet a slide that ignored the clipped car: the clipped car braked for it and
+# was pushed into it (first contact 20 of 20, the written sequence in 1 of 20, by chance).
+QUEUE_CLIP = scenario(
+    "divided", "speed_limit_sign", 55,
+    actor("ego", "change_lane_left", "reference: road, relation: behind")
+    + actor("npc1", "go_forward", "reference: ego, relation: front, heading: same_direction")
+    + actor("npc2", "go_forward", "reference: ego, relation: front, heading: same_direction"),
+    oracle("CVC_22107", "unsafe_lane_change", "ego"),
+    contact("ego", "npc1", "front", "rear", "rear_end") + contact("ego", "npc2", "left", "rear", "angle"))
+
+
+@pytest.mark.slow
+def test_a_clip_in_a_queue_leaves_the_car_ahead_of_the_clipped_one_driving(tmp_path):
+    summary = run(QUEUE_CLIP, tmp_path)
+    assert summary["first_contact_rate"] >= 0.9, summary["collisions"]
+    rows = pq.read_table(tmp_path / "traces.parquet", columns=["variation", "actor", "t", "speed"]).to_pylist()
+    ahead = [r["speed"] for r in rows if r["actor"] == "npc2" and abs(r["t"] - 0.5) < 1e-6]
+    assert len(ahead) == summary["valid"] and min(ahead) > 5.0

@@ -10,7 +10,15 @@ from typing import Annotated, Optional
 import typer
 
 from crashscene.cli import app
-from crashscene.cli.simulation_options import parse_ads_params
+from crashscene.cli.simulation_options import (
+    AdsOpt,
+    CarlaHostOpt,
+    CarlaPortOpt,
+    DtOpt,
+    HorizonOpt,
+    MapOpt,
+    parse_ads_params,
+)
 
 
 @app.command()
@@ -25,21 +33,20 @@ def simulate(
                                                           "a plugin's name or 'package.module:Class'.")] = "embedded",
     ego: Annotated[str, typer.Option("--ego", help="DSL role handed to the ADS under test.")] = "ego",
     out: Annotated[Path, typer.Option("--out", "-o", help="Run directory to write.")] = Path("out/simulate"),
-    ads: Annotated[str | None, typer.Option("--ads", help="User ADS driver 'package.module:Class' "
-                                                           "(see crashscene.simulate.drivers.base).")] = None,
+    ads: AdsOpt = None,
     ads_param: Annotated[list[str], typer.Option("--ads-param", help="ADS parameter KEY=VALUE (repeatable), "
                                                                    "e.g. reaction_time=0.8.")] = [],  # noqa: B006
-    dt: Annotated[float, typer.Option("--dt", help="Time step [s].")] = 0.1,
-    horizon: Annotated[float, typer.Option("--horizon", help="Simulated time per variation [s].")] = 20.0,
+    dt: DtOpt = 0.1,
+    horizon: HorizonOpt = 20.0,
     workers: Annotated[Optional[int], typer.Option("--workers", min=1, help="Processes simulating blocks of "
                                                   "variations (same bytes for any value) (default: all cores).")] = None,
     sampler: Annotated[Optional[str], typer.Option("--sampler", help="compiled (numpy, from render's sampler.json) "
                                                    "or scenic (Scenic's own sampler, the reference) (default: "
                                                    "compiled; scenic for newtonian and carla).")] = None,
-    map_mode: Annotated[str, typer.Option("--map", help="generated or carla.")] = "generated",
+    map_mode: MapOpt = "generated",
     carla_maps: Annotated[Path | None, typer.Option("--carla-maps", help="Folder of CARLA .xodr towns.")] = None,
-    carla_host: Annotated[str, typer.Option("--carla-host", help="CARLA server host.")] = "127.0.0.1",
-    carla_port: Annotated[int, typer.Option("--carla-port", help="CARLA server port.")] = 2000,
+    carla_host: CarlaHostOpt = "127.0.0.1",
+    carla_port: CarlaPortOpt = 2000,
     as_json: Annotated[bool, typer.Option("--json", help="Summary as JSON on stdout.")] = False,
 ) -> None:
     """Render, sample and simulate FILE; write traces, the monitor's verdicts and summary.json into --out."""

@@ -1,6 +1,7 @@
 """Typed CLI options shared by `simulate`, `run` and `campaign` (one spelling, one help text each)."""
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Annotated, Optional
 
 import typer
@@ -19,6 +20,17 @@ ModeOpt = Annotated[str, typer.Option("--mode", help="reproduce (re-enact the cr
                                                      "or both.")]  # `run` and `campaign`
 AllowImportsOpt = Annotated[bool, typer.Option("--allow-imports", help="Let the --rules file's `imports:` import "
                                                "Python modules (runs their code).")]
+MapOpt = Annotated[str, typer.Option("--map", help="generated or carla.")]
+# `run` and `campaign`
+EgoOpt = Annotated[str, typer.Option("--ego", help="DSL role driven by the ADS under test.")]
+RulesOpt = Annotated[Optional[Path], typer.Option("--rules", help="YAML rulebook overriding the monitor's thresholds.")]
+SamplerOpt = Annotated[Optional[str], typer.Option("--sampler", help="Scene sampler: compiled (numpy) or scenic (the "
+                                                   "reference) (default: compiled; scenic for newtonian and carla).")]
+ExtractorOpt = Annotated[str, typer.Option("--extractor", help="Extraction backend: rules (offline), openai, local.")]
+LlmModelOpt = Annotated[Optional[str], typer.Option("--model", help="LLM for --extractor openai (default gpt-4o-mini).")]
+BaseUrlOpt = Annotated[Optional[str], typer.Option("--base-url", help="OpenAI-compatible endpoint for --extractor "
+                                                   "openai.")]
+ModelPathOpt = Annotated[Optional[Path], typer.Option("--model-path", help="GGUF file for --extractor local.")]
 
 
 def parse_ads_params(values: list[str]) -> dict[str, float | int | str | bool]:

@@ -143,6 +143,15 @@ class LeftTurnYield(Rule):
         return out
 
 
+def _controlled_entry_outcome(ctx: EvalContext, control: str, max_ttr: float) -> RuleOutcome:
+    """Entering from an approach under `control` (stop, yield) into the path of a through vehicle (one with no
+    control or a signal) less than `max_ttr` [s] away (`_ttr_outcome`)."""
+    s = pair_state(ctx)
+    through = np.isin(s.ctrl_b, [-1, code_of("control", "none"), code_of("control", "signal")])
+    qualifies = s.crossing & (s.ctrl_a == code_of("control", control)) & through
+    return _ttr_outcome(ctx, qualifies, enters_junction_with(ctx, control), max_ttr)
+
+
 @register_rule
 class StopSignYield(Rule):
     code = "CVC_21802"
@@ -156,11 +165,7 @@ class StopSignYield(Rule):
     Params = YieldParams
 
     def evaluate(self, ctx: EvalContext) -> RuleOutcome:
-        p: YieldParams = self.params
-        s = pair_state(ctx)
-        through = np.isin(s.ctrl_b, [-1, code_of("control", "none"), code_of("control", "signal")])
-        qualifies = s.crossing & (s.ctrl_a == code_of("control", "stop")) & through
-        return _ttr_outcome(ctx, qualifies, enters_junction_with(ctx, "stop"), p.min_time_to_reach)
+        return _controlled_entry_outcome(ctx, "stop", self.params.min_time_to_reach)
 
 
 @register_rule
@@ -176,11 +181,7 @@ class YieldSign(Rule):
     Params = YieldParams
 
     def evaluate(self, ctx: EvalContext) -> RuleOutcome:
-        p: YieldParams = self.params
-        s = pair_state(ctx)
-        through = np.isin(s.ctrl_b, [-1, code_of("control", "none"), code_of("control", "signal")])
-        qualifies = s.crossing & (s.ctrl_a == code_of("control", "yield")) & through
-        return _ttr_outcome(ctx, qualifies, enters_junction_with(ctx, "yield"), p.min_time_to_reach)
+        return _controlled_entry_outcome(ctx, "yield", self.params.min_time_to_reach)
 
 
 class IntersectionParams(RuleParams):

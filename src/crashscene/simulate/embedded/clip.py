@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from crashscene.simulate.embedded import cascade, lockstep, swerve, timing
+from crashscene.simulate.embedded import cascade, clipahead, lockstep, swerve, timing
 from crashscene.simulate.embedded import skid as skid_plan
 from crashscene.simulate.embedded.meetings import later_terms, matches, place_third, pushed_meetings
 from crashscene.simulate.embedded.stations import relative_to_route
@@ -173,6 +173,9 @@ def _clip_then_meet(plan: VariationPlan, a: int, partner: int, gap: float, conta
             plan.s0[partner], plan.moved[partner] = saved[2], saved[3]
             if timed is not None:
                 tried.append((scale, timed, shifted))
+    if clipahead.ahead_in_lane(plan, partner, third):  # the clipped car is in the way: stepped with it
+        plan.scale[partner], plan.speeds[partner] = saved[0], saved[1]
+        return clipahead.plan_ahead(plan, a, partner, third, later[0], tried)
     me = (float(plan.length[a]), float(plan.width[a]), cols[a].limits.mass, cols[a].limits.wheelbase_ratio)
     them = (float(plan.length[partner]), float(plan.width[partner]), cols[partner].limits.mass,
             cols[partner].limits.wheelbase_ratio)
