@@ -313,6 +313,7 @@ class _Blocks:
     def __init__(self, context, bounds: list[tuple[int, int]], workers: int):
         self.context, self.bounds, self.workers = context, bounds, workers
         self.running: dict[Any, tuple[int, Any]] = {}  # connection -> (block, process)
+        self.spills: dict[Any, _Spill] = {}  # connection -> its block's memory file (where there are any)
 
     def __enter__(self) -> _Blocks:
         return self
@@ -323,13 +324,20 @@ class _Blocks:
             conn.close()
         for _, process in self.running.values():
             process.join()
+        for spill in self.spills.values():
+            spill.close()
 
     def _start(self, k: int) -> None:
         receive, send = self.context.Pipe(duplex=False)
-        process = self.context.Process(target=_simulate_block, args=(*self.bounds[k], send), daemon=True)
+        spill = _Spill.create(k)
+        others = [other.fd for other in self.spills.values()]
+        process = self.context.Process(target=_simulate_block, args=(*self.bounds[k], send, spill, others),
+                                       daemon=True)
         process.start()
         send.close()
         self.running[receive] = (k, process)
+        if spill is not None:
+            self.spills[receive] = spill
 
     def messages(self, judging: bool):
         """(block, "tables" | "judged", payload) as the blocks send them."""
@@ -342,7 +350,7 @@ class _Blocks:
             for conn in wait(list(self.running)):
                 k, process = self.running[conn]
                 try:
-                    kind, payload = _receive(conn)
+                    kind, payload = _receive(conn, self.spills.get(conn))
                 except EOFError:
                     process.join()
                     raise SimulationError(f"the worker simulating variations {self.bounds[k][0]}-"
@@ -354,6 +362,8 @@ class _Blocks:
                     del self.running[conn]
                     conn.close()
                     process.join()
+                    if conn in self.spills:
+                        self.spills.pop(conn).close()  # the mapped buffers stay valid
                 yield k, kind, payload
 
 
@@ -398,34 +408,95 @@ def _import_before_fork(judging: bool) -> None:
         import crashscene.monitor.criticality  # noqa: F401
 
 
-def _simulate_block(lo: int, hi: int, send) -> None:
-    """In a forked child: simulate scenes [lo, hi) of the inherited request, send the tables, then judge them."""
+def _simulate_block(lo: int, hi: int, send, spill: _Spill | None = None, others: list[int] = ()) -> None:
+    """In a forked child: simulate scenes [lo, hi) of the inherited request, send the tables, then judge them.
+
+    `spill`: this block's memory file for the payloads' buffers (None: they go through the pipe); `others`: the
+    descriptors of earlier blocks' memory files, inherited and closed here (their memory is freed with the parent's
+    mappings, not when this child exits)."""
+    for fd in others:
+        os.close(fd)
     try:
         backend, settings, request = _INHERITED["backend"], _INHERITED["settings"], _INHERITED["request"]
         judge = _INHERITED["judge"]
         block = dataclasses.replace(request, scenes=list(request.scenes)[lo:hi], progress=None)
         with create_simulator(backend, settings) as simulator:
             result = simulator.simulate(block)
-        _send(send, "tables", result)
+        _send(send, "tables", result, spill)
         if judge is not None:
             tables = dict(result.tables)
             del result  # the judge frees the traces once it has read them
-            _send(send, "judged", judge(tables))
+            _send(send, "judged", judge(tables), spill)
     except BaseException as exc:  # the parent raises it
         try:
-            _send(send, "error", exc)
+            _send(send, "error", exc, spill)
         except Exception:  # not picklable: its text
-            _send(send, "error", SimulationError(f"{type(exc).__name__}: {exc}"))
+            _send(send, "error", SimulationError(f"{type(exc).__name__}: {exc}"), spill)
     finally:
         send.close()
+        if spill is not None:
+            spill.close()
 
 
-def _send(conn, kind: str, payload: Any) -> None:
-    """Pickle `payload` with its Arrow buffers out of band, each written to the pipe as it is (no copy of the
-    tables)."""
+class _Spill:
+    """A block's out-of-band buffers in a memory file (Linux `memfd`) the parent creates before it forks the block's
+    worker: the worker writes each buffer into it (one copy, into memory pages the parent then maps: no copy on the
+    parent's side) and sends only where they are through the pipe, so it neither waits for the parent to read the
+    pipe (nor does the parent read one worker's tables while the other waits) nor does the parent copy them."""
+
+    ALIGN = 64  # [bytes] each buffer starts at a multiple of this (Arrow's alignment)
+
+    def __init__(self, fd: int):
+        self.fd = fd
+        self.end = 0  # [bytes] in the worker: where the next buffer may start
+
+    @classmethod
+    def create(cls, k: int) -> _Spill | None:
+        """Block k's memory file, or None where there is none (not Linux: the pipe carries the buffers)."""
+        if not hasattr(os, "memfd_create"):
+            return None
+        return cls(os.memfd_create(f"crashscene-block-{k}", os.MFD_CLOEXEC))
+
+    def write(self, raws: list[memoryview]) -> list[tuple[int, int]]:
+        """In the worker: append the buffers; their (offset, size) [bytes] in the file."""
+        layout = []
+        for raw in raws:
+            offset = -(-self.end // self.ALIGN) * self.ALIGN
+            done = 0
+            while done < raw.nbytes:
+                done += os.pwrite(self.fd, raw[done:], offset + done)
+            layout.append((offset, raw.nbytes))
+            self.end = offset + raw.nbytes
+        return layout
+
+    def read(self, layout: list[tuple[int, int]]) -> list[pa.Buffer]:
+        """In the parent: the buffers at `layout`, views of one shared read-only mapping of the file (valid after
+        `close`; the pages are freed when the last view is)."""
+        import mmap
+
+        end = max((offset + size for offset, size in layout if size), default=0)  # an empty one may lie past it
+        if end == 0:
+            return [pa.py_buffer(b"") for _ in layout]
+        flags = mmap.MAP_SHARED | getattr(mmap, "MAP_POPULATE", 0)  # one call maps every page, not a fault each
+        whole = pa.py_buffer(mmap.mmap(self.fd, end, flags=flags, prot=mmap.PROT_READ))
+        return [whole.slice(offset, size) if size else pa.py_buffer(b"") for offset, size in layout]
+
+    def close(self) -> None:
+        if self.fd >= 0:
+            os.close(self.fd)
+            self.fd = -1
+
+
+def _send(conn, kind: str, payload: Any, spill: _Spill | None = None) -> None:
+    """Pickle `payload` with its Arrow buffers out of band, each written as it is (no copy of the tables) into
+    `spill` or else the pipe."""
     buffers: list = []
     head = pickle.dumps(payload, protocol=5, buffer_callback=buffers.append)
     raws = [buffer.raw() for buffer in buffers]
+    if spill is not None:
+        conn.send((kind, spill.write(raws)))
+        conn.send_bytes(head)
+        return
     conn.send((kind, [raw.nbytes for raw in raws]))
     conn.send_bytes(head)
     for raw in raws:
@@ -434,13 +505,16 @@ def _send(conn, kind: str, payload: Any) -> None:
             done += os.write(conn.fileno(), raw[done:])
 
 
-def _receive(conn) -> tuple[str, Any]:
-    """What `_send` sent; each out-of-band buffer is read from the pipe straight into an Arrow buffer of its own
-    (one copy, where `Connection.recv_bytes` makes three and faults twice the pages in)."""
-    kind, sizes = conn.recv()
+def _receive(conn, spill: _Spill | None = None) -> tuple[str, Any]:
+    """What `_send` sent: the out-of-band buffers mapped from `spill`, or else each read from the pipe straight
+    into an Arrow buffer of its own (one copy, where `Connection.recv_bytes` makes three and faults twice the pages
+    in)."""
+    kind, layout = conn.recv()
     head = conn.recv_bytes()
+    if spill is not None:
+        return kind, pickle.loads(head, buffers=spill.read(layout))
     with open(conn.fileno(), "rb", buffering=0, closefd=False) as pipe:
-        buffers = [_read_exactly(pipe, size) for size in sizes]
+        buffers = [_read_exactly(pipe, size) for size in layout]
     return kind, pickle.loads(head, buffers=buffers)
 
 
