@@ -114,7 +114,6 @@ def _write_run(scenario: Scenario, out_dir: Path, n: int, seed: int, first: int 
     check_ego_role(scenario, settings)
     sampler = _sampler_for(backend, sampler)
     from crashscene.render import RenderError, render
-    from crashscene.render.sample import sample_scenes
 
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -126,17 +125,19 @@ def _write_run(scenario: Scenario, out_dir: Path, n: int, seed: int, first: int 
             rendered = _copy_render(Path(rendered_dir), out_dir)
         else:
             rendered = render(scenario, out_dir, map_mode=map_mode, carla_maps=carla_maps)
-        timings["render"] = time.perf_counter() - start
-        t0 = time.perf_counter()
-        scenes = sample_scenes(rendered.program, n, seed, first=first, workers=workers, sampler=sampler)
-        timings["sample"] = time.perf_counter() - t0
     except RenderError as exc:
         raise SimulationError(f"render/sample failed: {exc}") from exc
-    if final_dir is not None:
-        scenes = [scene.model_copy(update={"map_file": _moved(scene.map_file, out_dir, Path(final_dir))})
-                  for scene in scenes]
-    with open(out_dir / "scenes.jsonl", "w", encoding="utf-8") as fh:
-        fh.writelines(scene.model_dump_json() + "\n" for scene in scenes)
+    timings["render"] = time.perf_counter() - start
+    sampling = BlockSampling(Path(rendered.program), n, seed, first, sampler, out_dir, final_dir)
+    scenes: list = []
+    if sampler == "compiled" and worker_count(backend, n, workers) > 1:
+        in_blocks = sampling  # each worker samples its own block, in parallel
+    else:
+        in_blocks = None
+        t0 = time.perf_counter()
+        scenes = sampling.scenes(0, n, workers)
+        timings["sample"] = time.perf_counter() - t0
+        sampling.write([sampling.lines(scenes)])
 
     t0 = time.perf_counter()
     request = SimulationRequest(scenario=scenario, scenes=scenes, map_file=Path(rendered.map), settings=settings,
@@ -152,8 +153,12 @@ def _write_run(scenario: Scenario, out_dir: Path, n: int, seed: int, first: int 
                                          table.replace_schema_metadata({SCENARIO_DIGEST_KEY: digest}))
                            for name, table in simulated.tables.items())
 
-        result, judged = simulate_blocks(backend, settings, request, workers, judge, simulated=write)
-        timings["simulate"] = time.perf_counter() - t0 - (judged.seconds if judged is not None else 0.0)
+        result, judged = simulate_blocks(backend, settings, request, workers, judge, simulated=write,
+                                         sampling=in_blocks)
+        if in_blocks is not None:
+            timings["sample"] = in_blocks.seconds
+        timings["simulate"] = (time.perf_counter() - t0 - (judged.seconds if judged is not None else 0.0)
+                               - (in_blocks.seconds if in_blocks is not None else 0.0))
         summary = summarize(result.tables)
         summary.update({"backend": result.backend, "sampler": sampler, "workers": workers, "mode": mode,
                         "ego_role": ego_role, "seed": seed, "first": first,
@@ -175,6 +180,48 @@ def _write_run(scenario: Scenario, out_dir: Path, n: int, seed: int, first: int 
     summary["timings"] = {k: round(v, 3) for k, v in timings.items()}
     (out_dir / "summary.json").write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
     return summary
+
+
+class BlockSampling:
+    """Scenes of variations [first, first + n) of a rendered program, drawn for any block [lo, hi) of them: by the
+    parent for the whole run, or by each worker for its own block (`simulate_blocks`), in parallel and with no scene
+    crossing a pipe. Scene i depends only on (program, seed, i), so the blocks' scenes are the scenes of one call.
+    Their JSON lines go to `scenes.jsonl` in index order (`write`); map paths name `final_dir`, where the run folder
+    will live, when given."""
+
+    def __init__(self, program: Path, n: int, seed: int, first: int, sampler: str, work_dir: Path,
+                 final_dir: Path | None):
+        self.program, self.n, self.seed, self.first, self.sampler = program, n, seed, first, sampler
+        self.work_dir, self.final_dir = work_dir, final_dir
+        self.seconds = 0.0  # [s] the blocks' sampling time over the number of workers, when they sampled
+
+    def scenes(self, lo: int, hi: int, workers: int = 1) -> list:
+        """The scenes of variations [first + lo, first + hi) (`workers`: see `sample_scenes`)."""
+        from crashscene.render import RenderError
+        from crashscene.render.sample import sample_scenes
+
+        try:
+            scenes = sample_scenes(self.program, hi - lo, self.seed, first=self.first + lo, workers=workers,
+                                   sampler=self.sampler)
+        except RenderError as exc:
+            raise SimulationError(f"render/sample failed: {exc}") from exc
+        if self.final_dir is not None:
+            moved: dict[str, str] = {}
+            for scene in scenes:  # scenes of our own: set in place (a copy each costs 4 us)
+                path = scene.map_file
+                scene.map_file = moved.get(path) or moved.setdefault(path, _moved(path, self.work_dir,
+                                                                                  Path(self.final_dir)))
+        return scenes
+
+    @staticmethod
+    def lines(scenes: list) -> bytes:
+        """The scenes as JSON lines (UTF-8)."""
+        return "".join(scene.model_dump_json() + "\n" for scene in scenes).encode("utf-8")
+
+    def write(self, parts: list[bytes]) -> None:
+        """`scenes.jsonl`: the blocks' lines, in index order."""
+        with open(self.work_dir / "scenes.jsonl", "wb") as fh:
+            fh.writelines(parts)
 
 
 def _moved(path: str, work: Path, final: Path) -> str:
@@ -229,9 +276,16 @@ def judge_block(tables: dict[str, pa.Table], scenario: Scenario, rulebook=None) 
     return Judged(result, criticality, time.perf_counter() - start)
 
 
+def worker_count(backend: str, n: int, workers: int) -> int:
+    """Processes `simulate_blocks` uses for n variations: only the embedded backend is split, into blocks of at
+    least MIN_BLOCK variations."""
+    return min(workers, max(1, n // MIN_BLOCK)) if backend == "embedded" else 1
+
+
 def simulate_blocks(backend: str, settings: SimulationSettings, request: SimulationRequest, workers: int,
                     judge: Callable[[dict[str, pa.Table]], Judged] | None = None,
-                    simulated: Callable[[BatchResult], None] | None = None) -> tuple[BatchResult, Judged | None]:
+                    simulated: Callable[[BatchResult], None] | None = None,
+                    sampling: BlockSampling | None = None) -> tuple[BatchResult, Judged | None]:
     """`request` simulated in up to `workers` forked processes, in contiguous blocks of scenes (one per worker), each
     block judged (`judge`: monitor and metrics) in its process.
 
@@ -239,9 +293,15 @@ def simulate_blocks(backend: str, settings: SimulationSettings, request: Simulat
     backend is split (a CARLA server is one shared world; Newtonian runs scene by scene anyway). `simulated` is
     called with the simulator's tables as soon as every block has sent them, before the blocks are judged: the
     caller writes them while the workers judge (when the traces are at most EARLY_WRITE_BYTES, else once judged).
+
+    `sampling` (more than one worker only): each block's worker draws its own scenes (`request.scenes` is not read)
+    and sends their JSON lines first; `sampling.write` gets them, in index order, once every block's are in.
     """
     scenes = list(request.scenes)
-    workers = min(workers, max(1, len(scenes) // MIN_BLOCK)) if backend == "embedded" else 1
+    n = len(scenes) if sampling is None else sampling.n
+    workers = worker_count(backend, n, workers)
+    if sampling is not None and workers == 1:
+        raise ValueError("sampling in the workers needs more than one worker")
     if workers == 1:
         with create_simulator(backend, settings) as simulator:
             result = simulator.simulate(request)
@@ -256,19 +316,25 @@ def simulate_blocks(backend: str, settings: SimulationSettings, request: Simulat
     from crashscene.simulate.embedded.simulator import chunk_size
 
     # one block a worker, or as many more as keep each block to one simulator chunk (bounds a judge's memory)
-    blocks = min(max(BLOCKS_PER_WORKER * workers, -(-len(scenes) // chunk_size(scenes))),
-                 max(1, len(scenes) // MIN_BLOCK))
-    bounds = list(itertools.pairwise([len(scenes) * k // blocks for k in range(blocks + 1)]))
-    _INHERITED.update(backend=backend, settings=settings, request=request, judge=judge)
+    chunk = chunk_size(scenes if sampling is None else sampling.scenes(0, 1))  # it depends on the actors per scene
+    blocks = min(max(BLOCKS_PER_WORKER * workers, -(-n // chunk)), max(1, n // MIN_BLOCK))
+    bounds = list(itertools.pairwise([n * k // blocks for k in range(blocks + 1)]))
+    _INHERITED.update(backend=backend, settings=settings, request=request, judge=judge, sampling=sampling)
     _import_before_fork(judge is not None)
     parts: list[BatchResult | None] = [None] * len(bounds)
     judged: list[Judged | None] = [None] * len(bounds)
+    lines: list[bytes | None] = [None] * len(bounds)
     result = None
     try:
         context = multiprocessing.get_context("fork")  # children inherit the imports and the parsed map
         with _Blocks(context, bounds, workers) as running:
             for k, kind, payload in running.messages(judge is not None):
-                if kind == "tables":
+                if kind == "scenes":
+                    lines[k], seconds = payload
+                    sampling.seconds += seconds / workers
+                    if all(part is not None for part in lines):
+                        sampling.write(lines)
+                elif kind == "tables":
                     parts[k] = payload
                     if request.progress is not None:
                         request.progress(bounds[k][1] - bounds[k][0])
@@ -340,7 +406,7 @@ class _Blocks:
             self.spills[receive] = spill
 
     def messages(self, judging: bool):
-        """(block, "tables" | "judged", payload) as the blocks send them."""
+        """(block, "scenes" | "tables" | "judged", payload) as the blocks send them."""
         from multiprocessing.connection import wait
 
         queued = list(range(len(self.bounds)))
@@ -358,7 +424,7 @@ class _Blocks:
                                           ) from None
                 if kind == "error":
                     raise payload
-                if kind == "judged" or not judging:
+                if kind == "judged" or (kind == "tables" and not judging):
                     del self.running[conn]
                     conn.close()
                     process.join()
@@ -418,8 +484,15 @@ def _simulate_block(lo: int, hi: int, send, spill: _Spill | None = None, others:
         os.close(fd)
     try:
         backend, settings, request = _INHERITED["backend"], _INHERITED["settings"], _INHERITED["request"]
-        judge = _INHERITED["judge"]
-        block = dataclasses.replace(request, scenes=list(request.scenes)[lo:hi], progress=None)
+        judge, sampling = _INHERITED["judge"], _INHERITED["sampling"]
+        if sampling is None:
+            scenes = list(request.scenes)[lo:hi]
+        else:
+            start = time.perf_counter()
+            scenes = sampling.scenes(lo, hi)
+            seconds = time.perf_counter() - start
+            _send(send, "scenes", (sampling.lines(scenes), seconds), spill)
+        block = dataclasses.replace(request, scenes=scenes, progress=None)
         with create_simulator(backend, settings) as simulator:
             result = simulator.simulate(block)
         _send(send, "tables", result, spill)
