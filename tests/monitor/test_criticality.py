@@ -171,3 +171,24 @@ def test_delta_v_estimate_weighs_vehicles_as_the_simulator_does():
 
     for actor_type in ("car", "truck", "motorcycle", "unknown"):
         assert mass_of(actor_type) == limits_for(actor_type).mass
+
+
+def test_ttc_measured_on_the_used_samples_alone_gives_the_same_floats(monkeypatch):
+    """_pair_ttc gathers the samples it uses (both present, before the first contact) when they are few: the
+    table is the one measured on every sample, bit for bit, for pairs that collide early, late and never."""
+    import crashscene.monitor.criticality as criticality
+
+    tabs = tables({"ego": track(steps=80, x0=0.0, speed=12.0, length=4.5, width=1.8),
+                   "npc1": track(steps=80, x0=60.0, yaw=np.pi, speed=9.0, length=4.5, width=1.8),
+                   "npc2": track(steps=80, x0=-30.0, y0=0.3, speed=15.0, length=4.0, width=1.7),
+                   "npc3": track(steps=80, x0=5.0, y0=-25.0, yaw=np.pi / 2 + 0.2, speed=6.0)}, variations=3)
+    arrays = build_arrays(tabs)
+    got = {}
+    for share in (0.0, 2.0):  # always gathered, never gathered
+        monkeypatch.setattr(criticality, "USED_SHARE", share)
+        got[share] = criticality_table(arrays)
+    assert got[0.0].column("collided").to_pylist().count(True) >= 3
+    for name in CRITICALITY_SCHEMA.names:
+        a, b = (got[share].column(name).to_numpy(zero_copy_only=False) for share in (0.0, 2.0))
+        assert a.dtype == b.dtype
+        assert np.array_equal(a, b, equal_nan=a.dtype.kind == "f"), name

@@ -79,3 +79,23 @@ def test_a_third_car_is_met_on_its_side_only_by_a_written_sideswipe_there():
     toward = cascade.toward_third(np.zeros(1), "right")
     assert list(cascade.facing_area(np.zeros(1), toward - np.pi)) == ["left"]
     assert list(cascade.facing_area(np.zeros(1), cascade.toward_third(np.zeros(1), "left") - np.pi)) == ["right"]
+
+
+def test_contact_penetration_is_minus_the_separation_bit_for_bit():
+    """`impact.contact`'s penetration is what `separate` measures of the same poses (-footprint_separation),
+    so a caller that has the contact may hand it to `separate` and move the bodies by the same floats."""
+    from crashscene.geometry import footprint_separation
+
+    rng = np.random.default_rng(4)
+    n = 500
+    poses = (rng.normal(0, 2, n), rng.normal(0, 2, n), rng.uniform(-4, 4, n), rng.uniform(3, 6, n),
+             rng.uniform(1.5, 2.2, n), rng.normal(0, 2, n), rng.normal(0, 2, n), rng.uniform(-4, 4, n),
+             rng.uniform(3, 6, n), rng.uniform(1.5, 2.2, n))
+    nx, ny, px, py, penetration = impact.contact(*poses)
+    assert np.array_equal(penetration, -footprint_separation(*poses))
+    assert all(np.array_equal(p, q) for p, q in zip((nx, ny, px, py), impact.contact_frame(*poses)))
+    ma, mb = rng.uniform(800, 3000, n), rng.uniform(800, 3000, n)
+    alone = impact.separate(*poses[:5], ma, *poses[5:], mb)
+    handed = impact.separate(*poses[:5], ma, *poses[5:], mb, frame=(nx, ny, penetration))
+    assert all(np.array_equal(p, q) for p, q in zip(alone, handed))
+    assert (penetration > 0).any() and (penetration < 0).any()  # both touching and apart poses were tried

@@ -149,3 +149,65 @@ def test_travel_time_takes_its_shortcuts_without_changing_a_bit(four_way_map):
         assert got == _travel_time_by_full_profile(arrays, r, s0, s1, speed, lat, v0=v0), (r, s0, s1, speed, lat, v0)
         shortcuts += v0 is not None and v0 < speed
     assert shortcuts > 500
+
+
+def test_curve_lookahead_gives_the_samples_last_gathers_floats(four_way_map):
+    """curve_lookahead (samples on the first axis, the curve speed read from a table) equals the plain formula:
+    each (route, station, speed)'s 12 samples ahead gathered, |curvature| limited to 1e-4, reduced on the last
+    axis; on every shape the simulator and the plans call it with."""
+    roadmap = RoadMap.load(four_way_map)
+    arrays = RouteArrays.pack([roadmap.route("road1_lane0", "left"), roadmap.route("road1_lane0", "straight")])
+    rng = np.random.default_rng(5)
+    n_k = arrays.curvature.shape[1]
+    curved = 0
+    for shape in [(2, 700), (3,), ()]:
+        r = rng.integers(0, 2, shape)
+        s = rng.uniform(-5.0, n_k * ROUTE_DS + 50.0, shape)
+        v = rng.choice([0.0, 3.0, 14.2, 31.0], shape)
+        near = np.maximum(20.0, 3.0 * v)
+        dist = (near + v * v / 4.0)[..., None] * np.linspace(0.0, 1.0, 12)
+        k = np.clip((s[..., None] + dist) / ROUTE_DS, 0.0, n_k - 1).astype(np.int64)
+        kappa = np.abs(arrays.curvature[r[..., None], k])
+        curvature, speed = arrays.curve_lookahead(r, s, v)
+        assert np.array_equal(curvature, np.where(dist <= near[..., None], kappa, 0.0).max(axis=-1))
+        assert np.array_equal(speed, np.sqrt(np.min(2.5 / np.maximum(kappa, 1e-4) + 4.0 * dist, axis=-1)))
+        curved += int(np.count_nonzero(curvature > 0))
+    assert curved > 100  # the turn's curve was looked at
+
+
+@pytest.mark.parametrize("apart, meets", [(0.3, True), (0.45, True), (0.55, False), (3.5, False)])
+def test_routes_that_never_cross_meet_where_they_come_within_the_merge_tolerance(apart, meets):
+    """Two routes that never cross meet (a merge) where one first comes within MERGE_TOLERANCE of the other; the
+    tolerance is tested with an indexed distance (shapely.dwithin on prepared lines), not the full distance."""
+    from types import SimpleNamespace
+
+    from crashscene.simulate.embedded.world import MERGE_TOLERANCE, _conflicts
+
+    s = np.arange(0.0, 400.0, ROUTE_DS)
+    gap = np.where(s < 200.0, 5.0, apart)  # the second lane closes in to `apart` from 200 m on
+    routes = [SimpleNamespace(xy=np.c_[s, np.zeros_like(s)], yaw=np.zeros_like(s), key=("lane_a",)),
+              SimpleNamespace(xy=np.c_[s, gap + 0.02 * np.sin(s)], yaw=np.zeros_like(s), key=("lane_b",))]
+    conflict_s, angle = _conflicts(routes)
+    assert (apart < MERGE_TOLERANCE) == meets
+    if meets:
+        assert 199.0 <= conflict_s[0, 1] <= 201.0 and 199.0 <= conflict_s[1, 0] <= 206.0  # b jogs in by 4.5 m
+    else:
+        assert np.isnan(conflict_s).all() and np.isnan(angle).all()
+
+
+def test_point_reads_the_step_table_with_the_interpolations_floats(four_way_map):
+    """point interpolates x + dx u from a table of steps to the next sample: the floats of x0 + (x1 - x0) u with the
+    samples read directly (and yaw_at is point's yaw), on and past both ends of the routes."""
+    roadmap = RoadMap.load(four_way_map)
+    arrays = RouteArrays.pack([roadmap.route("road1_lane0", "left"), roadmap.route("road1_lane0", "straight")])
+    rng = np.random.default_rng(6)
+    n_k = arrays.xy.shape[1]
+    r = rng.integers(0, 2, (3, 500))
+    s = rng.uniform(-10.0, n_k * ROUTE_DS + 10.0, r.shape)
+    f = np.clip(s * (1.0 / ROUTE_DS), 0.0, n_k - 1.000001)
+    k = f.astype(np.int64)
+    u = f - k
+    want = [q0 + (q1 - q0) * u for q0, q1 in ((arrays.xy[r, k, i], arrays.xy[r, k + 1, i]) for i in (0, 1))]
+    x, y, yaw = arrays.point(r, s)
+    assert np.array_equal(x, want[0]) and np.array_equal(y, want[1]) and np.array_equal(yaw, arrays.yaw[r, k])
+    assert np.array_equal(arrays.yaw_at(r, s), yaw)

@@ -89,26 +89,29 @@ def _simulator_events(arrays: TraceArrays, contacts: pa.Table | None,
     events: dict[tuple[int, int], list[dict]] = {}
     if contacts is None or not contacts.num_rows:
         return events
+    n_rows, n_var = contacts.num_rows, arrays.shape[0]
     role_index = {r: i for i, r in enumerate(arrays.roles)}
-    rows = contacts.to_pydict()
-    n_var = arrays.shape[0]
-    for k in range(contacts.num_rows):
-        v = int(np.searchsorted(arrays.variations, rows["variation"][k]))
-        if v >= n_var or arrays.variations[v] != rows["variation"][k]:
-            continue
-        ra, rb = role_index.get(rows["actor_a"][k]), role_index.get(rows["actor_b"][k])
-        t = rows["t"][k]
-        if ra is None or rb is None or ra == rb or t is None or not np.isfinite(t):
-            continue
-        swap = ra > rb
+    variation = contacts.column("variation").to_numpy()
+    v = np.searchsorted(arrays.variations, variation)
+    known = v < n_var
+    known[known] = arrays.variations[v[known]] == variation[known]
 
-        def value(name: str) -> float:
-            got = rows.get(name, [None] * contacts.num_rows)[k]
-            return np.nan if got is None else float(got)
+    def floats(name: str) -> np.ndarray:  # NaN where missing or null
+        if name not in contacts.column_names:
+            return np.full(n_rows, np.nan)
+        return contacts.column(name).to_numpy(zero_copy_only=False).astype(float)
 
-        dva, dvb = value("delta_v_a"), value("delta_v_b")
-        events.setdefault((v, pair_of[(min(ra, rb), max(ra, rb))]), []).append(
-            {"t": float(t), "x": value("x"), "y": value("y"), "dv": (dvb, dva) if swap else (dva, dvb)})
+    t, x, y, dva, dvb = (floats(name) for name in ("t", "x", "y", "delta_v_a", "delta_v_b"))
+    keep = known & np.isfinite(t)
+    ra = [role_index.get(role) for role in contacts.column("actor_a").to_pylist()]
+    rb = [role_index.get(role) for role in contacts.column("actor_b").to_pylist()]
+    for k in np.flatnonzero(keep).tolist():
+        a, b = ra[k], rb[k]
+        if a is None or b is None or a == b:
+            continue
+        dv = (float(dvb[k]), float(dva[k])) if a > b else (float(dva[k]), float(dvb[k]))
+        events.setdefault((int(v[k]), pair_of[(min(a, b), max(a, b))]), []).append(
+            {"t": float(t[k]), "x": float(x[k]), "y": float(y[k]), "dv": dv})
     return events
 
 
@@ -122,7 +125,7 @@ def _merge_events(overlap: np.ndarray, onset_steps: np.ndarray, time: np.ndarray
     touching = np.nonzero(overlap)[0]
     for k, step in enumerate(onset_steps):
         nxt = onset_steps[k + 1] if k + 1 < len(onset_steps) else len(overlap)
-        end = touching[(touching >= step) & (touching < nxt)].max()
+        end = touching[np.searchsorted(touching, nxt) - 1]  # the last overlapping step before the next onset
         t0, t1 = float(time[step]) - SAME_CONTACT, float(time[min(end + 1, len(time) - 1)])
         inside = [e for e in unused if t0 <= e["t"] <= t1]
         for e in inside:

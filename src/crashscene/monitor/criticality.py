@@ -143,26 +143,42 @@ class _Columns:
         return self._cache[key]
 
 
+USED_SHARE = 0.75  # [-] above this share of (variation, step) samples used, _pair_ttc computes on all of them
+
+
 def _pair_ttc(arrays: TraceArrays, cols: _Columns, a: int, b: int, contact: np.ndarray):
     """(min TTC, its time, max DRAC, min gap) for pair (a, b) over the variations of `cols`; `contact` first
-    contact step."""
+    contact step.
+
+    Only the samples used (both present, before the first contact) are measured: where few are (most pairs
+    collide early), they are gathered first. Each sample's arithmetic is its own, so the values are the same."""
     sl = cols.sl
     n_steps = arrays.shape[2]
     both = arrays.alive[sl, a] & arrays.alive[sl, b]
     before = np.arange(n_steps)[None, :] < np.where(contact >= 0, contact, n_steps)[:, None]
     use = both & before
-    get = cols.get
-    half = lambda i: np.broadcast_to(np.stack([arrays.length[sl, i], arrays.width[sl, i]], axis=-1)[:, None] / 2,
-                                     (sl.stop - sl.start, n_steps, 2))
+    every = np.count_nonzero(use) > USED_SHARE * use.size
+    pick = (lambda arr: arr) if every else (lambda arr: arr[use])
+
+    def spread(values: np.ndarray, fill: float) -> np.ndarray:  # the used samples' values back on (V, T)
+        if every:
+            return np.where(use, values, fill)
+        out = np.full(use.shape, fill)
+        out[use] = values
+        return out
+
+    get = lambda name, i: pick(cols.get(name, i))
+    size = lambda i, column: pick(np.broadcast_to(column[sl, i][:, None], use.shape))
+    half = lambda i: np.stack([size(i, arrays.length), size(i, arrays.width)], axis=-1) / 2
     centre = lambda i: np.stack([get("x", i), get("y", i)], axis=-1)
-    va = cols.velocity(a)
-    vb = cols.velocity(b)
-    trig = (*cols.cos_sin(a), *cols.cos_sin(b))
+    va = pick(cols.velocity(a))
+    vb = pick(cols.velocity(b))
+    trig = tuple(pick(q) for q in (*cols.cos_sin(a), *cols.cos_sin(b)))
     ttc = time_to_collision(centre(a), centre(b), get("yaw", a), get("yaw", b), half(a), half(b), va, vb, trig)
-    ttc = np.where(use, ttc, np.inf)
     rel = np.linalg.norm(vb - va, axis=-1)
     with np.errstate(divide="ignore", invalid="ignore"):
-        drac = np.where(np.isfinite(ttc) & (ttc > 0), rel / (2 * ttc), np.nan)
+        drac = spread(np.where(np.isfinite(ttc) & (ttc > 0), rel / (2 * ttc), np.nan), np.nan)
+    ttc = spread(ttc, np.inf)
     at = np.argmin(ttc, axis=1)
     min_ttc = ttc[np.arange(len(at)), at]
     t = cols.time[sl, a]
@@ -173,10 +189,10 @@ def _pair_ttc(arrays: TraceArrays, cols: _Columns, a: int, b: int, contact: np.n
     with np.errstate(all="ignore"):
         max_drac = np.where(np.isfinite(drac).any(axis=1), np.nanmax(np.where(np.isfinite(drac), drac, -1), axis=1),
                             np.nan)
-    gap = footprint_separation(get("x", a), get("y", a), get("yaw", a), arrays.length[sl, a][:, None],
-                               arrays.width[sl, a][:, None], get("x", b), get("y", b), get("yaw", b),
-                               arrays.length[sl, b][:, None], arrays.width[sl, b][:, None], trig)
-    gap = np.where(use, np.maximum(gap, 0.0), np.inf).min(axis=1)
+    gap = footprint_separation(get("x", a), get("y", a), get("yaw", a), size(a, arrays.length),
+                               size(a, arrays.width), get("x", b), get("y", b), get("yaw", b),
+                               size(b, arrays.length), size(b, arrays.width), trig)
+    gap = spread(np.maximum(gap, 0.0), np.inf).min(axis=1)
     min_gap = np.where(collided, 0.0, np.where(np.isfinite(gap), gap, np.nan))
     return min_ttc, min_t, max_drac, min_gap
 

@@ -436,23 +436,28 @@ def _move(batch: batch_setup.BatchSetup, state: State, accel_cmd: np.ndarray, la
     x_new, y_new, yaw_new = bicycle_move(state.x, state.y, state.yaw, v_mid, yaw_rate, dt)
     sliding = state.free & ~state.gone
     if sliding.any():
-        vx, vy, w = impact.slide(state.vx, state.vy, state.yaw, state.yaw_rate, batch.friction, batch.length,
-                                 batch.width, dt)
-        if state.collided.any():  # after an impact: the tyre forces of each axle (a planned skid keeps `slide`)
-            tx, ty, tw = impact.tyre_slide(state.vx, state.vy, state.yaw, state.yaw_rate, batch.friction,
-                                           batch.length, batch.width, wheelbase, dt)
-            vx, vy, w = (np.where(state.collided, new, old) for new, old in ((tx, vx), (ty, vy), (tw, w)))
-        held = ~(t_next - state.lost_time > batch.spin_hold)  # NaN hold: held until rest
-        spinning = state.lost & ~state.collided & held & (np.hypot(vx, vy) > impact.REST_SPEED)
-        w = np.where(spinning, state.spin, w)  # out of control the yaw is held until an impact or rest
+        # only the sliding (variation, actor) elements, gathered flat: each element's arithmetic is its own
+        rows = np.flatnonzero(sliding)
+        vx0, vy0, yaw0, w0, collided, lost = (arr.reshape(-1)[rows] for arr in (
+            state.vx, state.vy, state.yaw, state.yaw_rate, state.collided, state.lost))
+        length, width = batch.length.reshape(-1)[rows], batch.width.reshape(-1)[rows]
+        vx, vy, w = _slide_step(vx0, vy0, yaw0, w0, collided, batch.friction, length, width,
+                                wheelbase.reshape(-1)[rows], dt)
+        held = ~(t_next - state.lost_time.reshape(-1)[rows] > batch.spin_hold.reshape(-1)[rows])  # NaN: until rest
+        spinning = lost & ~collided & held & (np.hypot(vx, vy) > impact.REST_SPEED)
+        w = np.where(spinning, state.spin.reshape(-1)[rows], w)  # out of control the yaw is held until an impact
+        # or rest
         v_slide = np.hypot(vx, vy)
-        x_new = np.where(sliding, state.x + 0.5 * (state.vx + vx) * dt, x_new)
-        y_new = np.where(sliding, state.y + 0.5 * (state.vy + vy) * dt, y_new)
-        yaw_new = np.where(sliding, state.yaw + 0.5 * (state.yaw_rate + w) * dt, yaw_new)
-        accel = np.where(sliding, (v_slide - state.v) / dt, accel)
-        yaw_rate = np.where(sliding, w, yaw_rate)
-        v_new = np.where(sliding, v_slide, v_new)
-        state.vx, state.vy = np.where(sliding, vx, 0.0), np.where(sliding, vy, 0.0)
+        # (x_new ... v_new are this step's own arrays: written in place)
+        np.put(x_new, rows, state.x.reshape(-1)[rows] + 0.5 * (vx0 + vx) * dt)
+        np.put(y_new, rows, state.y.reshape(-1)[rows] + 0.5 * (vy0 + vy) * dt)
+        np.put(yaw_new, rows, yaw0 + 0.5 * (w0 + w) * dt)
+        np.put(accel, rows, (v_slide - state.v.reshape(-1)[rows]) / dt)
+        np.put(yaw_rate, rows, w)
+        np.put(v_new, rows, v_slide)
+        state.vx, state.vy = np.zeros_like(state.vx), np.zeros_like(state.vy)
+        np.put(state.vx, rows, vx)
+        np.put(state.vy, rows, vy)
     step_len = np.hypot(x_new - state.x, y_new - state.y)
     state.x, state.y = x_new, y_new
     state.yaw = wrap_angle(yaw_new)
@@ -462,12 +467,28 @@ def _move(batch: batch_setup.BatchSetup, state: State, accel_cmd: np.ndarray, la
     state.yaw_rate = yaw_rate
 
     # project back onto the route: predict with the route heading, then correct along the tangent
-    _, _, ryaw = routes.point(r, state.s)
+    ryaw = routes.yaw_at(r, state.s)
     s_pred = state.s + (state.x - state.prev_x) * np.cos(ryaw) + (state.y - state.prev_y) * np.sin(ryaw)
     state.s, state.d, _ = routes.local_coordinates(r, state.x, state.y, s_pred)
     newly_gone = ~state.gone & (state.s >= routes.length[r] - batch.length / 2 - 0.5) & ~state.lost & ~state.free
     state.gone_time = np.where(newly_gone, t_next, state.gone_time)
     state.gone |= newly_gone
+
+
+def _slide_step(vx, vy, yaw, yaw_rate, collided, friction: float, length, width, wheelbase, dt: float):
+    """(vx, vy, yaw_rate) of sliding vehicles after a step: after an impact (`collided`) the tyre forces of each
+    axle (impact.tyre_slide), before any (a planned skid) impact.slide; each model run on its own vehicles only."""
+    if collided.all() or not collided.any():
+        if collided.all():
+            return impact.tyre_slide(vx, vy, yaw, yaw_rate, friction, length, width, wheelbase, dt)
+        return impact.slide(vx, vy, yaw, yaw_rate, friction, length, width, dt)
+    out = np.empty((3, len(vx)))
+    skid = ~collided
+    out[:, skid] = impact.slide(vx[skid], vy[skid], yaw[skid], yaw_rate[skid], friction, length[skid], width[skid],
+                                dt)
+    out[:, collided] = impact.tyre_slide(vx[collided], vy[collided], yaw[collided], yaw_rate[collided], friction,
+                                         length[collided], width[collided], wheelbase[collided], dt)
+    return out[0], out[1], out[2]
 
 
 def _check_collisions(batch: batch_setup.BatchSetup, state: State, recorder: Recorder, t: float,
@@ -484,20 +505,20 @@ def _check_collisions(batch: batch_setup.BatchSetup, state: State, recorder: Rec
     L, W = batch.length, batch.width
     together = len(ia) > 1  # one pair: tested on its own
     if together:
-        overlap_all = ~(gone[:, ia] | gone[:, ib]) & footprints_overlap(x[:, ia], y[:, ia], yaw[:, ia], L[:, ia],
-                                                                        W[:, ia], x[:, ib], y[:, ib], yaw[:, ib],
-                                                                        L[:, ib], W[:, ib])
+        overlap_all = ~(gone[:, ia] | gone[:, ib]) & _overlapping(x[:, ia], y[:, ia], yaw[:, ia], L[:, ia],
+                                                                  W[:, ia], x[:, ib], y[:, ib], yaw[:, ib],
+                                                                  L[:, ib], W[:, ib])
     moved = np.zeros(len(x), dtype=bool)  # variations where an exchange moved vehicles back to their contact:
     # the remaining pairs are tested again there, on the new state (elsewhere the state is the one tested at once)
     for p, (a, b) in enumerate(zip(ia.tolist(), ib.tolist())):
         if not together:
             active = ~(state.gone[:, a] | state.gone[:, b])
-            overlap = active & footprints_overlap(state.x[:, a], state.y[:, a], state.yaw[:, a], L[:, a], W[:, a],
-                                                  state.x[:, b], state.y[:, b], state.yaw[:, b], L[:, b], W[:, b])
+            overlap = active & _overlapping(state.x[:, a], state.y[:, a], state.yaw[:, a], L[:, a], W[:, a],
+                                            state.x[:, b], state.y[:, b], state.yaw[:, b], L[:, b], W[:, b])
         elif moved.any():
             rows = np.flatnonzero(moved)
             overlap = overlap_all[:, p].copy()
-            overlap[rows] = ~(gone[rows, a] | gone[rows, b]) & footprints_overlap(
+            overlap[rows] = ~(gone[rows, a] | gone[rows, b]) & _overlapping(
                 state.x[rows, a], state.y[rows, a], state.yaw[rows, a], L[rows, a], W[rows, a],
                 state.x[rows, b], state.y[rows, b], state.yaw[rows, b], L[rows, b], W[rows, b])
         else:
@@ -514,6 +535,23 @@ def _check_collisions(batch: batch_setup.BatchSetup, state: State, recorder: Rec
         moved |= onset  # _back_to_contact moved a and b there; _exchange changed velocities only
 
 
+NEAR_MARGIN = 0.01  # [m] footprints whose centres are further apart than their half diagonals and this never touch
+
+
+def _overlapping(xa, ya, yawa, la, wa, xb, yb, yawb, lb, wb) -> np.ndarray:
+    """`footprints_overlap` of arrays of one shape, its separating-axis test run only where the centres are within
+    the two half diagonals (two footprints that touch share a point, so their centres are no further apart; the
+    margin covers rounding): the same answers, most pairs rejected by one distance."""
+    with np.errstate(invalid="ignore"):  # a NaN pose is never near
+        near = np.hypot(xb - xa, yb - ya) <= (np.hypot(la, wa) + np.hypot(lb, wb)) / 2 + NEAR_MARGIN
+    out = np.zeros(near.shape, dtype=bool)
+    if near.any():
+        i = np.flatnonzero(near)
+        out.reshape(-1)[i] = footprints_overlap(*(q.reshape(-1)[i] for q in (xa, ya, yawa, la, wa, xb, yb, yawb,
+                                                                               lb, wb)))
+    return out
+
+
 def _exchange(batch: batch_setup.BatchSetup, state: State, recorder: Recorder, overlap: np.ndarray,
               onset: np.ndarray, a: int, b: int, t: np.ndarray) -> None:
     """Impulse between a and b where they overlap; record the onsets with each vehicle's delta-v [m/s]."""
@@ -526,12 +564,13 @@ def _exchange(batch: batch_setup.BatchSetup, state: State, recorder: Recorder, o
         vy = np.where(free, state.vy[idx, k], state.v[idx, k] * np.sin(state.yaw[idx, k]))
         return np.stack([vx, vy]), state.yaw_rate[idx, k]
 
-    nx, ny, px, py = impact.contact_frame(state.x[idx, a], state.y[idx, a], state.yaw[idx, a], L[idx, a], W[idx, a],
-                                          state.x[idx, b], state.y[idx, b], state.yaw[idx, b], L[idx, b], W[idx, b])
+    poses = (state.x[idx, a], state.y[idx, a], state.yaw[idx, a], L[idx, a], W[idx, a],
+             state.x[idx, b], state.y[idx, b], state.yaw[idx, b], L[idx, b], W[idx, b])
+    nx, ny, px, py, penetration = impact.contact(*poses)
     (va, wa), (vb, wb) = kin(a), kin(b)
-    va1, wa1, vb1, wb1, _ = impact.exchange(nx, ny, px, py, state.x[idx, a], state.y[idx, a], va, wa,
-                                            state.mass[idx, a], state.inertia[idx, a], state.x[idx, b],
-                                            state.y[idx, b], vb, wb, state.mass[idx, b], state.inertia[idx, b])
+    ma, mb = state.mass[idx, a], state.mass[idx, b]
+    va1, wa1, vb1, wb1, _ = impact.exchange(nx, ny, px, py, poses[0], poses[1], va, wa, ma, state.inertia[idx, a],
+                                            poses[5], poses[6], vb, wb, mb, state.inertia[idx, b])
     n_v = batch.n_variations
     dva, dvb, cx, cy = (np.full(n_v, np.nan) for _ in range(4))
     dva[idx] = np.hypot(*(va1 - va))
@@ -545,9 +584,8 @@ def _exchange(batch: batch_setup.BatchSetup, state: State, recorder: Recorder, o
         state.free[idx, k] |= upsets(np.hypot(*(vel - vel0)), w - w0)  # else its driver drives on
         state.collided[idx, k] = True
     # the bodies do not pass through each other: pushed apart until they barely touch (impact.separate)
-    dxa, dya, dxb, dyb = impact.separate(state.x[idx, a], state.y[idx, a], state.yaw[idx, a], L[idx, a], W[idx, a],
-                                         state.mass[idx, a], state.x[idx, b], state.y[idx, b], state.yaw[idx, b],
-                                         L[idx, b], W[idx, b], state.mass[idx, b])
+    # (the exchange changed velocities only: the poses, normal and penetration are the contact's)
+    dxa, dya, dxb, dyb = impact.separate(*poses[:5], ma, *poses[5:], mb, frame=(nx, ny, penetration))
     state.x[idx, a] += dxa
     state.y[idx, a] += dya
     state.x[idx, b] += dxb

@@ -86,22 +86,31 @@ class RouteArrays:
         k = f.astype(np.int64)
         return k, f - k
 
+    @cached_property
+    def _flat_samples(self) -> tuple[np.ndarray, ...]:
+        """(x, dx, y, dy, yaw) of the centre line flat, row after row (route r's sample k at r * K + k), dx and dy
+        the step to the next sample (`point` interpolates x + dx u: the same floats as x + (x_next - x) u)."""
+        x, y, yaw = (np.ascontiguousarray(q).ravel() for q in (self.xy[..., 0], self.xy[..., 1], self.yaw))
+        dx, dy = np.zeros_like(x), np.zeros_like(y)
+        dx[:-1], dy[:-1] = x[1:] - x[:-1], y[1:] - y[:-1]  # (a row's last step is never read: k <= K - 2)
+        return x, dx, y, dy, yaw
+
+    def _flat_index(self, r: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(flat sample index, interpolation fraction) of stations s [m] on routes r (broadcast together)."""
+        n_k = self.xy.shape[1]
+        f = np.minimum(np.maximum(s * (1.0 / ROUTE_DS), 0.0), n_k - 1.000001)  # np.clip's floats, less overhead
+        k = f.astype(np.int64)
+        return np.asarray(r) * n_k + k, f - k
+
     def point(self, r: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(x, y, yaw) of the route centre line at station s; r and s broadcast together."""
-        if not hasattr(self, "_flat_x"):
-            self._flat_x = np.ascontiguousarray(self.xy[..., 0]).ravel()
-            self._flat_y = np.ascontiguousarray(self.xy[..., 1]).ravel()
-            self._flat_yaw = np.ascontiguousarray(self.yaw).ravel()
-        n_k = self.xy.shape[1]
-        f = np.clip(s * (1.0 / ROUTE_DS), 0.0, n_k - 1.000001)
-        k = f.astype(np.int64)
-        u = f - k
-        flat = np.asarray(r) * n_k + k
-        x0 = self._flat_x[flat]
-        y0 = self._flat_y[flat]
-        x = x0 + (self._flat_x[flat + 1] - x0) * u
-        y = y0 + (self._flat_y[flat + 1] - y0) * u
-        return x, y, self._flat_yaw[flat]
+        x, dx, y, dy, yaw = self._flat_samples
+        flat, u = self._flat_index(r, s)
+        return x[flat] + dx[flat] * u, y[flat] + dy[flat] * u, yaw[flat]
+
+    def yaw_at(self, r: np.ndarray, s: np.ndarray) -> np.ndarray:
+        """The route's heading [rad] at station s (`point`'s yaw alone)."""
+        return self._flat_samples[4][self._flat_index(r, s)[0]]
 
     def local_coordinates(self, r: np.ndarray, x: np.ndarray, y: np.ndarray, s: np.ndarray,
                           iterations: int = 2) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -115,7 +124,7 @@ class RouteArrays:
         for _ in range(iterations):
             qx, qy, qyaw = self.point(r, s)
             s = s + (x - qx) * np.cos(qyaw) + (y - qy) * np.sin(qyaw)
-        s = np.clip(s, 0.0, self.length[r])
+        s = np.minimum(np.maximum(s, 0.0), self.length[r])  # np.clip's floats
         qx, qy, qyaw = self.point(r, s)
         return s, -(x - qx) * np.sin(qyaw) + (y - qy) * np.cos(qyaw), qyaw
 
@@ -195,18 +204,25 @@ class RouteArrays:
         v_curve2 = lat_accel / np.maximum(kappa, 1e-4)
         return np.sqrt(np.min(v_curve2 + 2.0 * decel * dist, axis=-1))
 
+    @cached_property
+    def _flat_curve_speed2(self) -> np.ndarray:
+        """[m2/s2] the squared speed each sample's curve allows at 2.5 m/s2 lateral, flat as `_flat_abs_curvature`."""
+        return 2.5 / np.maximum(self._flat_abs_curvature, 1e-4)
+
     def curve_lookahead(self, r: np.ndarray, s: np.ndarray, v: np.ndarray, n: int = 12
                         ) -> tuple[np.ndarray, np.ndarray]:
         """(largest |curvature| [1/m] on the next max(20 m, 3 s), curve speed [m/s] as `curve_speed` with
         2.5 m/s2 lateral and 2 m/s2 braking over that distance plus the braking distance), one gather."""
+        r, s, v = np.asarray(r), np.asarray(s), np.asarray(v)
         near = np.maximum(20.0, 3.0 * v)
         reach = near + v * v / 4.0
-        dist = reach[..., None] * (LOOKAHEAD_FRACTIONS if n == len(LOOKAHEAD_FRACTIONS) else np.linspace(0.0, 1.0, n))
-        f = np.clip((s[..., None] + dist) * (1.0 / ROUTE_DS), 0.0, self.curvature.shape[1] - 1)
-        flat = np.asarray(r)[..., None] * self.curvature.shape[1] + f.astype(np.int64)
-        kappa = self._flat_abs_curvature[flat]
-        curvature = np.where(dist <= near[..., None], kappa, 0.0).max(axis=-1)
-        speed = np.sqrt(np.min(2.5 / np.maximum(kappa, 1e-4) + 4.0 * dist, axis=-1))
+        fractions = LOOKAHEAD_FRACTIONS if n == len(LOOKAHEAD_FRACTIONS) else np.linspace(0.0, 1.0, n)
+        # the samples along the first axis: the reductions over them are elementwise over contiguous rows
+        dist = fractions.reshape((-1,) + (1,) * reach.ndim) * reach
+        f = np.minimum(np.maximum((s + dist) * (1.0 / ROUTE_DS), 0.0), self.curvature.shape[1] - 1)
+        flat = r * self.curvature.shape[1] + f.astype(np.int64)
+        curvature = np.where(dist <= near, self._flat_abs_curvature[flat], 0.0).max(axis=0)
+        speed = np.sqrt((self._flat_curve_speed2[flat] + 4.0 * dist).min(axis=0))
         return curvature, speed
 
     def max_abs_curvature(self, r: np.ndarray, s: np.ndarray, ahead: np.ndarray, n: int = 8) -> np.ndarray:
@@ -226,6 +242,7 @@ def _conflicts(routes: list[Route]) -> tuple[np.ndarray, np.ndarray]:
     conflict_s = np.full((n, n), np.nan)
     angle = np.full((n, n), np.nan)
     lines = [shapely.LineString(r.xy) for r in routes]
+    shapely.prepare(lines)  # indexed: dwithin below is ~100x faster than a full distance on long routes
     points: list = [None] * n
     for i in range(n):
         for j in range(n):
@@ -233,7 +250,7 @@ def _conflicts(routes: list[Route]) -> tuple[np.ndarray, np.ndarray]:
                 continue  # the same start lane: following, not crossing
             meet = lines[i].intersection(lines[j])
             if meet.is_empty:
-                if lines[i].distance(lines[j]) > MERGE_TOLERANCE:
+                if not shapely.dwithin(lines[i], lines[j], MERGE_TOLERANCE):  # distance <= MERGE_TOLERANCE
                     continue
                 # merging paths (a turn into a lane, a lane drop) join without crossing: the first point of
                 # route i that comes within MERGE_TOLERANCE of route j is their meeting point
