@@ -85,12 +85,15 @@ def test_any_worker_count_writes_the_same_bytes(case, tmp_path):
             # scenes name their run dir's map (the 4 bytes of the dir's name can also occur by chance in compressed
             # data, so the names are swapped only in a file that differs)
             assert ours == theirs or ours.replace(f"/w{workers}/".encode(), b"/w1/") == theirs, (workers, name)
-    simulate_scenario(scenario, tmp_path / "tail", n=120, seed=9, first=200, mode="reproduce", workers=2,
+    # a tail of two blocks (each sampled in its worker) without the monitor
+    simulate_scenario(scenario, tmp_path / "tail", n=220, seed=9, first=100, mode="reproduce", workers=2,
                       monitor=False)
     for name in TABLES:
         whole = read_table(tmp_path / "w1", name)
         tail = read_table(tmp_path / "tail", name)
-        assert _bytes(whole.filter(pa.compute.greater_equal(whole["variation"], 200))) == _bytes(tail), name
+        assert _bytes(whole.filter(pa.compute.greater_equal(whole["variation"], 100))) == _bytes(tail), name
+    lines = (tmp_path / "w1" / "scenes.jsonl").read_text().splitlines()[100:]
+    assert (tmp_path / "tail" / "scenes.jsonl").read_text().replace("/tail/", "/w1/").splitlines() == lines
 
 
 def test_the_scenic_sampler_is_the_reference_path(tmp_path):

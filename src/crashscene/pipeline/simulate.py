@@ -114,7 +114,6 @@ def _write_run(scenario: Scenario, out_dir: Path, n: int, seed: int, first: int 
     check_ego_role(scenario, settings)
     sampler = _sampler_for(backend, sampler)
     from crashscene.render import RenderError, render
-    from crashscene.render.sample import sample_scenes
 
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -126,17 +125,19 @@ def _write_run(scenario: Scenario, out_dir: Path, n: int, seed: int, first: int 
             rendered = _copy_render(Path(rendered_dir), out_dir)
         else:
             rendered = render(scenario, out_dir, map_mode=map_mode, carla_maps=carla_maps)
-        timings["render"] = time.perf_counter() - start
-        t0 = time.perf_counter()
-        scenes = sample_scenes(rendered.program, n, seed, first=first, workers=workers, sampler=sampler)
-        timings["sample"] = time.perf_counter() - t0
     except RenderError as exc:
         raise SimulationError(f"render/sample failed: {exc}") from exc
-    if final_dir is not None:
-        scenes = [scene.model_copy(update={"map_file": _moved(scene.map_file, out_dir, Path(final_dir))})
-                  for scene in scenes]
-    with open(out_dir / "scenes.jsonl", "w", encoding="utf-8") as fh:
-        fh.writelines(scene.model_dump_json() + "\n" for scene in scenes)
+    timings["render"] = time.perf_counter() - start
+    sampling = BlockSampling(Path(rendered.program), n, seed, first, sampler, out_dir, final_dir)
+    scenes: list = []
+    if sampler == "compiled" and worker_count(backend, n, workers) > 1:
+        in_blocks = sampling  # each worker samples its own block, in parallel
+    else:
+        in_blocks = None
+        t0 = time.perf_counter()
+        scenes = sampling.scenes(0, n, workers)
+        timings["sample"] = time.perf_counter() - t0
+        sampling.write([sampling.lines(scenes)])
 
     t0 = time.perf_counter()
     request = SimulationRequest(scenario=scenario, scenes=scenes, map_file=Path(rendered.map), settings=settings,
@@ -152,8 +153,12 @@ def _write_run(scenario: Scenario, out_dir: Path, n: int, seed: int, first: int 
                                          table.replace_schema_metadata({SCENARIO_DIGEST_KEY: digest}))
                            for name, table in simulated.tables.items())
 
-        result, judged = simulate_blocks(backend, settings, request, workers, judge, simulated=write)
-        timings["simulate"] = time.perf_counter() - t0 - (judged.seconds if judged is not None else 0.0)
+        result, judged = simulate_blocks(backend, settings, request, workers, judge, simulated=write,
+                                         sampling=in_blocks)
+        if in_blocks is not None:
+            timings["sample"] = in_blocks.seconds
+        timings["simulate"] = (time.perf_counter() - t0 - (judged.seconds if judged is not None else 0.0)
+                               - (in_blocks.seconds if in_blocks is not None else 0.0))
         summary = summarize(result.tables)
         summary.update({"backend": result.backend, "sampler": sampler, "workers": workers, "mode": mode,
                         "ego_role": ego_role, "seed": seed, "first": first,
@@ -175,6 +180,48 @@ def _write_run(scenario: Scenario, out_dir: Path, n: int, seed: int, first: int 
     summary["timings"] = {k: round(v, 3) for k, v in timings.items()}
     (out_dir / "summary.json").write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
     return summary
+
+
+class BlockSampling:
+    """Scenes of variations [first, first + n) of a rendered program, drawn for any block [lo, hi) of them: by the
+    parent for the whole run, or by each worker for its own block (`simulate_blocks`), in parallel and with no scene
+    crossing a pipe. Scene i depends only on (program, seed, i), so the blocks' scenes are the scenes of one call.
+    Their JSON lines go to `scenes.jsonl` in index order (`write`); map paths name `final_dir`, where the run folder
+    will live, when given."""
+
+    def __init__(self, program: Path, n: int, seed: int, first: int, sampler: str, work_dir: Path,
+                 final_dir: Path | None):
+        self.program, self.n, self.seed, self.first, self.sampler = program, n, seed, first, sampler
+        self.work_dir, self.final_dir = work_dir, final_dir
+        self.seconds = 0.0  # [s] the blocks' sampling time over the number of workers, when they sampled
+
+    def scenes(self, lo: int, hi: int, workers: int = 1) -> list:
+        """The scenes of variations [first + lo, first + hi) (`workers`: see `sample_scenes`)."""
+        from crashscene.render import RenderError
+        from crashscene.render.sample import sample_scenes
+
+        try:
+            scenes = sample_scenes(self.program, hi - lo, self.seed, first=self.first + lo, workers=workers,
+                                   sampler=self.sampler)
+        except RenderError as exc:
+            raise SimulationError(f"render/sample failed: {exc}") from exc
+        if self.final_dir is not None:
+            moved: dict[str, str] = {}
+            for scene in scenes:  # scenes of our own: set in place (a copy each costs 4 us)
+                path = scene.map_file
+                scene.map_file = moved.get(path) or moved.setdefault(path, _moved(path, self.work_dir,
+                                                                                  Path(self.final_dir)))
+        return scenes
+
+    @staticmethod
+    def lines(scenes: list) -> bytes:
+        """The scenes as JSON lines (UTF-8)."""
+        return "".join(scene.model_dump_json() + "\n" for scene in scenes).encode("utf-8")
+
+    def write(self, parts: list[bytes]) -> None:
+        """`scenes.jsonl`: the blocks' lines, in index order."""
+        with open(self.work_dir / "scenes.jsonl", "wb") as fh:
+            fh.writelines(parts)
 
 
 def _moved(path: str, work: Path, final: Path) -> str:
@@ -229,9 +276,16 @@ def judge_block(tables: dict[str, pa.Table], scenario: Scenario, rulebook=None) 
     return Judged(result, criticality, time.perf_counter() - start)
 
 
+def worker_count(backend: str, n: int, workers: int) -> int:
+    """Processes `simulate_blocks` uses for n variations: only the embedded backend is split, into blocks of at
+    least MIN_BLOCK variations."""
+    return min(workers, max(1, n // MIN_BLOCK)) if backend == "embedded" else 1
+
+
 def simulate_blocks(backend: str, settings: SimulationSettings, request: SimulationRequest, workers: int,
                     judge: Callable[[dict[str, pa.Table]], Judged] | None = None,
-                    simulated: Callable[[BatchResult], None] | None = None) -> tuple[BatchResult, Judged | None]:
+                    simulated: Callable[[BatchResult], None] | None = None,
+                    sampling: BlockSampling | None = None) -> tuple[BatchResult, Judged | None]:
     """`request` simulated in up to `workers` forked processes, in contiguous blocks of scenes (one per worker), each
     block judged (`judge`: monitor and metrics) in its process.
 
@@ -239,9 +293,15 @@ def simulate_blocks(backend: str, settings: SimulationSettings, request: Simulat
     backend is split (a CARLA server is one shared world; Newtonian runs scene by scene anyway). `simulated` is
     called with the simulator's tables as soon as every block has sent them, before the blocks are judged: the
     caller writes them while the workers judge (when the traces are at most EARLY_WRITE_BYTES, else once judged).
+
+    `sampling` (more than one worker only): each block's worker draws its own scenes (`request.scenes` is not read)
+    and sends their JSON lines first; `sampling.write` gets them, in index order, once every block's are in.
     """
     scenes = list(request.scenes)
-    workers = min(workers, max(1, len(scenes) // MIN_BLOCK)) if backend == "embedded" else 1
+    n = len(scenes) if sampling is None else sampling.n
+    workers = worker_count(backend, n, workers)
+    if sampling is not None and workers == 1:
+        raise ValueError("sampling in the workers needs more than one worker")
     if workers == 1:
         with create_simulator(backend, settings) as simulator:
             result = simulator.simulate(request)
@@ -256,19 +316,25 @@ def simulate_blocks(backend: str, settings: SimulationSettings, request: Simulat
     from crashscene.simulate.embedded.simulator import chunk_size
 
     # one block a worker, or as many more as keep each block to one simulator chunk (bounds a judge's memory)
-    blocks = min(max(BLOCKS_PER_WORKER * workers, -(-len(scenes) // chunk_size(scenes))),
-                 max(1, len(scenes) // MIN_BLOCK))
-    bounds = list(itertools.pairwise([len(scenes) * k // blocks for k in range(blocks + 1)]))
-    _INHERITED.update(backend=backend, settings=settings, request=request, judge=judge)
+    chunk = chunk_size(scenes if sampling is None else sampling.scenes(0, 1))  # it depends on the actors per scene
+    blocks = min(max(BLOCKS_PER_WORKER * workers, -(-n // chunk)), max(1, n // MIN_BLOCK))
+    bounds = list(itertools.pairwise([n * k // blocks for k in range(blocks + 1)]))
+    _INHERITED.update(backend=backend, settings=settings, request=request, judge=judge, sampling=sampling)
     _import_before_fork(judge is not None)
     parts: list[BatchResult | None] = [None] * len(bounds)
     judged: list[Judged | None] = [None] * len(bounds)
+    lines: list[bytes | None] = [None] * len(bounds)
     result = None
     try:
         context = multiprocessing.get_context("fork")  # children inherit the imports and the parsed map
         with _Blocks(context, bounds, workers) as running:
             for k, kind, payload in running.messages(judge is not None):
-                if kind == "tables":
+                if kind == "scenes":
+                    lines[k], seconds = payload
+                    sampling.seconds += seconds / workers
+                    if all(part is not None for part in lines):
+                        sampling.write(lines)
+                elif kind == "tables":
                     parts[k] = payload
                     if request.progress is not None:
                         request.progress(bounds[k][1] - bounds[k][0])
@@ -313,6 +379,7 @@ class _Blocks:
     def __init__(self, context, bounds: list[tuple[int, int]], workers: int):
         self.context, self.bounds, self.workers = context, bounds, workers
         self.running: dict[Any, tuple[int, Any]] = {}  # connection -> (block, process)
+        self.spills: dict[Any, _Spill] = {}  # connection -> its block's memory file (where there are any)
 
     def __enter__(self) -> _Blocks:
         return self
@@ -323,16 +390,23 @@ class _Blocks:
             conn.close()
         for _, process in self.running.values():
             process.join()
+        for spill in self.spills.values():
+            spill.close()
 
     def _start(self, k: int) -> None:
         receive, send = self.context.Pipe(duplex=False)
-        process = self.context.Process(target=_simulate_block, args=(*self.bounds[k], send), daemon=True)
+        spill = _Spill.create(k)
+        others = [other.fd for other in self.spills.values()]
+        process = self.context.Process(target=_simulate_block, args=(*self.bounds[k], send, spill, others),
+                                       daemon=True)
         process.start()
         send.close()
         self.running[receive] = (k, process)
+        if spill is not None:
+            self.spills[receive] = spill
 
     def messages(self, judging: bool):
-        """(block, "tables" | "judged", payload) as the blocks send them."""
+        """(block, "scenes" | "tables" | "judged", payload) as the blocks send them."""
         from multiprocessing.connection import wait
 
         queued = list(range(len(self.bounds)))
@@ -342,7 +416,7 @@ class _Blocks:
             for conn in wait(list(self.running)):
                 k, process = self.running[conn]
                 try:
-                    kind, payload = _receive(conn)
+                    kind, payload = _receive(conn, self.spills.get(conn))
                 except EOFError:
                     process.join()
                     raise SimulationError(f"the worker simulating variations {self.bounds[k][0]}-"
@@ -350,10 +424,12 @@ class _Blocks:
                                           ) from None
                 if kind == "error":
                     raise payload
-                if kind == "judged" or not judging:
+                if kind == "judged" or (kind == "tables" and not judging):
                     del self.running[conn]
                     conn.close()
                     process.join()
+                    if conn in self.spills:
+                        self.spills.pop(conn).close()  # the mapped buffers stay valid
                 yield k, kind, payload
 
 
@@ -398,34 +474,102 @@ def _import_before_fork(judging: bool) -> None:
         import crashscene.monitor.criticality  # noqa: F401
 
 
-def _simulate_block(lo: int, hi: int, send) -> None:
-    """In a forked child: simulate scenes [lo, hi) of the inherited request, send the tables, then judge them."""
+def _simulate_block(lo: int, hi: int, send, spill: _Spill | None = None, others: list[int] = ()) -> None:
+    """In a forked child: simulate scenes [lo, hi) of the inherited request, send the tables, then judge them.
+
+    `spill`: this block's memory file for the payloads' buffers (None: they go through the pipe); `others`: the
+    descriptors of earlier blocks' memory files, inherited and closed here (their memory is freed with the parent's
+    mappings, not when this child exits)."""
+    for fd in others:
+        os.close(fd)
     try:
         backend, settings, request = _INHERITED["backend"], _INHERITED["settings"], _INHERITED["request"]
-        judge = _INHERITED["judge"]
-        block = dataclasses.replace(request, scenes=list(request.scenes)[lo:hi], progress=None)
+        judge, sampling = _INHERITED["judge"], _INHERITED["sampling"]
+        if sampling is None:
+            scenes = list(request.scenes)[lo:hi]
+        else:
+            start = time.perf_counter()
+            scenes = sampling.scenes(lo, hi)
+            seconds = time.perf_counter() - start
+            _send(send, "scenes", (sampling.lines(scenes), seconds), spill)
+        block = dataclasses.replace(request, scenes=scenes, progress=None)
         with create_simulator(backend, settings) as simulator:
             result = simulator.simulate(block)
-        _send(send, "tables", result)
+        _send(send, "tables", result, spill)
         if judge is not None:
             tables = dict(result.tables)
             del result  # the judge frees the traces once it has read them
-            _send(send, "judged", judge(tables))
+            _send(send, "judged", judge(tables), spill)
     except BaseException as exc:  # the parent raises it
         try:
-            _send(send, "error", exc)
+            _send(send, "error", exc, spill)
         except Exception:  # not picklable: its text
-            _send(send, "error", SimulationError(f"{type(exc).__name__}: {exc}"))
+            _send(send, "error", SimulationError(f"{type(exc).__name__}: {exc}"), spill)
     finally:
         send.close()
+        if spill is not None:
+            spill.close()
 
 
-def _send(conn, kind: str, payload: Any) -> None:
-    """Pickle `payload` with its Arrow buffers out of band, each written to the pipe as it is (no copy of the
-    tables)."""
+class _Spill:
+    """A block's out-of-band buffers in a memory file (Linux `memfd`) the parent creates before it forks the block's
+    worker: the worker writes each buffer into it (one copy, into memory pages the parent then maps: no copy on the
+    parent's side) and sends only where they are through the pipe, so it neither waits for the parent to read the
+    pipe (nor does the parent read one worker's tables while the other waits) nor does the parent copy them."""
+
+    ALIGN = 64  # [bytes] each buffer starts at a multiple of this (Arrow's alignment)
+
+    def __init__(self, fd: int):
+        self.fd = fd
+        self.end = 0  # [bytes] in the worker: where the next buffer may start
+
+    @classmethod
+    def create(cls, k: int) -> _Spill | None:
+        """Block k's memory file, or None where there is none (not Linux: the pipe carries the buffers)."""
+        if not hasattr(os, "memfd_create"):
+            return None
+        return cls(os.memfd_create(f"crashscene-block-{k}", os.MFD_CLOEXEC))
+
+    def write(self, raws: list[memoryview]) -> list[tuple[int, int]]:
+        """In the worker: append the buffers; their (offset, size) [bytes] in the file."""
+        layout = []
+        for raw in raws:
+            offset = -(-self.end // self.ALIGN) * self.ALIGN
+            done = 0
+            while done < raw.nbytes:
+                done += os.pwrite(self.fd, raw[done:], offset + done)
+            layout.append((offset, raw.nbytes))
+            self.end = offset + raw.nbytes
+        return layout
+
+    def read(self, layout: list[tuple[int, int]]) -> list[pa.Buffer]:
+        """In the parent: the buffers at `layout`, views of one shared read-only mapping of the file (valid after
+        `close`; the pages are freed when the last view is)."""
+        import mmap
+
+        end = max((offset + size for offset, size in layout if size), default=0)  # an empty one may lie past it
+        if end == 0:
+            return [pa.py_buffer(b"") for _ in layout]
+        flags = mmap.MAP_SHARED | getattr(mmap, "MAP_POPULATE", 0)  # one call maps every page, not a fault each
+        whole = pa.py_buffer(mmap.mmap(self.fd, end, flags=flags, prot=mmap.PROT_READ))
+        return [whole.slice(offset, size) if size else pa.py_buffer(b"") for offset, size in layout]
+
+    def close(self) -> None:
+        if self.fd >= 0:
+            os.close(self.fd)
+            self.fd = -1
+
+
+def _send(conn, kind: str, payload: Any, spill: _Spill | None = None) -> None:
+    """Pickle `payload` with its Arrow buffers out of band, each written as it is (no copy of the tables) into
+    `spill` or else the pipe."""
     buffers: list = []
     head = pickle.dumps(payload, protocol=5, buffer_callback=buffers.append)
     raws = [buffer.raw() for buffer in buffers]
+    if spill is not None:
+        conn.send((kind, spill.write(raws)))
+        conn.send_bytes(head)
+        return
     conn.send((kind, [raw.nbytes for raw in raws]))
     conn.send_bytes(head)
     for raw in raws:
@@ -434,13 +578,16 @@ def _send(conn, kind: str, payload: Any) -> None:
             done += os.write(conn.fileno(), raw[done:])
 
 
-def _receive(conn) -> tuple[str, Any]:
-    """What `_send` sent; each out-of-band buffer is read from the pipe straight into an Arrow buffer of its own
-    (one copy, where `Connection.recv_bytes` makes three and faults twice the pages in)."""
-    kind, sizes = conn.recv()
+def _receive(conn, spill: _Spill | None = None) -> tuple[str, Any]:
+    """What `_send` sent: the out-of-band buffers mapped from `spill`, or else each read from the pipe straight
+    into an Arrow buffer of its own (one copy, where `Connection.recv_bytes` makes three and faults twice the pages
+    in)."""
+    kind, layout = conn.recv()
     head = conn.recv_bytes()
+    if spill is not None:
+        return kind, pickle.loads(head, buffers=spill.read(layout))
     with open(conn.fileno(), "rb", buffering=0, closefd=False) as pipe:
-        buffers = [_read_exactly(pipe, size) for size in sizes]
+        buffers = [_read_exactly(pipe, size) for size in layout]
     return kind, pickle.loads(head, buffers=buffers)
 
 

@@ -57,6 +57,8 @@ class PlanContext:
     friction: float  # [-] tyre-road friction coefficient
     skid_paths: skid_plan.SkidPaths  # candidate skids (at this friction and the simulator's step), by speed
     contacts: tuple[tuple[str, str, str, str, str], ...] = ()  # the written sequence, in order: (striking,
+    # struck, class, striking area, struck area)
+    lanes_beside: np.ndarray | None = None  # (n_lanes, 2) same-direction lanes left and right of each map lane
 
 
 @dataclass
