@@ -169,7 +169,13 @@ def _pair_ttc(arrays: TraceArrays, cols: _Columns, a: int, b: int, contact: np.n
 
     get = lambda name, i: pick(cols.get(name, i))
     size = lambda i, column: pick(np.broadcast_to(column[sl, i][:, None], use.shape))
-    half = lambda i: np.stack([size(i, arrays.length), size(i, arrays.width)], axis=-1) / 2
+
+    def half(i: int) -> np.ndarray:  # (..., 2) half length and half width; all samples: one row broadcast, no copy
+        if every:
+            return np.broadcast_to(np.stack([arrays.length[sl, i], arrays.width[sl, i]], axis=-1)[:, None] / 2,
+                                   use.shape + (2,))
+        return np.stack([size(i, arrays.length), size(i, arrays.width)], axis=-1) / 2
+
     centre = lambda i: np.stack([get("x", i), get("y", i)], axis=-1)
     va = pick(cols.velocity(a))
     vb = pick(cols.velocity(b))
