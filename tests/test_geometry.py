@@ -99,3 +99,22 @@ def test_end_on_says_how_contacts_without_offsets_touch():
         ["rear_end", "sideswipe", "angle", "sideswipe"]
     with pytest.raises(ValueError, match="not both"):
         classify_contact(rel, np.zeros(4), np.zeros(4), np.ones(4), np.ones(4), end_on=True)
+
+
+def test_clip_scalar_gives_numpys_clip_float():
+    """clip_scalar is float(np.clip(x, lo, hi)) bit for bit: NaN of x or of a bound, signed zeros at a bound (a tie
+    keeps x), infinities, inverted bounds, numpy and Python floats."""
+    import numpy as np
+
+    from crashscene.geometry import clip_scalar
+
+    rng = np.random.default_rng(0)
+    values = [*rng.normal(0.0, 3.0, 300), 0.0, -0.0, 1.0, -1.0, 2.0, np.nan, np.inf, -np.inf, 5e-324]
+    bounds = [(-1.0, 1.0), (0.0, 2.0), (-0.0, 0.0), (0, 7), (2.0, 0.0), (-np.inf, 0.0), (0.0, np.nan), (np.nan, 1.0)]
+    for lo, hi in bounds:
+        for x in values:
+            for number in (x, np.float64(x)):
+                want, got = float(np.clip(number, lo, hi)), clip_scalar(number, lo, hi)
+                assert type(got) is float
+                assert np.array_equal(np.array(want), np.array(got), equal_nan=True), (number, lo, hi)
+                assert np.signbit(want) == np.signbit(got), (number, lo, hi)

@@ -44,13 +44,16 @@ def test_touch_again_flags_a_striker_that_catches_up_with_the_car_it_pushed():
     from crashscene.simulate.embedded.cascade import DT, SEPARATE_STEPS, touch_again
 
     t = np.arange(40) * DT
-    struck = (np.stack([2.0 * t, 2.0 * t]), np.zeros((2, 40)), np.zeros((2, 40)))
-    # both strikers start touching its rear; the first keeps coming faster, the second falls back
-    striker = (np.stack([-4.45 + 6.0 * t, -4.45 - 1.0 * t]), np.zeros((2, 40)), np.zeros((2, 40)))
+    struck = (np.stack([2.0 * t] * 3), np.zeros((3, 40)), np.zeros((3, 40)))
+    # the strikers start touching its rear; the first falls back, then comes faster and catches up, the second falls
+    # back, the third goes on pushing (it never leaves it: no new contact)
+    striker = (np.stack([-4.45 + 2.0 * t - 1.0 * t + 3.0 * t ** 2, -4.45 - 1.0 * t, -4.46 + 2.0 * t]),
+               np.zeros((3, 40)), np.zeros((3, 40)))
     again = touch_again(struck, striker, 4.5, 1.8, 4.5, 1.8)
     assert not again[:, :SEPARATE_STEPS].any()
-    assert again[0, -1] and np.all(np.diff(again[0].astype(int)) >= 0)  # once touched, it stays so
+    assert again[0, -1] and not again[0, 4] and np.all(np.diff(again[0].astype(int)) >= 0)  # once touched, it stays
     assert not again[1].any()
+    assert not again[2].any()
 
 
 def test_pushed_paths_gives_the_strikers_slide_from_where_it_struck():
@@ -139,3 +142,23 @@ def test_a_push_stepped_through_the_contact_turns_an_angled_striker_as_the_simul
     slow = (3.0, 0.0, np.array([0.6]), 1500.0, 1500.0, 4.5, 1.8, 4.5, 1.8, 0.8)
     (stepped, _), (once, _) = pushes([Push(*slow), Push(*slow, stepped=False)])
     assert np.all(stepped[2] == 0.0) and np.all(stepped[1] == 0.0) and np.abs(once[2]).max() > 0.01
+
+
+def test_step_lead_is_the_time_from_the_simulators_last_step_to_the_touch():
+    from crashscene.simulate.embedded.cascade import step_lead
+
+    assert step_lead(0.715, 0.1) == pytest.approx(0.015)
+    assert step_lead(0.7, 0.1) == pytest.approx(0.1)  # a touch on a step: the whole step before it
+    assert step_lead(0.05, 0.1) == pytest.approx(0.05)
+
+
+def test_where_in_its_step_the_touch_falls_changes_what_the_repeated_exchanges_do():
+    # an offset rear-end into a parked car, stepped as the simulator steps it: the same touch found early or late
+    # in a simulator step leaves the bodies differently deep at the next steps (the plan gives it the touch's
+    # time, cascade.step_lead)
+    from crashscene.simulate.embedded.cascade import Push, pushes
+
+    items = [Push(28.0, 0.0, np.array([0.3]), 1500.0, 1500.0, 4.8, 2.2, 4.7, 1.8, 0.8, False, (0.6, 0.6), 0.1,
+                  -0.015, -0.05, lead=lead) for lead in (0.015, 0.1)]
+    (_, early), (_, late) = pushes(items)
+    assert np.all(np.isfinite(early[2])) and abs(early[2][0, 10] - late[2][0, 10]) > math.radians(5)

@@ -19,6 +19,7 @@ ROADS = {
     "tee": "road_type: t_intersection\n  number_of_ways: 2\n  number_of_lanes: 2\n  road_marker: double_solid_line",
     "two_way": "road_type: straight\n  number_of_ways: 2\n  number_of_lanes: 2\n  road_marker: broken_line",
     "divided": "road_type: straight\n  number_of_ways: 1\n  number_of_lanes: 3\n  road_marker: none",
+    "divided_four": "road_type: straight\n  number_of_ways: 1\n  number_of_lanes: 4\n  road_marker: none",
     "one_way": "road_type: straight\n  number_of_ways: 1\n  number_of_lanes: 2\n  road_marker: none",
 }
 
@@ -232,6 +233,21 @@ LATER_CONTACTS = {  # cascades planned from a predicted slide: (scenario, least 
         "  []\n",
         contact("npc1", "npc2", "front", "rear", "rear_end") + contact("npc1", "ego", "left", "right", "sideswipe"))
         .replace("oracle:\n  []\n", "oracle: []\n"), 0.8),
+    # ...and the car alongside, struck on its right side, spins across the lane to its left into the path of a car
+    # coming up two lanes to its left, which meets it front to front: the plan chooses the corner of the parked car,
+    # where along the passing car's side the deflected one reaches it and the fourth car's lane (any on that side)
+    # from their contacts stepped as the simulator steps them (embedded.followon; 0 of 20 before: the fourth car
+    # drove where sampled; 0.25 of 20 at seed 7, 0.2 of 40 at seed 1; 0.35 of 20 at 70 mph, 0.1 at 60, 0 at 55, where
+    # no sideswipe the sampled speeds allow spins the car far enough round)
+    "a_sideswipe_spins_the_car_alongside_into_a_fourth_car_two_lanes_over": (scenario(
+        "divided_four", "speed_limit_sign", 65,
+        actor("ego", "go_forward", "reference: road, relation: behind")
+        + actor("npc1", "leave_road", "reference: ego, relation: right, heading: same_direction")
+        + actor("npc2", "static", "reference: ego, relation: right, heading: same_direction")
+        + actor("npc3", "go_forward", "reference: ego, relation: left, heading: same_direction"),
+        "  []\n",
+        contact("npc1", "npc2", "front", "rear", "rear_end") + contact("npc1", "ego", "left", "right", "sideswipe")
+        + contact("npc3", "ego", "front", "front", "head_on")).replace("oracle:\n  []\n", "oracle: []\n"), 0.15),
 }
 
 

@@ -152,26 +152,31 @@ def test_travel_time_takes_its_shortcuts_without_changing_a_bit(four_way_map):
 
 
 def test_curve_lookahead_gives_the_samples_last_gathers_floats(four_way_map):
-    """curve_lookahead (samples on the first axis, the curve speed read from a table) equals the plain formula:
-    each (route, station, speed)'s 12 samples ahead gathered, |curvature| limited to 1e-4, reduced on the last
-    axis; on every shape the simulator and the plans call it with."""
+    """curve_lookahead (samples on the first axis, the curve speed read from a table, a constant where no route of
+    the batch curves) equals the plain formula: each (route, station, speed)'s 12 samples ahead gathered, |curvature|
+    limited to 1e-4, reduced on the last axis; on every shape the simulator and the plans call it with."""
     roadmap = RoadMap.load(four_way_map)
-    arrays = RouteArrays.pack([roadmap.route("road1_lane0", "left"), roadmap.route("road1_lane0", "straight")])
+    turning = RouteArrays.pack([roadmap.route("road1_lane0", "left"), roadmap.route("road1_lane0", "straight")])
+    straight = RouteArrays.pack([roadmap.route("road1_lane0", "straight")])
+    assert not np.any(straight.curvature)
     rng = np.random.default_rng(5)
-    n_k = arrays.curvature.shape[1]
     curved = 0
-    for shape in [(2, 700), (3,), ()]:
-        r = rng.integers(0, 2, shape)
-        s = rng.uniform(-5.0, n_k * ROUTE_DS + 50.0, shape)
-        v = rng.choice([0.0, 3.0, 14.2, 31.0], shape)
-        near = np.maximum(20.0, 3.0 * v)
-        dist = (near + v * v / 4.0)[..., None] * np.linspace(0.0, 1.0, 12)
-        k = np.clip((s[..., None] + dist) / ROUTE_DS, 0.0, n_k - 1).astype(np.int64)
-        kappa = np.abs(arrays.curvature[r[..., None], k])
-        curvature, speed = arrays.curve_lookahead(r, s, v)
-        assert np.array_equal(curvature, np.where(dist <= near[..., None], kappa, 0.0).max(axis=-1))
-        assert np.array_equal(speed, np.sqrt(np.min(2.5 / np.maximum(kappa, 1e-4) + 4.0 * dist, axis=-1)))
-        curved += int(np.count_nonzero(curvature > 0))
+    for arrays in (turning, straight):
+        n_k, n_r = arrays.curvature.shape[1], arrays.curvature.shape[0]
+        for shape in [(2, 700), (3,), ()]:
+            r = rng.integers(0, n_r, shape)
+            s = rng.uniform(-5.0, n_k * ROUTE_DS + 50.0, shape)
+            v = rng.choice([0.0, 3.0, 14.2, 31.0], shape)
+            near = np.maximum(20.0, 3.0 * v)
+            dist = (near + v * v / 4.0)[..., None] * np.linspace(0.0, 1.0, 12)
+            k = np.clip((s[..., None] + dist) / ROUTE_DS, 0.0, n_k - 1).astype(np.int64)
+            kappa = np.abs(arrays.curvature[r[..., None], k])
+            curvature, speed = arrays.curve_lookahead(r, s, v)
+            want = (np.where(dist <= near[..., None], kappa, 0.0).max(axis=-1),
+                    np.sqrt(np.min(2.5 / np.maximum(kappa, 1e-4) + 4.0 * dist, axis=-1)))
+            assert np.array_equal(curvature, want[0]) and np.array_equal(speed, want[1])
+            assert np.shape(curvature) == np.shape(want[0]) and np.shape(speed) == np.shape(want[1])
+            curved += int(np.count_nonzero(curvature > 0))
     assert curved > 100  # the turn's curve was looked at
 
 

@@ -96,3 +96,37 @@ def test_stepped_resamples_from_the_first_contact_and_says_when_there_is_none():
     assert np.allclose(np.diff(pa[0, 1]), 20.0 * 0.05) and np.all(pb[:, 1] == 0.0)
     # a and b unchanged by the call
     assert a.x[0] == -5.5 and b.x[0] == 0.0
+
+
+def _pair(gap: float, sliding_speed: float = 0.0):
+    """A car (a) 20 m/s along x, its front `gap` [m] behind the rear of a car (b) standing still, or sliding
+    sideways at `sliding_speed` [m/s] (then free)."""
+    one = np.ones(1)
+    a = Bodies(-(4.5 + gap) * one, 0.3 * one, 0 * one, 20.0 * one, 0 * one, 0 * one, 4.5 * one, 1.8 * one,
+               1500.0 * one, 2.7 * one, np.zeros(1, dtype=bool))
+    b = Bodies(0 * one, 0 * one, 0 * one, 0 * one, sliding_speed * one, 0 * one, 4.5 * one, 1.8 * one, 1500.0 * one,
+               2.7 * one, np.full(1, sliding_speed != 0.0))
+    return a, b
+
+
+def test_the_bodies_are_pushed_apart_after_each_exchange_as_the_simulator_does():
+    from crashscene.geometry import footprint_separation
+    from crashscene.simulate.embedded.impact import OVERLAP_KEPT
+
+    a, b = _pair(0.5)
+    pa, pb, first, _ = rollout(a, b, 0.8, 0.1, 4, motion=True)
+    assert pa.shape == (6, 1, 4) and 0.0 < first[0] < 0.1
+    gap = footprint_separation(pa[0], pa[1], pa[2], 4.5, 1.8, pb[0], pb[1], pb[2], 4.5, 1.8)
+    assert gap[0, 0] >= -OVERLAP_KEPT - 1e-9  # left barely touching, not 1.5 m into each other
+    # the velocities are the bodies' own: b was struck from behind and moves on forward
+    assert pb[3, 0, 0] > 5.0 and pa[3, 0, 0] < 20.0
+
+
+def test_a_body_sliding_from_an_impact_before_slides_on_its_tyres_from_the_start():
+    a, b = _pair(30.0, sliding_speed=3.0)  # they never meet within the steps
+    _, driven, _, _ = rollout(a, b, 0.8, 0.1, 5)
+    _, slid, _, _ = rollout(a, b, 0.8, 0.1, 5, np.array([[False], [True]]))
+    # not sliding: its driver drives it on along its heading at its speed; sliding: it goes on sideways, slowed by
+    # its tyres (mu g: 3 m/s is gone within 0.4 s)
+    assert driven[0, 0, -1] == pytest.approx(1.5) and driven[1, 0, -1] == 0.0
+    assert slid[0, 0, -1] == 0.0 and 0.4 < slid[1, 0, -1] < 0.6

@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from crashscene.geometry import wrap_angle
+from crashscene.geometry import clip_scalar, wrap_angle
 from crashscene.monitor.rules import Disposition
 from crashscene.simulate.embedded import slap, timing, touch
 from crashscene.simulate.embedded.control import entry_before
@@ -194,9 +194,9 @@ def _fit_arrival(plan: VariationPlan, a: int, cs_a: float, target: float, slack:
         lat_a = 2.0 if col.is_ads else 2.5
         return lo, max(0.0, target - arrays.travel_time(r, s_a, cs_a, va_ * lo, lat_a, v0=0.0)), 0.0
     # travel time is nearly proportional to 1/speed: two secant corrections suffice
-    sc = float(np.clip(t_at(1.0) / target, lo, hi))
+    sc = clip_scalar(t_at(1.0) / target, lo, hi)
     for _ in range(2):
-        sc = float(np.clip(sc * t_at(sc) / target, lo, hi))
+        sc = clip_scalar(sc * t_at(sc) / target, lo, hi)
     return sc, 0.0, 0.0
 
 

@@ -90,12 +90,23 @@ class Push:
     stepped: bool = True  # the contact stepped as the simulator steps it (`rollout`), else one exchange at the
     # first touch and each body's slide from it (a striker its driver drives on into the car is carried on by the
     # caller: knock._room_to_leave)
+    lead: float = 0.0  # [s] how long after the simulator's last step before it the touch happens (`step_lead`); the
+    # whole step when 0: where in its step the simulator finds the touch decides how deep the next steps' overlaps
+    # are, so the repeated exchanges and what they turn the cars
 
 
-def pushes(items: list[Push], striker: bool = True) -> list[tuple[tuple[np.ndarray, ...], tuple[np.ndarray, ...] | None]]:
+def pushes_moving(items: list[Push]) -> list[tuple[tuple[np.ndarray, ...], tuple[np.ndarray, ...]]]:
+    """`pushes(items)` with each body's velocity too: per item ((forward, left, yaw, v forward, v left, yaw rate)
+    of the struck car, the same of the striker) [m, rad, m/s, rad/s], each (N, steps); the velocities of rows not
+    `stepped` from their poses' differences."""
+    return pushes(items, True, True)
+
+
+def pushes(items: list[Push], striker: bool = True, motion: bool = False
+           ) -> list[tuple[tuple[np.ndarray, ...], tuple[np.ndarray, ...] | None]]:
     """`pushed_paths(..., striker=striker)` of each item, every offset of every item integrated at once (each
     element as it would be alone: lockstep.together batches the plans' pushes): per item ((forward, left, yaw),
-    (x, y, yaw) of the striker, None without `striker`), each (N, steps)."""
+    (x, y, yaw) of the striker, None without `striker`), each (N, steps); `motion`: as `pushes_moving`."""
     if not items:
         return []
     sizes = [len(p.offsets) for p in items]
@@ -117,7 +128,8 @@ def pushes(items: list[Push], striker: bool = True) -> list[tuple[tuple[np.ndarr
     ra, rb = each(lambda p: p.wheelbase_ratios[0]) * l_striker, each(lambda p: p.wheelbase_ratios[1]) * l_struck
     friction = each(lambda p: p.friction)
     steps = int(HORIZON / DT)
-    struck, mine = np.zeros((3, len(xa), steps)), np.zeros((3, len(xa), steps))
+    rows = 6 if motion else 3
+    struck, mine = np.zeros((rows, len(xa), steps)), np.zeros((rows, len(xa), steps))
     dt = each(lambda p: p.dt)
     stepped = each(lambda p: p.stepped).astype(bool)
     once = np.nonzero(~stepped)[0]
@@ -129,27 +141,34 @@ def pushes(items: list[Push], striker: bool = True) -> list[tuple[tuple[np.ndarr
             nx, ny, px, py, xa[r], ya[r], np.stack([vxa[r], zero[r]]), zero[r], ma[r],
             impact.yaw_inertia(ma[r], l_striker[r], w_striker[r]), zero[r], zero[r], np.stack([v_struck[r], zero[r]]),
             zero[r], mb[r], impact.yaw_inertia(mb[r], l_struck[r], w_struck[r]))
-        struck[:, r] = slide_path(zero[r], zero[r], zero[r], vb[0], vb[1], wb, friction[r], l_struck[r], w_struck[r],
-                                  DT, steps, rb[r])
+        struck[:3, r] = slide_path(zero[r], zero[r], zero[r], vb[0], vb[1], wb, friction[r], l_struck[r],
+                                   w_struck[r], DT, steps, rb[r])
         if striker:  # the striker's own slide only when asked for (the room check asks for the struck car's)
-            mine[:, r] = slide_path(xa[r], ya[r], yaw_a[r], va[0], va[1], wa, friction[r], l_striker[r], w_striker[r],
-                                    DT, steps, ra[r])
+            mine[:3, r] = slide_path(xa[r], ya[r], yaw_a[r], va[0], va[1], wa, friction[r], l_striker[r],
+                                     w_striker[r], DT, steps, ra[r])
+        if motion:
+            for out in (struck, mine):
+                out[3:, r] = np.gradient(out[:3, r], DT, axis=2)
     free = np.zeros(len(xa), dtype=bool)
     # the pair one simulator step before they touch, stepped through the contact as the simulator steps them; the
     # striker comes at its approach heading (one exchange at the first touch takes it square)
     heading = yaw_a + each(lambda p: p.approach)
     vx_s, vy_s = v_striker * np.cos(heading), v_striker * np.sin(heading)
-    striker_body = rollout.Bodies(xa - vx_s * dt, ya - vy_s * dt, heading, vx_s, vy_s, zero, l_striker, w_striker, ma,
-                                  ra, free, each(lambda p: p.approach_rate))
-    struck_body = rollout.Bodies(-v_struck * dt, zero, zero, v_struck, zero, zero, l_struck, w_struck, mb, rb, free)
+    lead = each(lambda p: p.lead)
+    lead = np.where(lead > 0, lead, dt)
+    # its centre where the two first touch end to end at the touch (the rows of one exchange start 0.05 m into it)
+    touching = np.where(head_on, 1.0, -1.0) * (l_striker + l_struck) / 2
+    striker_body = rollout.Bodies(touching - vx_s * lead, ya - vy_s * lead, heading, vx_s, vy_s, zero, l_striker,
+                                  w_striker, ma, ra, free, each(lambda p: p.approach_rate))
+    struck_body = rollout.Bodies(-v_struck * lead, zero, zero, v_struck, zero, zero, l_struck, w_struck, mb, rb, free)
     for one_dt in np.unique(dt[stepped]):
         r = np.nonzero(stepped & (dt == one_dt))[0]
         pa, pb, first = rollout.stepped(striker_body.take(r), struck_body.take(r), friction[r], float(one_dt), steps,
-                                        DT)
+                                        DT, motion=motion)
         # in the struck car's frame at the moment of contact (it drove straight on until then)
-        x0 = v_struck[r] * (np.nan_to_num(first, nan=float(one_dt)) - float(one_dt))
-        struck[:, r] = pb[0] - x0[:, None], pb[1], pb[2]
-        mine[:, r] = pa[0] - x0[:, None], pa[1], pa[2]
+        x0 = v_struck[r] * (np.nan_to_num(first, nan=lead[r]) - lead[r])
+        struck[:, r] = pb[0] - x0[:, None], *pb[1:]
+        mine[:, r] = pa[0] - x0[:, None], *pa[1:]
     mine = tuple(mine) if striker else None
     struck = tuple(struck)
     by_item = lockstep.per_item(struck, sizes)
@@ -157,14 +176,23 @@ def pushes(items: list[Push], striker: bool = True) -> list[tuple[tuple[np.ndarr
     return list(zip(by_item, mine_by_item))
 
 
+def step_lead(t: float, dt: float) -> float:
+    """[s] how long after the simulator's last step before it (steps every `dt` [s] from 0) a touch at `t` [s]
+    happens: in (0, dt]."""
+    k = math.ceil(t / dt - 1e-9) - 1
+    return float(t - k * dt)
+
+
 def touch_again(struck: tuple[np.ndarray, np.ndarray, np.ndarray], striker: tuple[np.ndarray, np.ndarray, np.ndarray],
                 l_struck: float, w_struck: float, l_striker: float, w_striker: float) -> np.ndarray:
-    """(N, steps) bool: whether the two slides of `pushed_paths(..., striker=True)` have touched again by each step
-    (after the first, while they separate): a second push the prediction of the struck car's path does not hold."""
+    """(N, steps) bool: whether the two slides of `pushed_paths(..., striker=True)` have touched again by each step:
+    met after they were apart (a new contact, which a prediction from one exchange does not hold); two bodies that
+    go on touching after the impact (pushed apart until they barely touch, impact.separate) touch on, not again."""
     (fb, lb, yb), (xa, ya, yaw_a) = struck, striker
     touch = footprints_overlap(xa, ya, yaw_a, l_striker, w_striker, fb, lb, yb, l_struck, w_struck)
-    touch[:, :SEPARATE_STEPS] = False
-    return np.logical_or.accumulate(touch, axis=1)
+    touch[:, :SEPARATE_STEPS] = True
+    apart = np.logical_or.accumulate(~touch, axis=1)
+    return np.logical_or.accumulate(touch & apart, axis=1)
 
 
 def slide_path(x, y, yaw, vx, vy, yaw_rate, friction: float, length, width, dt: float, steps: int, wheelbase=None):

@@ -13,10 +13,10 @@ import numpy as np
 
 from crashscene.monitor.rules import Disposition
 from crashscene.render.plan import LATERAL_BEHAVIORS
-from crashscene.simulate.embedded import cascade, lockstep, timing
+from crashscene.simulate.embedded import cascade, followon, lockstep, timing
 from crashscene.simulate.embedded.clip import pull_out_path
 from crashscene.simulate.embedded.lateral import DRIFT_BEHAVIORS
-from crashscene.simulate.embedded.meetings import later_terms, matches, place_third, pushed_meetings
+from crashscene.simulate.embedded.meetings import SIDE_ALONG, later_terms, matches, place_third, pushed_meetings
 from crashscene.simulate.embedded.stations import STOP_DECEL, relative_to_route
 
 if TYPE_CHECKING:
@@ -49,33 +49,53 @@ def plan_cascade(plan: VariationPlan) -> None:
         return
     t1, impact_s, v_t = impact
     px, py, pyaw = (float(q) for q in arrays.point(np.array(plan.route[ti]), np.array(impact_s)))
+    t_touch = _touch_time(plan, si, ti, t1, (px, py), head_on)
     x_actor = plan.scene.actors[xi]
     _, lat_x = relative_to_route(arrays, plan.route[ti], plan.s0[ti], x_actor.x, x_actor.y)
     preferred = -1.0 if lat_x - plan.d0[ti] >= 0 else 1.0  # tried first; both sides are tried
     # a car standing still is pushed as predicted: the plan chooses how far off its centre line to hit it; one
     # that is moving (and braking for what it sees coming) is hit at the usual corner
     corners = cascade.CORNERS if v_t == 0.0 or head_on else (cascade.CORNER,)
+    nxt = followon.next_contact(plan, (si, ti, xi), mover, xi)  # a fourth contact after the third car's
+    if nxt is not None and len(corners) > 1:
+        corners = followon.CORNERS
     offsets = np.array([side * c for side in (preferred, -preferred) for c in corners])
     _, lat_s = relative_to_route(arrays, plan.route[si], plan.s0[si], px, py)
     drifting = cols[si].behavior in LATERAL_BEHAVIORS and not head_on
     # every offset's push at once, with every other variation's (lockstep.run); a drifting striker comes at the
     # heading its drift has when it reaches that corner (`_drift_into`)
-    approaches = [_drift_approach(plan, si, t1, lat_s + o * plan.width[ti]) if drifting else (0.0, 0.0)
-                  for o in offsets]
-    found = lockstep.together(cascade.pushes, [cascade.Push(
-        float(plan.speeds[si]), float(v_t), np.array([o]), cols[si].limits.mass, cols[ti].limits.mass,
-        float(plan.length[si]), float(plan.width[si]), float(plan.length[ti]), float(plan.width[ti]),
-        plan.ctx.friction, head_on, (cols[si].limits.wheelbase_ratio, cols[ti].limits.wheelbase_ratio),
-        plan.ctx.skid_paths.dt, *approach) for o, approach in zip(offsets, approaches)])
+    approaches = [_drift_approach(plan, si, t1, lat_s + o * plan.width[ti], t_touch) if drifting
+                  else (0.0, 0.0, 0.0) for o in offsets]
+    found = lockstep.together(cascade.pushes_moving if nxt is not None else cascade.pushes, [cascade.Push(
+        float(plan.speeds[si]), float(v_t), np.array([o + approach[2] / plan.width[ti]]), cols[si].limits.mass,
+        cols[ti].limits.mass, float(plan.length[si]), float(plan.width[si]), float(plan.length[ti]),
+        float(plan.width[ti]), plan.ctx.friction, head_on,
+        (cols[si].limits.wheelbase_ratio, cols[ti].limits.wheelbase_ratio), plan.ctx.skid_paths.dt, *approach[:2],
+        lead=cascade.step_lead(t_touch, plan.ctx.skid_paths.dt)) for o, approach in zip(offsets, approaches)])
     fwd, left, yaw = (np.concatenate([one[0][q] for one in found]) for q in range(3))
     striker = tuple(np.concatenate([one[1][q] for one in found]) for q in range(3))
+    rates = [tuple(np.concatenate([one[k][q] for one in found]) for q in range(3, 6))
+             for k in (0, 1)] if nxt is not None else None  # [m/s, m/s, rad/s] (forward, left, yaw rate)
     again = cascade.touch_again((fwd, left, yaw), striker, float(plan.length[ti]), float(plan.width[ti]),
                                 float(plan.length[si]), float(plan.width[si]))
     best, best_score = None, (-1, False, -math.inf)
     moving = (fwd, left, yaw) if mover == ti else striker
     meetings = pushed_meetings(plan, mover, xi, [tuple(q[j] for q in moving) for j in range(len(offsets))],
                                [(px, py, pyaw)] * len(offsets), later)
-    for j, (offset, meeting) in enumerate(zip(offsets, meetings)):
+    # a striker drifting out of the lane ahead of it is no obstacle to a start behind it
+    passing = (si,) if plan.ctx.columns[si].behavior in LATERAL_BEHAVIORS else ()
+    if nxt is not None:
+        rate = rates[0] if mover == ti else rates[1]
+        paths = [(*cascade.to_world(px, py, pyaw, moving[0][j], moving[1][j]), pyaw + moving[2][j],
+                  *cascade.to_world(0.0, 0.0, pyaw, rate[0][j], rate[1][j]), rate[2][j])
+                 for j in range(len(offsets))]
+        alongs = followon.ALONGS if cascade.meeting_mode(later[0], later[2]) == "side" else (SIDE_ALONG,)
+        choice = followon.choose(plan, nxt, [(j, float(o), m, not again[j, m[0]]) for j, (o, m) in
+                                             enumerate(zip(offsets, meetings)) if m is not None],
+                                 paths, t_touch, mover, xi, later, passing, alongs)
+        if choice is not None:
+            best = (choice.offset, *choice.meeting)
+    for j, (offset, meeting) in enumerate(zip(offsets, meetings) if nxt is None else ()):
         if meeting is None:
             continue
         # the written class first, then the side of the moving car it names, then a push the striker does not
@@ -87,9 +107,9 @@ def plan_cascade(plan: VariationPlan) -> None:
     if best is None:
         return
     side, k = best[:2]
-    # a striker drifting out of the lane ahead of it is no obstacle to a start behind it
-    passing = (si,) if plan.ctx.columns[si].behavior in LATERAL_BEHAVIORS else ()
-    if not place_third(plan, xi, best[1:], later, t1 + (k + 1) * cascade.DT, passing):
+    # (the options for a fourth contact were predicted from the exact time of the touch)
+    along, t0 = (choice.along, t_touch) if nxt is not None else (SIDE_ALONG, t1)
+    if not place_third(plan, xi, best[1:], later, t0 + (k + 1) * cascade.DT, passing, along):
         return
     # the striker holds its centre off the struck car's centre line, toward the corner it hits (its own
     # left is the struck car's right when it comes the other way)
@@ -104,6 +124,18 @@ def plan_cascade(plan: VariationPlan) -> None:
         plan.drifted[si] += target - plan.d0[si]
         plan.d0[si] = target
         plan.lateral_target[si] = target
+    if nxt is not None:  # the fourth actor, in the lane and at the time the chosen contact sends the car into
+        followon.place(plan, nxt, choice)
+
+
+def _touch_time(plan: VariationPlan, si: int, ti: int, t1: float, point: tuple[float, float], head_on: bool) -> float:
+    """[s] when the first contact of a cascade happens (`_first_impact`'s time t1 [s], which measures the gap to the
+    nearest route sample, ROUTE_DS): the gap to the struck car's centre `point` [m] measured exactly, closed at the
+    striker's speed (both speeds, head-on)."""
+    gap, _ = relative_to_route(plan.ctx.arrays, plan.route[si], plan.s0[si], *point)
+    exact, _ = relative_to_route(plan.ctx.arrays, plan.route[si], plan.s0[si], *point, exact=True)
+    closing = plan.speeds[si] + (plan.speeds[ti] if head_on else 0.0)
+    return t1 + (exact - gap) / max(float(closing), 0.5)
 
 
 def _drift_into(plan: VariationPlan, a: int, t1: float, target: float) -> None:
@@ -120,15 +152,26 @@ def _drift_into(plan: VariationPlan, a: int, t1: float, target: float) -> None:
     plan.trigger[a] = max(t1 - lead, 0.0)
 
 
-def _drift_approach(plan: VariationPlan, a: int, t1: float, target: float) -> tuple[float, float]:
-    """(heading off its route [rad], yaw rate [rad/s]) of actor a as it strikes at t1 [s] drifting into a corner
-    `target` [m] off its route (`_drift_lead`)."""
+def _drift_approach(plan: VariationPlan, a: int, t1: float, target: float, touch: float
+                    ) -> tuple[float, float, float]:
+    """(heading off its route [rad], yaw rate [rad/s], how much further across [m] than `target` it is) of actor a
+    drifting (`_drift_into`) into a corner `target` [m] off its route at t1 [s], as it touches at `touch` [s]: its
+    driver starts the drift at the first simulator step at or after its trigger, so that it is where its drift is
+    then, not where the plan's whole steps put it."""
     k, rows, sign = _drift_lead(plan, a, t1, target)
     if k < 0:
-        return 0.0, 0.0
-    yaw = rows[2][0]
-    rate = (yaw[k] - yaw[k - 1]) / plan.ctx.skid_paths.dt if k >= 1 else 0.0
-    return sign * float(yaw[k]), sign * float(rate)
+        return 0.0, 0.0, 0.0
+    _, across, yaw = (q[0] for q in rows)
+    dt = plan.ctx.skid_paths.dt
+    trigger = max(t1 - (k + 1) * dt, 0.0)
+    start = math.ceil(trigger / dt - 1e-9) * dt  # [s] the step its driver sees the trigger at
+    at = float(np.clip((touch - start) / dt - 1.0, -1.0, len(yaw) - 1.0))  # [steps of its path], -1: its start
+    steps = np.arange(-1, len(yaw))
+    heading = float(np.interp(at, steps, np.concatenate([[0.0], yaw])))
+    j = int(np.clip(math.floor(at), 0, len(yaw) - 1))
+    rate = float(yaw[j] - (yaw[j - 1] if j >= 1 else 0.0)) / dt
+    further = float(np.interp(at, steps, np.concatenate([[0.0], across]))) - float(across[k])
+    return sign * heading, sign * rate, sign * further
 
 
 def _drift_lead(plan: VariationPlan, a: int, t1: float, target: float) -> tuple[int, tuple[np.ndarray, ...], float]:

@@ -11,7 +11,7 @@ import math
 import numpy as np
 
 from crashscene.dsl import Scenario
-from crashscene.geometry import wrap_angle
+from crashscene.geometry import clip_scalar, wrap_angle
 from crashscene.scene import SampledScene
 from crashscene.simulate.embedded.world import RouteArrays
 from crashscene.simulate.roads import ROUTE_DS
@@ -73,7 +73,7 @@ def entry_controls(scenario: Scenario, scene: SampledScene, arrays: RouteArrays,
 
 
 def heading_at(arrays: RouteArrays, r: int, s: float) -> float:
-    k = int(np.clip(s / ROUTE_DS, 0, arrays.yaw.shape[1] - 1))
+    k = int(clip_scalar(s / ROUTE_DS, 0, arrays.yaw.shape[1] - 1))
     return float(arrays.yaw[r, k])
 
 
@@ -147,7 +147,7 @@ def entry_before(arrays: RouteArrays, r: int, s: float) -> int | None:
     if len(idx) == 0:
         return None
     j = int(idx[-1])
-    k = int(np.clip(s / ROUTE_DS, 0, arrays.junction.shape[1] - 1))
+    k = int(clip_scalar(s / ROUTE_DS, 0, arrays.junction.shape[1] - 1))
     if arrays.junction[r, k] < 0 and s - entries[j] > 3.0:
         return None
     return j

@@ -23,14 +23,21 @@ SIDE_ALONG = 0.25  # [-] a sideswipe strikes a third car's side this part of its
 
 
 def place_third(plan: VariationPlan, xi: int, meeting: tuple[int, float, str, str, float, float],
-                later: tuple[str, str, str], arrive: float, passing: tuple[int, ...] = ()) -> bool:
+                later: tuple[str, str, str], arrive: float, passing: tuple[int, ...] = (),
+                along: float = SIDE_ALONG) -> bool:
     """Actor xi placed to meet a moving actor at `arrive` [s] as `meeting` (`pushed_meetings`) has it, as its
     written area says (cascade.meeting_mode): its front at the moving one, or (a sideswipe on its side) its
-    side beside it, SIDE_ALONG of its length ahead of its centre (`_meet_at`); False when it cannot be."""
+    side beside it, `along` of its length ahead of its centre (`_meet_at`); False when it cannot be."""
+    return _meet_at(plan, xi, third_reach(plan, xi, meeting, later, along), arrive, passing)
+
+
+def third_reach(plan: VariationPlan, xi: int, meeting: tuple[int, float, str, str, float, float],
+                later: tuple[str, str, str], along: float = SIDE_ALONG) -> float:
+    """[m] how far along its route actor xi's centre moves from its start to meet as `place_third` places it."""
     _, gap_k, _, _, extent, _ = meeting
     if cascade.meeting_mode(later[0], later[2]) == "side":
-        return _meet_at(plan, xi, gap_k - SIDE_ALONG * plan.length[xi], arrive, passing)
-    return _meet_at(plan, xi, gap_k - plan.length[xi] / 2 - extent, arrive, passing)
+        return gap_k - along * plan.length[xi]
+    return gap_k - plan.length[xi] / 2 - extent
 
 
 def _meet_at(plan: VariationPlan, a: int, reach: float, arrive: float, passing: tuple[int, ...] = ()) -> bool:

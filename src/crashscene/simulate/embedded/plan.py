@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from crashscene.geometry import clip_scalar
 from crashscene.monitor.rules import Disposition
 from crashscene.render.plan import LATERAL_BEHAVIORS, LEAD_TIME, SIGNAL_GREEN, SKID_ROTATION
 from crashscene.scene import SampledScene
@@ -56,6 +57,8 @@ class PlanContext:
     friction: float  # [-] tyre-road friction coefficient
     skid_paths: skid_plan.SkidPaths  # candidate skids (at this friction and the simulator's step), by speed
     contacts: tuple[tuple[str, str, str, str, str], ...] = ()  # the written sequence, in order: (striking,
+    # struck, class, striking area, struck area)
+    lanes_beside: np.ndarray | None = None  # (n_lanes, 2) same-direction lanes left and right of each map lane
 
 
 @dataclass
@@ -175,7 +178,7 @@ class VariationPlan:
     def arrival_offset(self, a: int) -> float:
         """[s] actor a's arrival after the anchor at their conflict point: sampled, else drawn (narrowed in
         reproduce mode)."""
-        offset = float(np.clip(self.draws.offset[a], -timing.ARRIVAL_OFFSET_MAX, timing.ARRIVAL_OFFSET_MAX))
+        offset = clip_scalar(self.draws.offset[a], -timing.ARRIVAL_OFFSET_MAX, timing.ARRIVAL_OFFSET_MAX)
         offset = self.param(a, ("ARRIVAL_OFFSET",), offset)
         if self.ctx.reproduce:
             offset *= timing.REPRODUCE_OFFSET_SCALE

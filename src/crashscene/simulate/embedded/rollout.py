@@ -6,10 +6,11 @@ bodies go on touching: at its step (10 Hz) two cars that struck each other off-c
 the next step, and every step they still overlap and approach they exchange again, the contact normal then taken
 across the penetrated bodies (simulator._check_collisions). A car rear-ended on one corner can so throw the striker
 the other way than the first exchange turns it. `rollout` steps a pair the way the simulator does (its order:
-move, then overlap, back to the moment of first contact at an onset, exchange while they approach; a vehicle an
-exchange upsets slides on its tyres, `impact.tyre_slide`, one it does not keeps its driver, who drives on at the
-speed the impulse leaves, turning as it did), vectorised over many pairs, so that a plan can choose among its options by what
-the simulator will do with them.
+move, then overlap, back to the moment of first contact at an onset, exchange while they approach, then the two
+pushed apart until they barely touch, `impact.separate`; a vehicle an exchange upsets slides on its tyres,
+`impact.tyre_slide`, one it does not keeps its driver, who drives on at the speed the impulse leaves, turning as it
+did), vectorised over many pairs, so that a plan can choose among its options by what the simulator will do with
+them. A body may come into the contact already sliding from an impact before (`sliding`).
 """
 from __future__ import annotations
 
@@ -53,20 +54,21 @@ class Bodies:
         return Bodies(*(getattr(whole, f)[rows] for f in self.__dataclass_fields__))
 
 
-def stepped(a: Bodies, b: Bodies, friction: float | np.ndarray, dt: float, steps: int, dt_out: float
-            ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def stepped(a: Bodies, b: Bodies, friction: float | np.ndarray, dt: float, steps: int, dt_out: float,
+            sliding: np.ndarray | None = None, motion: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """`rollout` of N pairs that touch within their first step, resampled from their first contact on: (x, y, yaw)
     of a and of b (3, N, steps) every dt_out [s] after it (the simulator's pose at each of its steps taken at the
     step's time, as it records it, linearly between; from the first step's end where they never touch), and the
-    time [s] of the first contact from the start (NaN where they never touch)."""
+    time [s] of the first contact from the start (NaN where they never touch); `sliding`, `motion`: as `rollout`
+    (with `motion`, each body's velocity too, (6, N, steps))."""
     sim_steps = int(np.ceil(steps * dt_out / dt)) + 2
-    pa, pb, first, _ = rollout(a, b, friction, dt, sim_steps)
+    pa, pb, first, _ = rollout(a, b, friction, dt, sim_steps, sliding, motion)
     times = dt * np.arange(1, sim_steps + 1)
     want = np.where(np.isnan(first), dt, first)[:, None] + dt_out * np.arange(1, steps + 1)[None, :]
     out = []
     for p in (pa, pb):
-        yaw = np.unwrap(p[2], axis=1)
-        out.append(np.stack([_interp(want, times, q) for q in (p[0], p[1], yaw)]))
+        rows = [p[0], p[1], np.unwrap(p[2], axis=1), *p[3:]]
+        out.append(np.stack([_interp(want, times, q) for q in rows]))
     return out[0], out[1], first
 
 
@@ -78,16 +80,19 @@ def _interp(want: np.ndarray, times: np.ndarray, values: np.ndarray) -> np.ndarr
     return values[rows, k] + f * (values[rows, k + 1] - values[rows, k])
 
 
-def rollout(a: Bodies, b: Bodies, friction: float | np.ndarray, dt: float, steps: int
+def rollout(a: Bodies, b: Bodies, friction: float | np.ndarray, dt: float, steps: int,
+            sliding: np.ndarray | None = None, motion: bool = False
             ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The poses of N pairs (a, b) every dt [s] for `steps` steps, stepped as the simulator steps them (module
-    docstring): (x, y, yaw) of a and of b, each (3, N, steps), the time [s] of each pair's first contact (NaN when
-    they never touch) and whether each of a, b was upset by then (2, N) at the end. The inputs are not changed."""
+    docstring): (x, y, yaw) of a and of b, each (3, N, steps) (with `motion`, (x, y, yaw, vx, vy, yaw rate), (6, N,
+    steps)), the time [s] of each pair's first contact (NaN when they never touch) and whether each of a, b was
+    upset by then (2, N) at the end. `sliding` (2, N) bool: which bodies come already sliding on their tyres from
+    an impact before (they must be `free` too; none when not given). The inputs are not changed."""
     a, b = a.copy(), b.copy()
     n = len(a.x)
-    out = np.zeros((2, 3, n, steps))
+    out = np.zeros((2, 6 if motion else 3, n, steps))
     touching = footprints_overlap(a.x, a.y, a.yaw, a.length, a.width, b.x, b.y, b.yaw, b.length, b.width)
-    collided = np.zeros((2, n), dtype=bool)
+    collided = np.zeros((2, n), dtype=bool) if sliding is None else np.array(sliding, dtype=bool, copy=True)
     first = np.full(n, np.nan)
     friction = np.broadcast_to(np.asarray(friction, dtype=float), (n,))
     for k in range(steps):
@@ -104,7 +109,7 @@ def rollout(a: Bodies, b: Bodies, friction: float | np.ndarray, dt: float, steps
             _exchange(a, b, overlap)
             collided[:, overlap] = True
         for i, q in enumerate((a, b)):
-            out[i, :, :, k] = q.x, q.y, q.yaw
+            out[i, :, :, k] = (q.x, q.y, q.yaw, q.vx, q.vy, q.w) if motion else (q.x, q.y, q.yaw)
     return out[0], out[1], first, np.stack([a.free, b.free])
 
 
@@ -144,7 +149,8 @@ def _back_to_contact(a: Bodies, b: Bodies, prev, hit: np.ndarray) -> np.ndarray:
 
 
 def _exchange(a: Bodies, b: Bodies, overlap: np.ndarray) -> None:
-    """The impulse between the bodies of each overlapping pair (simulator._exchange); a body it upsets is free."""
+    """The impulse between the bodies of each overlapping pair (simulator._exchange), then the two pushed apart
+    until they barely touch (impact.separate); a body it upsets is free."""
     i = np.nonzero(overlap)[0]
     nx, ny, px, py = impact.contact_frame(a.x[i], a.y[i], a.yaw[i], a.length[i], a.width[i], b.x[i], b.y[i],
                                           b.yaw[i], b.length[i], b.width[i])
@@ -156,3 +162,9 @@ def _exchange(a: Bodies, b: Bodies, overlap: np.ndarray) -> None:
     for q, v1, w1, v0, w0 in ((a, va1, wa1, va, a.w[i]), (b, vb1, wb1, vb, b.w[i])):
         q.free[i] |= upsets(np.hypot(*(v1 - v0)), w1 - w0)
         q.vx[i], q.vy[i], q.w[i] = v1[0], v1[1], w1
+    dxa, dya, dxb, dyb = impact.separate(a.x[i], a.y[i], a.yaw[i], a.length[i], a.width[i], a.mass[i], b.x[i], b.y[i],
+                                         b.yaw[i], b.length[i], b.width[i], b.mass[i])
+    a.x[i] += dxa
+    a.y[i] += dya
+    b.x[i] += dxb
+    b.y[i] += dyb

@@ -147,7 +147,8 @@ def build(scenario: Scenario, scenes: list[SampledScene], roadmap: RoadMap,
         _oracle_priority(scenario, columns, priority)
 
     factor = condition_factor(scenario, settings.conditions)
-    plans = _timing_plans(scenario, scenes, columns, anchor, layout, start, tables, lane_width, factor, settings)
+    plans = _timing_plans(scenario, scenes, columns, anchor, layout, start, tables, lane_width, factor, settings,
+                          lanes_beside(roadmap))
     pullout = _pullout(scenes, columns, anchor, arrays, route, s0, tables, priority, plans.hold, settings)
     _pull_out_to_touch(pullout, plans.pull_out, plans.hold)
     start_cap = _apply_plan_moves(arrays, route, start, plans)
@@ -338,7 +339,7 @@ class _TimingPlans:
 
 def _timing_plans(scenario: Scenario, scenes: list[SampledScene], columns: list[ActorColumn], anchor: int,
                   layout: _RouteLayout, start: _StartGrid, tables: list, lane_width: np.ndarray, factor: float,
-                  settings: SimulationSettings) -> _TimingPlans:
+                  settings: SimulationSettings, beside: np.ndarray | None = None) -> _TimingPlans:
     """Timing plans and signal phases, per variation from its own generator; the plans' starts (s0, d0) and
     lateral targets are written back into `start` and `layout`."""
     mu = friction(scenario, settings.conditions)
@@ -347,7 +348,8 @@ def _timing_plans(scenario: Scenario, scenes: list[SampledScene], columns: list[
                       reproduce=settings.mode == "reproduce",
                       runs_red=Disposition.RUNS_RED in columns[anchor].traits, cond=factor,
                       default_limit=mph(scenario.road_network.speed_limit_mph), friction=mu,
-                      skid_paths=skid.SkidPaths(mu, settings.dt), contacts=contact_sequence(scenario))
+                      skid_paths=skid.SkidPaths(mu, settings.dt), contacts=contact_sequence(scenario),
+                      lanes_beside=beside)
     prepare_skids(ctx, layout.route, start.s0, start.speed)
     plans = _TimingPlans.empty(*start.x.shape)
     median_lane_width = np.median(lane_width, axis=1).tolist()  # [m] per variation, one call for the batch
@@ -368,6 +370,20 @@ def _timing_plans(scenario: Scenario, scenes: list[SampledScene], columns: list[
         start.s0[v], start.d0[v], layout.lateral_target[v] = plan.s0, plan.d0, plan.lateral_target
         plans.put(v, plan)
     return plans
+
+
+def lanes_beside(roadmap: RoadMap) -> np.ndarray:
+    """(n_lanes, 2) how many lanes of the same direction lie to the left and to the right of each lane of the map
+    (its neighbours' chains, Lane.left and Lane.right)."""
+    out = np.zeros((len(roadmap.lanes), 2), dtype=np.int64)
+    for i, lane in enumerate(roadmap.lanes):
+        for j, side in enumerate(("left", "right")):
+            seen, uid = {lane.uid}, getattr(lane, side)
+            while uid and uid in roadmap.by_uid and uid not in seen:
+                seen.add(uid)
+                out[i, j] += 1
+                uid = getattr(roadmap.by_uid[uid], side)
+    return out
 
 
 def _apply_plan_moves(arrays: RouteArrays, route: np.ndarray, start: _StartGrid, plans: _TimingPlans) -> np.ndarray:

@@ -205,6 +205,11 @@ class RouteArrays:
         return np.sqrt(np.min(v_curve2 + 2.0 * decel * dist, axis=-1))
 
     @cached_property
+    def _curved(self) -> bool:
+        """Whether any route of the batch curves (curve_lookahead's answer is a constant on straight roads)."""
+        return bool(self._flat_abs_curvature.any())
+
+    @cached_property
     def _flat_curve_speed2(self) -> np.ndarray:
         """[m2/s2] the squared speed each sample's curve allows at 2.5 m/s2 lateral, flat as `_flat_abs_curvature`."""
         return 2.5 / np.maximum(self._flat_abs_curvature, 1e-4)
@@ -214,6 +219,9 @@ class RouteArrays:
         """(largest |curvature| [1/m] on the next max(20 m, 3 s), curve speed [m/s] as `curve_speed` with
         2.5 m/s2 lateral and 2 m/s2 braking over that distance plus the braking distance), one gather."""
         r, s, v = np.asarray(r), np.asarray(s), np.asarray(v)
+        if not self._curved:  # every sample straight: no curvature, and the speed of the nearest sample (dist 0)
+            shape = np.broadcast(r, s, v).shape
+            return np.zeros(shape)[()], np.full(shape, np.sqrt(self._flat_curve_speed2[0] + 4.0 * 0.0))[()]
         near = np.maximum(20.0, 3.0 * v)
         reach = near + v * v / 4.0
         fractions = LOOKAHEAD_FRACTIONS if n == len(LOOKAHEAD_FRACTIONS) else np.linspace(0.0, 1.0, n)

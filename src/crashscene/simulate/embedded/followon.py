@@ -1,0 +1,319 @@
+"""The written contact after a cascade's later one: the car that later contact sets moving (spun by a sideswipe,
+pushed by a rear-end) meets a fourth vehicle, and the cascade plan chooses its options by it.
+
+A cascade plan (`cascade_plan.plan_cascade`) chooses where its striker hits the first car (the corner) and
+where along the third car's side the deflected car strikes it (`ALONGS`), by the third car's meeting alone. When the
+written sequence goes on with a contact of the third car (or of the deflected one) with a fourth vehicle that drives
+straight on, the motion that contact leaves decides whether the sequence can follow: a sideswipe on the third car's
+front quarter spins it one way, one further back the other way, and it slides into the lanes beside it or not.
+`predict` steps each candidate's contact as the simulator steps it (`rollout`, from a simulator step before the
+touch: the deflected car already sliding from its first impact, the third car driven), and `lanes` lists where the
+fourth vehicle may drive: its own lane and, when it starts in a lane beside the third car, the lanes further out on
+that side (dsl.md: `left|right` is the adjacent lane or that side). The plan then takes the candidate whose
+predicted slide meets the fourth vehicle with the written class and areas, and places the fourth vehicle in that
+lane, timed to meet it there.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from crashscene.simulate.embedded import cascade, lockstep, rollout
+from crashscene.simulate.embedded.meetings import later_terms, matches, place_third, pushed_meetings, third_reach
+from crashscene.simulate.embedded.stations import relative_to_route
+from crashscene.simulate.roads import ROUTE_DS
+
+if TYPE_CHECKING:
+    from crashscene.simulate.embedded.plan import VariationPlan
+
+CORNERS = (0.05, 0.1, 0.15, 0.2, 0.25, 0.3, 0.35, 0.4, 0.5, 0.6)  # [-] the striker's centre off the struck car's,
+# as a fraction of its width (cascade.CORNERS), tried when a fourth contact must follow: a smaller offset deflects
+# the striker less, so that it comes alongside the third car more or less far forward
+ALONGS = (-0.15, -0.05, 0.05, 0.15, 0.25, 0.35, 0.45)  # [-] where along the third car's side (a fraction of its
+# length ahead of its centre) the deflected car first reaches it (meetings.SIDE_ALONG without a fourth contact)
+HORIZON = 4.0  # [s] the third car's motion after the contact is followed this long
+SPREAD = 0.15  # [m] the third car is also tried this much further back and ahead at the touch (`choose`)
+AIM_MISS = 0.3  # [m] a fourth actor is aimed at the moving car when its lane lets it drive this near its centre
+
+
+@dataclass(frozen=True)
+class Next:
+    """The written contact after the later one: the fourth actor `actor`, the one of the later contact's two it
+    meets (`moving`), and that contact as a meeting plan reads it (class, moving's area, the fourth's area)."""
+
+    actor: int
+    moving: int
+    later: tuple[str, str, str]
+
+
+@dataclass(frozen=True)
+class Touch:
+    """A candidate later contact to predict: the deflected car (`mover`) sliding with pose (x, y, yaw) [m, rad]
+    and velocity (vx, vy, yaw rate) [m/s, rad/s] a simulator step before the touch, and the third car driven
+    straight on at `speed` [m/s] from pose (x, y, yaw); sizes [m], masses [kg], wheelbases [m] of both."""
+
+    mover_pose: tuple[float, float, float]
+    mover_motion: tuple[float, float, float]
+    third_pose: tuple[float, float, float]
+    speed: float
+    mover_body: tuple[float, float, float, float]  # length, width, mass, wheelbase
+    third_body: tuple[float, float, float, float]
+    friction: float
+    dt: float  # [s] the simulator's step
+
+
+def next_contact(plan: VariationPlan, planned: tuple[int, ...], mover: int, third: int) -> Next | None:
+    """The written contact right after the one between `mover` and `third` (the cascade's later contact), when it
+    is between one of them and an actor not yet `planned` that drives freely straight on; else None."""
+    seq, cols = plan.ctx.contacts, plan.ctx.columns
+    roles = [c.role for c in cols]
+    pair = {roles[mover], roles[third]}
+    at = [j for j, c in enumerate(seq) if j > 0 and {c[0], c[1]} == pair]
+    if not at or at[0] + 1 >= len(seq):
+        return None
+    striking, struck = seq[at[0] + 1][:2]
+    if striking not in roles or struck not in roles:
+        return None
+    ones = [a for a in (mover, third) if roles[a] in (striking, struck)]
+    if len(ones) != 1:
+        return None
+    moving = ones[0]
+    nxt = roles.index(striking if roles[moving] == struck else struck)
+    if nxt in planned or cols[nxt].is_ads or cols[nxt].behavior != "go_forward":
+        return None
+    return Next(nxt, moving, later_terms(seq[at[0] + 1], roles[moving]))
+
+
+def lanes(plan: VariationPlan, nxt: int, beside: int) -> list[float]:
+    """[m] the lateral shifts of actor nxt's start its written position allows: none, and when it starts in a lane
+    beside actor `beside`'s, one lane width for each lane of its carriageway further out on that side
+    (PlanContext.lanes_beside)."""
+    arrays = plan.ctx.arrays
+    other = plan.scene.actors[beside]
+    _, lat = relative_to_route(arrays, plan.route[nxt], plan.s0[nxt], other.x, other.y)
+    across = float(plan.d0[nxt]) - lat  # [m] how far nxt is on the beside actor's left
+    table = plan.ctx.lanes_beside
+    if abs(across) < plan.lane_width / 2 or table is None or not len(table):
+        return [0.0]
+    lane = int(arrays.lane[plan.route[nxt], min(int(plan.s0[nxt] / ROUTE_DS), arrays.lane.shape[1] - 1)])
+    if lane < 0:
+        return [0.0]
+    side = 1.0 if across > 0 else -1.0
+    count = int(table[lane, 0 if side > 0 else 1])
+    return [0.0] + [side * plan.lane_width * (i + 1) for i in range(count)]
+
+
+Path = tuple[np.ndarray, np.ndarray, np.ndarray]  # (x, y, yaw) every cascade.DT [m, m, rad], world coordinates
+
+
+def predict(touches: list[Touch]) -> list[tuple[Path, float, Path] | None]:
+    """Each candidate's contact stepped as the simulator steps it (`rollout.stepped`, computed for every candidate
+    of every variation at once: lockstep): the third car's path after the touch, the touch's time [s] after the
+    candidate's start, and the deflected car's path; None where they do not touch."""
+    return lockstep.together(_predict, touches)
+
+
+def _predict(touches: list[Touch]) -> list[tuple[Path, float, Path] | None]:
+    """`predict` of all the items at once (each element computed as it would be alone)."""
+    if not touches:
+        return []
+    out: list = [None] * len(touches)
+    steps = int(HORIZON / cascade.DT)
+    for dt in sorted({t.dt for t in touches}):
+        rows = [i for i, t in enumerate(touches) if t.dt == dt]
+        sel = [touches[i] for i in rows]
+
+        def col(values) -> np.ndarray:
+            return np.array(list(values), dtype=float)
+
+        n = len(sel)
+        (mx, my, myaw), (mvx, mvy, mw) = ([col(t.mover_pose[j] for t in sel) for j in range(3)],
+                                          [col(t.mover_motion[j] for t in sel) for j in range(3)])
+        tx, ty, tyaw = (col(t.third_pose[j] for t in sel) for j in range(3))
+        speed = col(t.speed for t in sel)
+        ml, mwd, mm, mwb = (col(t.mover_body[j] for t in sel) for j in range(4))
+        tl, twd, tm, twb = (col(t.third_body[j] for t in sel) for j in range(4))
+        free = np.ones(n, dtype=bool)
+        mover = rollout.Bodies(mx, my, myaw, mvx, mvy, mw, ml, mwd, mm, mwb, free, np.zeros(n))
+        third = rollout.Bodies(tx, ty, tyaw, speed * np.cos(tyaw), speed * np.sin(tyaw), np.zeros(n), tl, twd, tm,
+                               twb, np.zeros(n, dtype=bool), np.zeros(n))
+        sliding = np.stack([free, np.zeros(n, dtype=bool)])
+        pa, pb, first = rollout.stepped(mover, third, col(t.friction for t in sel), dt, steps, cascade.DT, sliding)
+        for j, i in enumerate(rows):
+            if np.isfinite(first[j]):
+                out[i] = ((pb[0][j], pb[1][j], pb[2][j]), float(first[j]), (pa[0][j], pa[1][j], pa[2][j]))
+    return out
+
+
+def mover_state(path: tuple[np.ndarray, ...], k: float
+                ) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+    """The pose (x, y, yaw) and motion (vx, vy, yaw rate) of a vehicle moving along `path` (world x, y, yaw, vx, vy,
+    yaw rate every cascade.DT) at step `k` of it (fractional: linear between steps)."""
+    last = len(path[0]) - 1
+    k = float(np.clip(k, 0.0, last))
+    i0 = min(int(k), last - 1)
+    f = k - i0
+    rows = [path[0], path[1], np.unwrap(path[2]), *path[3:6]]
+    at = [float(q[i0] + f * (q[i0 + 1] - q[i0])) for q in rows]
+    return (at[0], at[1], at[2]), (at[3], at[4], at[5])
+
+
+def route_pose(plan: VariationPlan, a: int, station: float, lateral: float) -> tuple[float, float, float]:
+    """World pose [m, m, rad] of a point `lateral` [m] left of actor a's route at `station` [m]."""
+    px, py, pyaw = (float(q[0]) for q in plan.ctx.arrays.point(np.array([plan.route[a]]), np.array([station])))
+    return px - math.sin(pyaw) * lateral, py + math.cos(pyaw) * lateral, pyaw
+
+
+PLACED = ("s0", "moved", "scale", "speeds", "hold")  # what placing an actor changes (meetings.place_third)
+
+
+@dataclass(frozen=True)
+class Choice:
+    """The cascade's options chosen for a fourth contact: the striker's corner (`offset`, row `row` of the
+    candidates), where along the third car's side the deflected car reaches it (`along`), the third car's
+    meeting (meetings.pushed_meetings), and the fourth actor's lateral shift [m], meeting and arrival [s] (None when
+    no candidate's predicted motion meets it)."""
+
+    row: int
+    offset: float
+    along: float
+    meeting: tuple
+    shift: float = 0.0
+    follow: tuple | None = None
+    arrive: float = 0.0
+
+
+def choose(plan: VariationPlan, nxt: Next, candidates: list[tuple[int, float, tuple, bool]],
+           paths: list[tuple[np.ndarray, ...]], t1: float, mover: int, third: int,
+           later: tuple[str, str, str], passing: tuple[int, ...], alongs: tuple[float, ...]) -> Choice | None:
+    """Among the cascade's candidates (row, corner offset, the third car's meeting, whether the striker does not
+    push the first car again before it), each with the deflected car's path (world x, y, yaw, vx, vy, yaw rate
+    every cascade.DT after the first touch at t1 [s]), and every `alongs` fraction: the one whose predicted contact
+    with the third car leaves the written next contact (`predict`, met in one of the `lanes` of the fourth actor):
+    first by the third car's meeting having its written class and area (meetings.matches), then by not pushing again,
+    then by the next contact's class and areas where the third car comes SPREAD earlier or later too (the least of
+    the three: a sideswipe's outcome can turn on a few centimetres), then by the nominal one's (`_follow_key`),
+    then by how far inside its class's heading range the third car's meeting is."""
+    dt = plan.ctx.skid_paths.dt
+    options, touches = [], []
+    for row, offset, meeting, clean in candidates:
+        k = meeting[0]
+        arrive = t1 + (k + 1) * cascade.DT
+        lead = cascade.step_lead(arrive, dt)  # [s] from the simulator's last step before the touch
+        mover_pose, mover_motion = mover_state(paths[row], k - lead / cascade.DT)
+        for along in alongs:
+            speed = _placed_speed(plan, third, meeting, later, arrive, passing, along)
+            if speed is None:
+                continue
+            station = float(plan.s0[third]) + third_reach(plan, third, meeting, later, along) - speed * lead
+            options.append((row, offset, along, meeting, clean, station))
+            touches.append(Touch(mover_pose, mover_motion, route_pose(plan, third, station, float(plan.d0[third])),
+                                 speed, _body(plan, mover), _body(plan, third), plan.ctx.friction, dt))
+    if not options:
+        return None
+    predicted = predict(touches)
+    follows = _follows(plan, nxt, third, predicted)
+    # the options whose next contact has its written class: the third car SPREAD earlier and later too
+    check = [i for i in range(len(options)) if i in follows and follows[i][1][2] == nxt.later[0]]
+    spread = _follows(plan, nxt, third, predict([
+        replace(touches[i], third_pose=route_pose(plan, third, options[i][5] + d, float(plan.d0[third])))
+        for i in check for d in (-SPREAD, SPREAD)]))
+    least = {i: min(_follow_key(f, nxt)[0] if f else -1 for f in (follows[i], spread.get(2 * j), spread.get(2 * j + 1)))
+             for j, i in enumerate(check)}
+    none = (-1, False, -math.inf)
+    best, best_key = 0, None
+    for i, (row, offset, along, meeting, clean, _) in enumerate(options):
+        nominal = follows.get(i)
+        key = (matches(meeting, later), clean, least.get(i, _follow_key(nominal, nxt)[0] if nominal else -1),
+               *(_follow_key(nominal, nxt) if nominal else none), meeting[5])
+        if best_key is None or key > best_key:
+            best, best_key = i, key
+    row, offset, along, meeting, _, _ = options[best]
+    follow = follows.get(best)
+    if follow is None:
+        return Choice(row, offset, along, meeting)
+    touch = t1 + (meeting[0] + 1) * cascade.DT
+    arrive = touch - cascade.step_lead(touch, dt) + predicted[best][1] + (follow[1][0] + 1) * cascade.DT
+    return Choice(row, offset, along, meeting, follow[0], follow[1], arrive)
+
+
+def _follows(plan: VariationPlan, nxt: Next, third: int, predicted: list) -> dict[int, tuple[float, tuple, bool]]:
+    """The fourth actor's best meeting (`_aimed`: shift, meeting, aimed) with the moving car of each predicted
+    contact that touches, over the `lanes` it may take (`_follow_key`)."""
+    live = [i for i, p in enumerate(predicted) if p is not None]
+    out: dict[int, tuple[float, tuple, bool]] = {}
+    if not live:
+        return out
+    moving = [predicted[i][0] if nxt.moving == third else predicted[i][2] for i in live]
+    for shift in lanes(plan, nxt.actor, third):
+        plan.d0[nxt.actor] += shift
+        try:
+            found = pushed_meetings(plan, nxt.moving, nxt.actor, moving, [(0.0, 0.0, 0.0)] * len(live), nxt.later)
+        finally:
+            plan.d0[nxt.actor] -= shift
+        for i, path, meeting in zip(live, moving, found):
+            if meeting is None:
+                continue
+            one = _aimed(plan, nxt, path, meeting, shift)
+            if i not in out or _follow_key(one, nxt) > _follow_key(out[i], nxt):
+                out[i] = one
+    return out
+
+
+def _aimed(plan: VariationPlan, nxt: Next, path: Path, meeting: tuple, shift: float) -> tuple[float, tuple, bool]:
+    """(lateral shift [m], meeting, whether it is aimed) of the fourth actor meeting the moving car as `meeting`
+    has it, in the lane `shift` [m] across: within that lane, it drives where the moving car's centre is predicted
+    to be then (its front meets the moving car end to end, not with a side); aimed when that is within its lane
+    (AIM_MISS)."""
+    a, k = nxt.actor, meeting[0]
+    _, lat = relative_to_route(plan.ctx.arrays, plan.route[a], plan.s0[a], float(path[0][k]), float(path[1][k]))
+    lane = float(plan.d0[a]) + shift
+    room = max(plan.lane_width - float(plan.width[a]), 0.0) / 2
+    within = float(np.clip(lat - lane, -room, room))
+    return shift + within, meeting, abs(lat - lane - within) < AIM_MISS
+
+
+def _follow_key(follow: tuple[float, tuple, bool], nxt: Next) -> tuple[int, bool, float]:
+    """How well a predicted next meeting has the written next contact: its class and the moving car's area
+    (meetings.matches), then whether the fourth actor can drive at it (`_aimed`), then how far inside the class's
+    heading range it is [deg]."""
+    return matches(follow[1], nxt.later), follow[2], follow[1][5]
+
+
+def _placed_speed(plan: VariationPlan, third: int, meeting: tuple, later: tuple[str, str, str], arrive: float,
+                  passing: tuple[int, ...], along: float) -> float | None:
+    """[m/s] the speed actor `third` meets at when placed as meetings.place_third places it (a dry run: the plan is
+    left as it was); None when it cannot be placed."""
+    saved = [getattr(plan, name).copy() for name in PLACED]
+    try:
+        if not place_third(plan, third, meeting, later, arrive, passing, along):
+            return None
+        return float(plan.speeds[third])
+    finally:
+        for name, value in zip(PLACED, saved):
+            getattr(plan, name)[:] = value
+
+
+def _body(plan: VariationPlan, a: int) -> tuple[float, float, float, float]:
+    """(length [m], width [m], mass [kg], wheelbase [m]) of actor a."""
+    limits = plan.ctx.columns[a].limits
+    return float(plan.length[a]), float(plan.width[a]), limits.mass, limits.wheelbase_ratio * float(plan.length[a])
+
+
+def place(plan: VariationPlan, nxt: Next, choice: Choice) -> bool:
+    """The fourth actor shifted to the chosen lane (its start drifted across: plan.drifted) and placed to meet the
+    moving car as the chosen meeting has it; False when it cannot be placed (then it is left as it was)."""
+    if choice.follow is None:
+        return False
+    a = nxt.actor
+    saved = [getattr(plan, name).copy() for name in PLACED + ("d0", "lateral_target", "drifted")]
+    for name in ("d0", "lateral_target", "drifted"):
+        getattr(plan, name)[a] += choice.shift
+    if place_third(plan, a, choice.follow, nxt.later, choice.arrive):
+        return True
+    for name, value in zip(PLACED + ("d0", "lateral_target", "drifted"), saved):
+        getattr(plan, name)[:] = value
+    return False
