@@ -6,6 +6,8 @@ stays fast and an optional backend's import error only hits its own command.
 """
 from __future__ import annotations
 
+import gc
+
 import typer
 
 app = typer.Typer(no_args_is_help=True, add_completion=False, pretty_exceptions_enable=False,
@@ -25,4 +27,9 @@ from crashscene.cli import search_commands  # noqa: E402,F401  (registers search
 
 
 def main() -> None:
-    app()
+    """The console script. Once the command is done the process ends, so the garbage collector's objects are frozen
+    first: the interpreter's shutdown then does not traverse them all again (0.05-0.1 s of CPU after a simulate)."""
+    try:
+        app()
+    finally:
+        gc.freeze()
