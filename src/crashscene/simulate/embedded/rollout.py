@@ -152,8 +152,8 @@ def _exchange(a: Bodies, b: Bodies, overlap: np.ndarray) -> None:
     """The impulse between the bodies of each overlapping pair (simulator._exchange), then the two pushed apart
     until they barely touch (impact.separate); a body it upsets is free."""
     i = np.nonzero(overlap)[0]
-    nx, ny, px, py = impact.contact_frame(a.x[i], a.y[i], a.yaw[i], a.length[i], a.width[i], b.x[i], b.y[i],
-                                          b.yaw[i], b.length[i], b.width[i])
+    poses = (a.x[i], a.y[i], a.yaw[i], a.length[i], a.width[i], b.x[i], b.y[i], b.yaw[i], b.length[i], b.width[i])
+    nx, ny, px, py, penetration = impact.contact(*poses)
     va, vb = np.stack([a.vx[i], a.vy[i]]), np.stack([b.vx[i], b.vy[i]])
     ia = impact.yaw_inertia(a.mass[i], a.length[i], a.width[i])
     ib = impact.yaw_inertia(b.mass[i], b.length[i], b.width[i])
@@ -162,8 +162,8 @@ def _exchange(a: Bodies, b: Bodies, overlap: np.ndarray) -> None:
     for q, v1, w1, v0, w0 in ((a, va1, wa1, va, a.w[i]), (b, vb1, wb1, vb, b.w[i])):
         q.free[i] |= upsets(np.hypot(*(v1 - v0)), w1 - w0)
         q.vx[i], q.vy[i], q.w[i] = v1[0], v1[1], w1
-    dxa, dya, dxb, dyb = impact.separate(a.x[i], a.y[i], a.yaw[i], a.length[i], a.width[i], a.mass[i], b.x[i], b.y[i],
-                                         b.yaw[i], b.length[i], b.width[i], b.mass[i])
+    # the exchange changed velocities only: the poses, normal and penetration are the contact's
+    dxa, dya, dxb, dyb = impact.separate(*poses[:5], a.mass[i], *poses[5:], b.mass[i], frame=(nx, ny, penetration))
     a.x[i] += dxa
     a.y[i] += dya
     b.x[i] += dxb

@@ -157,7 +157,7 @@ def after_touch(poses, motion, bodies, one: np.ndarray, friction: float, dt: flo
             done |= onset & (klass == "sideswipe")
         touching = overlap
         if overlap.any():
-            nx, ny, px, py = impact.contact_frame(*pose[0], la, wa, *pose[1], lb, wb)
+            nx, ny, px, py, penetration = impact.contact(*pose[0], la, wa, *pose[1], lb, wb)
             va1, wa1, vb1, wb1, _ = impact.exchange(nx, ny, px, py, pose[0][0], pose[0][1], np.stack(vel[0][:2]),
                                                     vel[0][2], ma, inertia[0], pose[1][0], pose[1][1],
                                                     np.stack(vel[1][:2]), vel[1][2], mb, inertia[1])
@@ -167,7 +167,9 @@ def after_touch(poses, motion, bodies, one: np.ndarray, friction: float, dt: flo
                 upset[k] |= overlap & upsets(np.hypot(new[0] - start[k][0], new[1] - start[k][1]),
                                              new[2] - start[k][2])
                 vel[k] = new
-            dxa, dya, dxb, dyb = impact.separate(*pose[0], la, wa, ma, *pose[1], lb, wb, mb)
+            # the exchange changed velocities only: the poses, normal and penetration are the contact's
+            dxa, dya, dxb, dyb = impact.separate(*pose[0], la, wa, ma, *pose[1], lb, wb, mb,
+                                                 frame=(nx, ny, penetration))
             pose[0][0], pose[0][1] = pose[0][0] + dxa, pose[0][1] + dya
             pose[1][0], pose[1][1] = pose[1][0] + dxb, pose[1][1] + dyb
         still = [(np.hypot(v[0], v[1]) < impact.REST_SPEED) & (np.abs(v[2]) < impact.REST_YAW_RATE) for v in vel]
