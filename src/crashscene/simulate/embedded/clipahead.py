@@ -25,9 +25,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from crashscene.geometry import classify_contact, heading_difference
 from crashscene.simulate.embedded import cascade, lockstep, pushchain, rollout
-from crashscene.simulate.embedded.skid import Body, overlap_interval
+from crashscene.simulate.embedded.skid import Body, monitor_class, overlap_interval
 from crashscene.simulate.embedded.stations import relative_to_route, same_lane
 
 if TYPE_CHECKING:
@@ -165,18 +164,12 @@ def place_ahead(pairs: list[tuple[float, np.ndarray, np.ndarray] | None], me: Bo
 
 def _classes(poses: np.ndarray, ahead: Ahead, t_touch: float, shifts: np.ndarray, k: np.ndarray, me: Body,
              striker_first: bool) -> np.ndarray:
-    """The monitor's class (geometry.classify_contact) of the striker at `poses` (3, S) against the third car moved
+    """The monitor's class (skid.monitor_class) of the striker at `poses` (3, S) against the third car moved
     `shifts` (S,) at steps `k` (S,) of the path, in the monitor's actor order."""
     px, py, pyaw = poses
     third = ahead.along + shifts + ahead.speed * (ahead.t_step + t_touch + cascade.DT * (k + 1))
-    dx, dy = third - px, ahead.across - py  # the third car from me
-    rel = heading_difference(pyaw, np.zeros(len(px)))
-    if striker_first:
-        c, s = np.cos(pyaw), np.sin(pyaw)
-        lon, lat = dx * c + dy * s, -dx * s + dy * c
-    else:
-        lon, lat = -dx, -dy
-    return classify_contact(rel, lon, lat, (me.length + ahead.body.length) / 2, (me.width + ahead.body.width) / 2)
+    # the third car drives along the frame's axis (heading 0): the striker's pose relative to its centre
+    return monitor_class(px - third, py - ahead.across, pyaw, 0.0, me, ahead.body, striker_first)
 
 
 def ahead_in_lane(plan: VariationPlan, partner: int, third: int) -> bool:

@@ -294,7 +294,7 @@ def _ranked_each(alongs, fixed, lo, hi, offsets_each, me: Body, partner: Body, r
         return out
     group, cc, jj, kk = group[may], cc[may], jj[may], kk[may]
     px, py, pyaw = _touch(alongs, fixed, offsets_each, group, jj, cc, kk, me, partner, other_yaw)
-    klass = _classify(px, py, pyaw, other_yaw, me, partner, wanted.skidder_first)
+    klass = monitor_class(px, py, pyaw, other_yaw, me, partner, wanted.skidder_first)
     ok = klass == wanted.contact_class if wanted.contact_class is not None else np.ones(len(cc), dtype=bool)
     if not ok.any():
         return out
@@ -458,7 +458,7 @@ def _touches(items: list) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
     return lockstep.per_item(pose(hi), sizes)
 
 
-def _classify(px, py, pyaw, other_yaw: float, me: Body, partner: Body, skidder_first: bool) -> np.ndarray:
+def monitor_class(px, py, pyaw, other_yaw: float, me: Body, partner: Body, skidder_first: bool) -> np.ndarray:
     """The monitor's class (geometry.classify_contact) of contacts with me at (px, py, pyaw) and the partner at
     the origin heading `other_yaw`, in the monitor's actor order."""
     rel = heading_difference(pyaw, np.full(len(px), other_yaw))
