@@ -2,6 +2,7 @@
 state of a deflected car along its predicted path."""
 from __future__ import annotations
 
+import functools
 from types import SimpleNamespace
 
 import numpy as np
@@ -9,6 +10,7 @@ import pytest
 
 from crashscene.simulate.embedded.followon import mover_state
 from crashscene.simulate.embedded.setup import lanes_beside
+from crashscene.simulate.roads import RoadMap
 
 
 def test_lanes_beside_counts_the_same_direction_lanes_on_each_side():
@@ -18,6 +20,7 @@ def test_lanes_beside_counts_the_same_direction_lanes_on_each_side():
     lanes = [lane("l1", "l2", None), lane("l2", "l3", "l1"), lane("l3", "l4", "l2"), lane("l4", None, "l3"),
              lane("o1", None, None)]  # an opposing lane: no same-direction neighbours (laneToLeft may be oncoming)
     roadmap = SimpleNamespace(lanes=lanes, by_uid={x.uid: x for x in lanes})
+    roadmap.side_lanes = functools.partial(RoadMap.side_lanes, roadmap)  # the real walk over the fake map
     assert lanes_beside(roadmap).tolist() == [[3, 0], [2, 1], [1, 2], [0, 3], [0, 0]]
 
 

@@ -300,6 +300,16 @@ class RoadMap:
         junction = np.where(ok, self.junction_grid.ravel()[flat], -1)
         return lane, junction
 
+    def side_lanes(self, lane: Lane, side: str) -> list[Lane]:
+        """The same-direction lanes on `side` ("left" or "right") of `lane`, nearest first (its neighbours' chain,
+        Lane.left / Lane.right, to the first lane the map does not hold or one already passed)."""
+        out, seen, uid = [], {lane.uid}, getattr(lane, side)
+        while uid and uid in self.by_uid and uid not in seen:
+            seen.add(uid)
+            out.append(self.by_uid[uid])
+            uid = getattr(out[-1], side)
+        return out
+
     def lane_at(self, x: float, y: float, yaw: float | None = None) -> Lane | None:
         """The lane under a point; with `yaw`, prefer a lane whose direction matches it."""
         lane_idx, _ = self.lookup(np.array([x]), np.array([y]))

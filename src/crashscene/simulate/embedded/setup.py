@@ -374,16 +374,9 @@ def _timing_plans(scenario: Scenario, scenes: list[SampledScene], columns: list[
 
 def lanes_beside(roadmap: RoadMap) -> np.ndarray:
     """(n_lanes, 2) how many lanes of the same direction lie to the left and to the right of each lane of the map
-    (its neighbours' chains, Lane.left and Lane.right)."""
-    out = np.zeros((len(roadmap.lanes), 2), dtype=np.int64)
-    for i, lane in enumerate(roadmap.lanes):
-        for j, side in enumerate(("left", "right")):
-            seen, uid = {lane.uid}, getattr(lane, side)
-            while uid and uid in roadmap.by_uid and uid not in seen:
-                seen.add(uid)
-                out[i, j] += 1
-                uid = getattr(roadmap.by_uid[uid], side)
-    return out
+    (RoadMap.side_lanes)."""
+    return np.array([[len(roadmap.side_lanes(lane, side)) for side in ("left", "right")] for lane in roadmap.lanes],
+                    dtype=np.int64).reshape(len(roadmap.lanes), 2)
 
 
 def _apply_plan_moves(arrays: RouteArrays, route: np.ndarray, start: _StartGrid, plans: _TimingPlans) -> np.ndarray:
@@ -605,13 +598,8 @@ def _crossing_candidates(scenes: list[SampledScene], columns: list[ActorColumn],
                 if _junction_intent(mine) != "straight" or _junction_intent(theirs) == "straight" \
                         or (v, a) not in start_lanes or mine.behavior not in ("go_forward", "accelerate"):
                     continue
-                lanes, seen = [start_lanes[v, a]], {start_lanes[v, a].uid}
-                for side in ("left", "right"):
-                    uid = getattr(start_lanes[v, a], side)
-                    while uid and uid in roadmap.by_uid and uid not in seen:
-                        seen.add(uid)
-                        lanes.append(roadmap.by_uid[uid])
-                        uid = getattr(roadmap.by_uid[uid], side)
+                lanes = [start_lanes[v, a], *roadmap.side_lanes(start_lanes[v, a], "left"),
+                         *roadmap.side_lanes(start_lanes[v, a], "right")]
                 if len(lanes) < 2:
                     continue
                 cands = []
@@ -709,19 +697,11 @@ def _road_edge_offset(roadmap: RoadMap, lane: Lane, scenario: Scenario) -> float
     instead when it is nearer, or when a right-hand curve throws the vehicle outward to the left
     (a left-hand curve throws it right).
     """
-    def count(uid: str | None, side: str) -> int:
-        n, seen = 0, set()
-        while uid and uid not in seen and uid in roadmap.by_uid:
-            seen.add(uid)
-            n += 1
-            uid = getattr(roadmap.by_uid[uid], side)
-        return n
-
     w = lane.width
-    right = -(w / 2.0 + count(lane.right, "right") * w)
+    right = -(w / 2.0 + len(roadmap.side_lanes(lane, "right")) * w)
     if lane.opposite is not None:
         return right  # two-way: leaving to the left means crossing the oncoming lanes first
-    left = w / 2.0 + count(lane.left, "left") * w
+    left = w / 2.0 + len(roadmap.side_lanes(lane, "left")) * w
     curve = scenario.road_network.curve_direction
     if scenario.road_network.road_type == "curve" and curve is not None:
         return left if str(curve) == "right" else right
