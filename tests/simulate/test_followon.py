@@ -11,7 +11,15 @@ import numpy as np
 import pytest
 
 from crashscene.simulate.embedded.cascade import Push, pushes_moving
-from crashscene.simulate.embedded.followon import _apart, group_shifts, mover_state, shift_across, steady
+from crashscene.simulate.embedded.followon import (
+    _apart,
+    full,
+    group_shifts,
+    mover_state,
+    option_key,
+    shift_across,
+    steady,
+)
 from crashscene.simulate.embedded.setup import lanes_beside
 from crashscene.simulate.roads import RoadMap
 
@@ -106,3 +114,13 @@ def test_apart_starts_a_prediction_before_the_two_footprints_overlap():
     assert lead == pytest.approx(0.2)
     assert mover_pose == pytest.approx((96.0, -2.25, 0.0))
     assert third_pose == pytest.approx((96.0, 0.0, 0.0))
+
+
+def test_option_key_ranks_a_steady_impact_then_the_sooner_meeting_below_the_written_classes():
+    aimed = (3, True, 20.0)
+    base = option_key(3, True, 3, True, 10, aimed, 5.0)
+    assert option_key(3, True, 3, True, 4, aimed, 5.0) > base  # sooner
+    assert option_key(3, True, 3, False, 4, aimed, 5.0) < base  # sooner, but not steady
+    assert option_key(3, True, 2, True, 4, aimed, 5.0) < base  # sooner, but the next contact's class not robust
+    assert option_key(3, True, 3, True, 10, (3, True, 25.0), 5.0) > base  # same time: the more central heading
+    assert full(base) and not full(option_key(3, True, 3, False, 4, aimed, 5.0))
