@@ -243,7 +243,8 @@ LATER_CONTACTS = {  # cascades planned from a predicted slide: (scenario, least 
     # sideswipe turns through 150 deg only after it has slid more than one lane across): 0.55 of 20 at seed 7, 0.475
     # and 0.55 of 40 at seeds 1 and 2 (0.25, 0.2, 0.35 without); preferring a first impact whose outcome does not
     # turn on a hundredth of a radian (followon.steady) and predicting the sideswipe from before the two touch
-    # (followon._apart): 0.65, 0.6, 0.7
+    # (followon._apart): 0.65, 0.6, 0.7; the sooner meeting (followon.option_key): 0.65, 0.6, 0.725; corners every
+    # 0.025 of the width (followon.CORNERS): 0.6, 0.625, 0.675
     "a_sideswipe_spins_the_car_alongside_into_a_fourth_car_two_lanes_over": (scenario(
         "divided_four", "speed_limit_sign", 65,
         actor("ego", "go_forward", "reference: road, relation: behind")

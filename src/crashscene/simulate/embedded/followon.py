@@ -36,9 +36,11 @@ from crashscene.simulate.roads import ROUTE_DS
 if TYPE_CHECKING:
     from crashscene.simulate.embedded.plan import VariationPlan
 
-CORNERS = (0.05, 0.1, 0.15, 0.2, 0.25, 0.3, 0.35, 0.4, 0.5, 0.6)  # [-] the striker's centre off the struck car's,
+CORNERS = tuple(round(0.05 + 0.025 * i, 3) for i in range(23))  # [-] the striker's centre off the struck car's,
 # as a fraction of its width (cascade.CORNERS), tried when a fourth contact must follow: a smaller offset deflects
-# the striker less, so that it comes alongside the third car more or less far forward
+# the striker less, so that it comes alongside the third car more or less far forward; every 0.025 from 0.05 to 0.6,
+# as the outcome of an offset impact turns over a few hundredths of the width (`steady`: the finer the grid, the
+# more candidates are steady; 3-C1-2017-001, seed 7: 0.74 at the earlier 0.05 steps, 0.78 at 0.025, 0.76 at 0.0125)
 ALONGS = (-0.15, -0.05, 0.05, 0.15, 0.25, 0.35, 0.45)  # [-] where along the third car's side (a fraction of its
 # length ahead of its centre) the deflected car first reaches it (meetings.SIDE_ALONG without a fourth contact)
 HORIZON = 4.0  # [s] the third car's motion after the contact is followed this long
