@@ -6,6 +6,7 @@ third vehicle is placed to meet it there (`meetings`).
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from typing import TYPE_CHECKING
 
@@ -41,14 +42,55 @@ def plan_cascade(plan: VariationPlan) -> None:
     found = _cascade_actors(plan)
     if found is None:
         return
+    si, ti, mover, xi = found[:4]
+    nxt = followon.next_contact(plan, (si, ti, xi), mover, xi)  # a fourth contact after the third car's
+    shifts = followon.group_shifts(plan, nxt.actor, (si, ti, xi)) if nxt is not None else []
+    if not shifts:
+        _plan_cascade(plan, found)
+        return
+    # a fourth contact: the cascade's three may start further from the fourth actor's side (group_shifts), which
+    # is planned too when the plan where they are does not have the written fourth contact; the one whose chosen
+    # options have it best (followon.choose's order) is kept
+    before = _state(plan)
+    best_key, best = _plan_cascade(plan, found), None
+    if best_key is not None and followon.full(best_key):
+        return
+    for shift in shifts:
+        if best is None:
+            best = _state(plan)
+        _restore(plan, before)
+        followon.shift_across(plan, (si, ti, xi), shift)
+        key = _plan_cascade(plan, found)
+        if key is not None and (best_key is None or key > best_key):
+            best_key, best = key, _state(plan)
+    _restore(plan, best)
+
+
+def _state(plan: VariationPlan) -> dict[str, np.ndarray]:
+    """Copies of the plan's per-actor arrays (what planning a cascade may change)."""
+    return {f.name: getattr(plan, f.name).copy() for f in dataclasses.fields(plan)
+            if isinstance(getattr(plan, f.name), np.ndarray) and f.name not in READ_ONLY}
+
+
+def _restore(plan: VariationPlan, state: dict[str, np.ndarray]) -> None:
+    for name, value in state.items():
+        getattr(plan, name)[:] = value
+
+
+READ_ONLY = ("route", "speed", "length", "width", "entry_control")  # the plan's rows it never changes
+
+
+def _plan_cascade(plan: VariationPlan, found: tuple[int, int, int, int, str, tuple[str, str, str]]) -> tuple | None:
+    """`plan_cascade` with the actors where they start now; with a fourth contact, how well the chosen options
+    have it (followon.Choice.key; None when nothing was placed)."""
     si, ti, mover, xi, first_class, later = found
     head_on = first_class == "head_on"
     arrays, cols = plan.ctx.arrays, plan.ctx.columns
     impact = _first_impact(plan, si, ti, head_on)
     if impact is None:
-        return
+        return None
     t1, impact_s, v_t = impact
-    px, py, pyaw = (float(q) for q in arrays.point(np.array(plan.route[ti]), np.array(impact_s)))
+    px, py, pyaw = followon.route_pose(plan, ti, impact_s, float(plan.d0[ti]))  # the struck car's centre
     t_touch = _touch_time(plan, si, ti, t1, (px, py), head_on)
     x_actor = plan.scene.actors[xi]
     _, lat_x = relative_to_route(arrays, plan.route[ti], plan.s0[ti], x_actor.x, x_actor.y)
@@ -57,6 +99,7 @@ def plan_cascade(plan: VariationPlan) -> None:
     # that is moving (and braking for what it sees coming) is hit at the usual corner
     corners = cascade.CORNERS if v_t == 0.0 or head_on else (cascade.CORNER,)
     nxt = followon.next_contact(plan, (si, ti, xi), mover, xi)  # a fourth contact after the third car's
+    choice = None
     if nxt is not None and len(corners) > 1:
         corners = followon.CORNERS
     offsets = np.array([side * c for side in (preferred, -preferred) for c in corners])
@@ -105,12 +148,12 @@ def plan_cascade(plan: VariationPlan) -> None:
         if score > best_score:
             best, best_score = (float(offset), *meeting), score
     if best is None:
-        return
+        return None
     side, k = best[:2]
     # (the options for a fourth contact were predicted from the exact time of the touch)
     along, t0 = (choice.along, t_touch) if nxt is not None else (SIDE_ALONG, t1)
     if not place_third(plan, xi, best[1:], later, t0 + (k + 1) * cascade.DT, passing, along):
-        return
+        return None
     # the striker holds its centre off the struck car's centre line, toward the corner it hits (its own
     # left is the struck car's right when it comes the other way)
     offset = side * plan.width[ti] * (-1.0 if head_on else 1.0)
@@ -126,6 +169,7 @@ def plan_cascade(plan: VariationPlan) -> None:
         plan.lateral_target[si] = target
     if nxt is not None:  # the fourth actor, in the lane and at the time the chosen contact sends the car into
         followon.place(plan, nxt, choice)
+    return choice.key if choice is not None else None
 
 
 def _touch_time(plan: VariationPlan, si: int, ti: int, t1: float, point: tuple[float, float], head_on: bool) -> float:

@@ -11,7 +11,13 @@ touch: the deflected car already sliding from its first impact, the third car dr
 fourth vehicle may drive: its own lane and, when it starts in a lane beside the third car, the lanes further out on
 that side (dsl.md: `left|right` is the adjacent lane or that side). The plan then takes the candidate whose
 predicted slide meets the fourth vehicle with the written class and areas, and places the fourth vehicle in that
-lane, timed to meet it there.
+lane, timed to meet it there. When the fourth vehicle starts in the outermost lane, the lanes between it and the third
+car can only grow the other way: `group_shifts` lists how far the cascade's three may start further from it (each
+keeps its written side of the others), and the cascade plan plans them there too when its plan where they are does not
+have the written fourth contact (a car spun by a sideswipe turns through a head-on's 150 deg only after it has slid
+more than a lane across: in 3-C1-2017-001, seed 7, none of the 49 variations with the fourth car in the outermost
+lane, one lane over, reproduced (their best candidates had the spun car turned 130-160 deg while within reach of that
+lane), 35 of the 51 where it may drive two lanes over did).
 """
 from __future__ import annotations
 
@@ -36,6 +42,7 @@ ALONGS = (-0.15, -0.05, 0.05, 0.15, 0.25, 0.35, 0.45)  # [-] where along the thi
 # length ahead of its centre) the deflected car first reaches it (meetings.SIDE_ALONG without a fourth contact)
 HORIZON = 4.0  # [s] the third car's motion after the contact is followed this long
 SPREAD = 0.15  # [m] the third car is also tried this much further back and ahead at the touch (`choose`)
+EDGE_TARGETS = ("leave_road",)  # behaviours whose lateral target is the road's edge (setup._set_lateral_targets)
 AIM_MISS = 0.3  # [m] a fourth actor is aimed at the moving car when its lane lets it drive this near its centre
 
 
@@ -91,19 +98,54 @@ def lanes(plan: VariationPlan, nxt: int, beside: int) -> list[float]:
     """[m] the lateral shifts of actor nxt's start its written position allows: none, and when it starts in a lane
     beside actor `beside`'s, one lane width for each lane of its carriageway further out on that side
     (PlanContext.lanes_beside)."""
-    arrays = plan.ctx.arrays
-    other = plan.scene.actors[beside]
-    _, lat = relative_to_route(arrays, plan.route[nxt], plan.s0[nxt], other.x, other.y)
-    across = float(plan.d0[nxt]) - lat  # [m] how far nxt is on the beside actor's left
-    table = plan.ctx.lanes_beside
-    if abs(across) < plan.lane_width / 2 or table is None or not len(table):
-        return [0.0]
-    lane = int(arrays.lane[plan.route[nxt], min(int(plan.s0[nxt] / ROUTE_DS), arrays.lane.shape[1] - 1)])
-    if lane < 0:
-        return [0.0]
-    side = 1.0 if across > 0 else -1.0
-    count = int(table[lane, 0 if side > 0 else 1])
+    side = _side(plan, nxt, beside)
+    count = _lanes_out(plan, nxt, side) if side else 0
     return [0.0] + [side * plan.lane_width * (i + 1) for i in range(count)]
+
+
+def group_shifts(plan: VariationPlan, nxt: int, group: tuple[int, ...]) -> list[float]:
+    """[m] the lateral shifts the actors of `group` (the cascade's three: striker, struck, third, the last one the
+    car the fourth actor `nxt` meets) may take together, away from the side nxt starts on: one lane width for each
+    lane of the carriageway that every one of them has on that side (PlanContext.lanes_beside). The written
+    relations stay true (each keeps its side of the others; dsl.md: `left|right` is the adjacent lane or that
+    side), and the fourth actor is one lane further away for each, as `lanes` moves it further out when its own
+    side has room: a car spun across the lanes (the third, by a sideswipe) turns through its written heading only
+    after it has crossed so many lanes."""
+    side = _side(plan, nxt, group[-1])
+    if not side:
+        return []
+    count = min(_lanes_out(plan, a, -side) for a in group)
+    return [-side * plan.lane_width * (i + 1) for i in range(count)]
+
+
+def _side(plan: VariationPlan, nxt: int, beside: int) -> float:
+    """1 when actor nxt starts in a lane on the left of actor `beside`'s, -1 on its right, 0 in the same lane."""
+    other = plan.scene.actors[beside]
+    _, lat = relative_to_route(plan.ctx.arrays, plan.route[nxt], plan.s0[nxt], other.x, other.y)
+    across = float(plan.d0[nxt]) - (lat + float(plan.drifted[beside]))  # [m] how far nxt is on beside's left
+    if abs(across) < plan.lane_width / 2:
+        return 0.0
+    return 1.0 if across > 0 else -1.0
+
+
+def _lanes_out(plan: VariationPlan, a: int, side: float) -> int:
+    """How many same-direction lanes lie beyond actor a's start lane on `side` (1: left, -1: right)."""
+    arrays, table = plan.ctx.arrays, plan.ctx.lanes_beside
+    if table is None or not len(table):
+        return 0
+    lane = int(arrays.lane[plan.route[a], min(int(plan.s0[a] / ROUTE_DS), arrays.lane.shape[1] - 1)])
+    return int(table[lane, 0 if side > 0 else 1]) if lane >= 0 else 0
+
+
+def shift_across(plan: VariationPlan, actors: tuple[int, ...], shift: float) -> None:
+    """The actors' starts moved `shift` [m] across their routes (drifted across: plan.drifted), and the lateral
+    targets that are offsets from their lanes with them (a driver leaving the road steers to the road's edge,
+    setup._set_lateral_targets, which does not move)."""
+    for a in actors:
+        names = ("d0", "drifted") if plan.ctx.columns[a].behavior in EDGE_TARGETS else ("d0", "lateral_target",
+                                                                                         "drifted")
+        for name in names:
+            getattr(plan, name)[a] += shift
 
 
 Path = tuple[np.ndarray, np.ndarray, np.ndarray]  # (x, y, yaw) every cascade.DT [m, m, rad], world coordinates
@@ -184,6 +226,7 @@ class Choice:
     shift: float = 0.0
     follow: tuple | None = None
     arrive: float = 0.0
+    key: tuple = ()  # how well it has the written contacts (`choose`'s order: larger is better)
 
 
 def choose(plan: VariationPlan, nxt: Next, candidates: list[tuple[int, float, tuple, bool]],
@@ -234,10 +277,16 @@ def choose(plan: VariationPlan, nxt: Next, candidates: list[tuple[int, float, tu
     row, offset, along, meeting, _, _ = options[best]
     follow = follows.get(best)
     if follow is None:
-        return Choice(row, offset, along, meeting)
+        return Choice(row, offset, along, meeting, key=best_key)
     touch = t1 + (meeting[0] + 1) * cascade.DT
     arrive = touch - cascade.step_lead(touch, dt) + predicted[best][1] + (follow[1][0] + 1) * cascade.DT
-    return Choice(row, offset, along, meeting, follow[0], follow[1], arrive)
+    return Choice(row, offset, along, meeting, follow[0], follow[1], arrive, best_key)
+
+
+def full(key: tuple) -> bool:
+    """Whether a `Choice.key` has the written later contact and, robustly (SPREAD earlier and later too), the
+    written next one with its class and the moving car's area."""
+    return bool(key) and key[0] == 3 and key[2] == 3
 
 
 def _follows(plan: VariationPlan, nxt: Next, third: int, predicted: list) -> dict[int, tuple[float, tuple, bool]]:
