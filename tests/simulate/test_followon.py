@@ -3,12 +3,23 @@ state of a deflected car along its predicted path."""
 from __future__ import annotations
 
 import functools
+import math
+from dataclasses import replace
 from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
-from crashscene.simulate.embedded.followon import group_shifts, mover_state, shift_across
+from crashscene.simulate.embedded.cascade import Push, pushes_moving
+from crashscene.simulate.embedded.followon import (
+    _apart,
+    full,
+    group_shifts,
+    mover_state,
+    option_key,
+    shift_across,
+    steady,
+)
 from crashscene.simulate.embedded.setup import lanes_beside
 from crashscene.simulate.roads import RoadMap
 
@@ -66,3 +77,50 @@ def test_shift_across_moves_starts_and_lane_targets_but_not_the_road_edge_a_driv
     assert plan.d0.tolist() == [-3.5, -3.5, -3.5, 0.0]
     assert plan.drifted.tolist() == [-3.5, -3.5, -3.5, 0.0]
     assert plan.lateral_target.tolist() == [-5.0, -3.5, -3.5, 0.0]  # the road's edge stays where it is
+
+
+def _drift_push(offset: float, approach: float, rate: float) -> Push:
+    """A car drifting right at 28 m/s into a parked car's rear, `offset` of its width to its left (3-C1-2017-001's
+    first contact, variation 20 at seed 7)."""
+    return Push(28.16352, 0.0, np.array([offset]), 1500.0, 1500.0, 4.67, 1.81, 4.79, 2.16, 0.8,
+                wheelbase_ratios=(0.6, 0.6), dt=0.1, approach=approach, approach_rate=rate, lead=0.0982)
+
+
+def test_steady_tells_an_impact_that_throws_the_striker_either_way_on_a_hundredth_of_a_radian():
+    items = [_drift_push(0.1005, -0.0246, -0.0527), _drift_push(0.3503, -0.0139, -0.0418)]
+    found = pushes_moving(items)
+    striker = tuple(np.concatenate([one[1][q] for one in found]) for q in range(2))
+    # the nominal predictions: both strikers turned back left by the impact
+    assert all(one[1][2][0][10] > 1.0 for one in found)
+    # ...but the one into the corner turns the other way when it comes 0.01 rad more to the left
+    assert pushes_moving([replace(items[1], approach=items[1].approach + 0.01)])[0][1][2][0][10] < 0.0
+    assert steady(items, striker, True, [3, 3]) == [True, False]
+    assert steady(items, striker, True, [3, None]) == [True, False]  # no meeting: not steady
+
+
+def test_apart_starts_a_prediction_before_the_two_footprints_overlap():
+    """The third car drives at 20 m/s along y = 0; the deflected car beside it at the same speed slides sideways (+y)
+    at 3 m/s, its side 0.35 m into the third car's at the meeting step (k = 4 of its path, every 0.05 s; widths
+    2 m): a simulator step (0.1 s) earlier it is still 0.05 m in; two steps earlier, 0.25 m apart: the prediction
+    starts there, the third car 4 m back along its route."""
+    tau = np.arange(40) * 0.05
+    path = (100.0 + 20.0 * (tau - 0.2), -2.25 + 3.0 * tau, np.zeros(40), np.full(40, 20.0), np.full(40, 3.0),
+            np.zeros(40))
+    arrays = SimpleNamespace(point=lambda r, s: (s.astype(float), np.zeros(len(s)), np.zeros(len(s))))
+    plan = SimpleNamespace(ctx=SimpleNamespace(arrays=arrays, skid_paths=SimpleNamespace(dt=0.1)),
+                           route=np.array([0, 0]), d0=np.zeros(2), length=np.array([4.5, 4.5]),
+                           width=np.array([2.0, 2.0]))
+    lead, mover_pose, _, third_pose = _apart(plan, 0, 1, path, 4, 1.0, 100.0, 20.0)  # 1.0 s: a step boundary
+    assert lead == pytest.approx(0.2)
+    assert mover_pose == pytest.approx((96.0, -2.25, 0.0))
+    assert third_pose == pytest.approx((96.0, 0.0, 0.0))
+
+
+def test_option_key_ranks_a_steady_impact_then_the_sooner_meeting_below_the_written_classes():
+    aimed = (3, True, 20.0)
+    base = option_key(3, True, 3, True, 10, aimed, 5.0)
+    assert option_key(3, True, 3, True, 4, aimed, 5.0) > base  # sooner
+    assert option_key(3, True, 3, False, 4, aimed, 5.0) < base  # sooner, but not steady
+    assert option_key(3, True, 2, True, 4, aimed, 5.0) < base  # sooner, but the next contact's class not robust
+    assert option_key(3, True, 3, True, 10, (3, True, 25.0), 5.0) > base  # same time: the more central heading
+    assert full(base) and not full(option_key(3, True, 3, False, 4, aimed, 5.0))

@@ -109,12 +109,13 @@ def _plan_cascade(plan: VariationPlan, found: tuple[int, int, int, int, str, tup
     # heading its drift has when it reaches that corner (`_drift_into`)
     approaches = [_drift_approach(plan, si, t1, lat_s + o * plan.width[ti], t_touch) if drifting
                   else (0.0, 0.0, 0.0) for o in offsets]
-    found = lockstep.together(cascade.pushes_moving if nxt is not None else cascade.pushes, [cascade.Push(
+    items = [cascade.Push(
         float(plan.speeds[si]), float(v_t), np.array([o + approach[2] / plan.width[ti]]), cols[si].limits.mass,
         cols[ti].limits.mass, float(plan.length[si]), float(plan.width[si]), float(plan.length[ti]),
         float(plan.width[ti]), plan.ctx.friction, head_on,
         (cols[si].limits.wheelbase_ratio, cols[ti].limits.wheelbase_ratio), plan.ctx.skid_paths.dt, *approach[:2],
-        lead=cascade.step_lead(t_touch, plan.ctx.skid_paths.dt)) for o, approach in zip(offsets, approaches)])
+        lead=cascade.step_lead(t_touch, plan.ctx.skid_paths.dt)) for o, approach in zip(offsets, approaches)]
+    found = lockstep.together(cascade.pushes_moving if nxt is not None else cascade.pushes, items)
     fwd, left, yaw = (np.concatenate([one[0][q] for one in found]) for q in range(3))
     striker = tuple(np.concatenate([one[1][q] for one in found]) for q in range(3))
     rates = [tuple(np.concatenate([one[k][q] for one in found]) for q in range(3, 6))
@@ -133,7 +134,10 @@ def _plan_cascade(plan: VariationPlan, found: tuple[int, int, int, int, str, tup
                   *cascade.to_world(0.0, 0.0, pyaw, rate[0][j], rate[1][j]), rate[2][j])
                  for j in range(len(offsets))]
         alongs = followon.ALONGS if cascade.meeting_mode(later[0], later[2]) == "side" else (SIDE_ALONG,)
-        choice = followon.choose(plan, nxt, [(j, float(o), m, not again[j, m[0]]) for j, (o, m) in
+        # a push the striker does not repeat before the meeting, whose moving car is where it is predicted at the
+        # meeting also when the impact comes a little otherwise than planned (followon.steady)
+        steady = followon.steady(items, moving, mover == si, [m[0] if m is not None else None for m in meetings])
+        choice = followon.choose(plan, nxt, [(j, float(o), m, not again[j, m[0]], steady[j]) for j, (o, m) in
                                              enumerate(zip(offsets, meetings)) if m is not None],
                                  paths, t_touch, mover, xi, later, passing, alongs)
         if choice is not None:
