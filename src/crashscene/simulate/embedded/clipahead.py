@@ -16,6 +16,9 @@ turned 60-120 deg within reach of the lane, the striker's centre is at most 2.1 
 would be (median 4.1 m short of it). None of the 1116 clips of a car at 13-29 m/s by a striker at 17-31 m/s, 3 m/s
 or more faster, on a dry road, meets a third car ahead of the clipped one (1-1.4 times its speed, any gap) first at an
 angle (0 too on a road of friction 0.5 or 0.3): the plan then places nothing, and the clip is planned alone.
+What stops it is the clipped car between them, not the striker's reach: with the third car slower than the clipped
+one (0.6-0.9 times its speed; the striker 19.7-24.5 m/s, the clipped car 11.8-20 m/s) the striker meets it first at an
+angle in 578 of 1186 clips when the clipped car's motion is left out, in none when it is not.
 """
 from __future__ import annotations
 
