@@ -4,12 +4,13 @@ from __future__ import annotations
 
 import functools
 import math
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
+from crashscene.simulate.embedded import cascade_plan
 from crashscene.simulate.embedded.cascade import Push, pushes_moving
 from crashscene.simulate.embedded.followon import (
     CORNERS,
@@ -131,3 +132,65 @@ def test_the_corners_a_fourth_contact_tries_are_a_fine_grid_across_the_struck_ca
     steps = np.diff(CORNERS)
     assert CORNERS[0] == pytest.approx(0.05) and CORNERS[-1] == pytest.approx(0.6)
     assert steps == pytest.approx(np.full(len(steps), 0.025))
+
+
+@dataclass
+class _Plan:
+    """The rows plan_cascade's alternatives change, and a start_back that always has room."""
+
+    s0: np.ndarray
+    d0: np.ndarray
+    lateral_target: np.ndarray
+    drifted: np.ndarray
+    moved: np.ndarray
+    speeds: np.ndarray
+    ctx: object = None
+
+    def start_back(self, a: int, dist: float) -> float:
+        return float(self.s0[a] - dist)
+
+
+def _alternatives(monkeypatch, keys: list[tuple]) -> tuple[_Plan, list[tuple[float, float]]]:
+    """plan_cascade over a fake three-actor cascade (striker 0, struck 1, third 2; fourth 3) whose plans score
+    `keys` in turn; returns the plan it leaves and each plan's (striker's start, the three's lateral shift)."""
+    columns = [SimpleNamespace(behavior="go_forward")] * 4
+    plan = _Plan(np.array([100.0, 130.0, 90.0, 50.0]), np.zeros(4), np.zeros(4), np.zeros(4), np.zeros(4, dtype=bool),
+                 np.array([20.0, 0.0, 25.0, 25.0]), SimpleNamespace(columns=columns))
+    tried, scores = [], iter(keys)
+
+    def one_plan(plan, found):
+        tried.append((float(plan.s0[0]), float(plan.d0[2])))
+        plan.lateral_target[3] = len(tried)  # what this plan placed
+        return next(scores)
+
+    monkeypatch.setattr(cascade_plan, "_cascade_actors", lambda plan: (0, 1, 0, 2, "rear_end", ()))
+    monkeypatch.setattr(cascade_plan.followon, "next_contact", lambda *a: SimpleNamespace(actor=3))
+    monkeypatch.setattr(cascade_plan.followon, "group_shifts", lambda *a: [-3.5])
+    monkeypatch.setattr(cascade_plan, "_plan_cascade", one_plan)
+    cascade_plan.plan_cascade(plan)
+    return plan, tried
+
+
+def _key(least: int, steady: bool) -> tuple:
+    return option_key(3, True, least, steady, 5, (3, True, 10.0), 5.0)
+
+
+def test_a_fourth_contact_tries_the_three_a_lane_over_then_the_striker_further_back_until_one_has_it(monkeypatch):
+    plan, tried = _alternatives(monkeypatch, [_key(2, True), _key(3, False), _key(2, True), _key(3, True),
+                                              _key(0, False)])
+    back = [0.025 * 20.0, 0.05 * 20.0]  # [m] NUDGES at the striker's 20 m/s
+    # as placed, the three a lane over, then the striker nudged back from there (the better lane), until full
+    assert tried == [(100.0, 0.0), (100.0, -3.5), (100.0 - back[0], -3.5), (100.0 - back[1], -3.5)]
+    assert plan.lateral_target[3] == 4 and plan.s0[0] == 100.0 - back[1] and plan.moved[0]
+
+
+def test_a_fourth_contact_keeps_the_best_plan_when_none_has_it(monkeypatch):
+    plan, tried = _alternatives(monkeypatch, [_key(2, True), _key(3, False), _key(2, False), _key(0, False),
+                                              _key(1, True)])
+    assert len(tried) == 5
+    assert plan.lateral_target[3] == 2 and plan.d0[2] == -3.5 and plan.s0[0] == 100.0 and not plan.moved[0]
+
+
+def test_a_fourth_contact_planned_as_placed_is_kept(monkeypatch):
+    plan, tried = _alternatives(monkeypatch, [_key(3, True)])
+    assert tried == [(100.0, 0.0)] and plan.lateral_target[3] == 1

@@ -244,7 +244,8 @@ LATER_CONTACTS = {  # cascades planned from a predicted slide: (scenario, least 
     # and 0.55 of 40 at seeds 1 and 2 (0.25, 0.2, 0.35 without); preferring a first impact whose outcome does not
     # turn on a hundredth of a radian (followon.steady) and predicting the sideswipe from before the two touch
     # (followon._apart): 0.65, 0.6, 0.7; the sooner meeting (followon.option_key): 0.65, 0.6, 0.725; corners every
-    # 0.025 of the width (followon.CORNERS): 0.6, 0.625, 0.675
+    # 0.025 of the width (followon.CORNERS): 0.6, 0.625, 0.675; the striker started up to 3/4 of a step further
+    # back when no plan has the fourth contact steadily (cascade_plan.NUDGES): 0.6, 0.65, 0.65
     "a_sideswipe_spins_the_car_alongside_into_a_fourth_car_two_lanes_over": (scenario(
         "divided_four", "speed_limit_sign", 65,
         actor("ego", "go_forward", "reference: road, relation: behind")

@@ -27,6 +27,9 @@ SPEEDING_RUN = 2.0  # [s] a striker charged with speeding drives this long befor
 CASCADE_SETTLE = 1.5  # [s] a striker steering to the corner it is to hit is there this long before the impact
 CASCADE_LAG = 0.7  # [-] a steering driver follows its lateral reference this much slower than the reference moves
 CASCADE_ACROSS = 0.9  # [-] at most this part of the way across is done before the scene starts
+NUDGES = (0.025, 0.05, 0.075)  # [s] how much further back (at its speed) a striker whose impact is to set off a
+# fourth contact may start: a quarter, a half and three quarters of the simulator's step (0.1 s), where in that step
+# the touch falls changing what an offset impact does (followon.steady)
 STOP_NEAR_JUNCTION = 40.0  # [m] a stopping driver this close to a junction stops at its line
 
 
@@ -44,26 +47,34 @@ def plan_cascade(plan: VariationPlan) -> None:
         return
     si, ti, mover, xi = found[:4]
     nxt = followon.next_contact(plan, (si, ti, xi), mover, xi)  # a fourth contact after the third car's
-    shifts = followon.group_shifts(plan, nxt.actor, (si, ti, xi)) if nxt is not None else []
-    if not shifts:
+    if nxt is None:
         _plan_cascade(plan, found)
         return
-    # a fourth contact: the cascade's three may start further from the fourth actor's side (group_shifts), which
-    # is planned too when the plan where they are does not have the written fourth contact; the one whose chosen
-    # options have it best (followon.choose's order) is kept
+    # a fourth contact: when the plan where they are does not have it (followon.full), the cascade's three may start
+    # further from the fourth actor's side (group_shifts), and then the striker a little further back (NUDGES);
+    # the plan whose chosen options have it best (followon.choose's order) is kept
     before = _state(plan)
-    best_key, best = _plan_cascade(plan, found), None
-    if best_key is not None and followon.full(best_key):
-        return
-    for shift in shifts:
+    alternatives = [(shift, 0.0) for shift in followon.group_shifts(plan, nxt.actor, (si, ti, xi))]
+    alternatives += [(None, nudge) for nudge in NUDGES]
+    best_key, best, best_shift = _plan_cascade(plan, found), None, 0.0
+    for shift, nudge in alternatives:
+        if best_key is not None and followon.full(best_key):
+            break
         if best is None:
             best = _state(plan)
         _restore(plan, before)
+        shift = best_shift if shift is None else shift
         followon.shift_across(plan, (si, ti, xi), shift)
+        if nudge:
+            back = plan.start_back(si, nudge * float(plan.speeds[si]))
+            if back is None:
+                continue
+            plan.s0[si], plan.moved[si] = back, True
         key = _plan_cascade(plan, found)
         if key is not None and (best_key is None or key > best_key):
-            best_key, best = key, _state(plan)
-    _restore(plan, best)
+            best_key, best, best_shift = key, _state(plan), shift
+    if best is not None:
+        _restore(plan, best)
 
 
 def _state(plan: VariationPlan) -> dict[str, np.ndarray]:
