@@ -22,6 +22,7 @@ from crashscene.simulate.embedded.followon import (
     shift_across,
     steady,
 )
+from crashscene.simulate.embedded.plan import VariationPlan
 from crashscene.simulate.embedded.setup import lanes_beside
 from crashscene.simulate.roads import RoadMap
 
@@ -148,6 +149,9 @@ class _Plan:
 
     def start_back(self, a: int, dist: float) -> float:
         return float(self.s0[a] - dist)
+
+    snapshot = VariationPlan.snapshot
+    restore = VariationPlan.restore
 
 
 def _alternatives(monkeypatch, keys: list[tuple]) -> tuple[_Plan, list[tuple[float, float]]]:

@@ -6,7 +6,6 @@ third vehicle is placed to meet it there (`meetings`).
 """
 from __future__ import annotations
 
-import dataclasses
 import math
 from typing import TYPE_CHECKING
 
@@ -53,7 +52,7 @@ def plan_cascade(plan: VariationPlan) -> None:
     # a fourth contact: when the plan where they are does not have it (followon.full), the cascade's three may start
     # further from the fourth actor's side (group_shifts), and then the striker a little further back (NUDGES);
     # the plan whose chosen options have it best (followon.choose's order) is kept
-    before = _state(plan)
+    before = plan.snapshot()
     alternatives = [(shift, 0.0) for shift in followon.group_shifts(plan, nxt.actor, (si, ti, xi))]
     alternatives += [(None, nudge) for nudge in NUDGES]
     best_key, best, best_shift = _plan_cascade(plan, found), None, 0.0
@@ -61,8 +60,8 @@ def plan_cascade(plan: VariationPlan) -> None:
         if best_key is not None and followon.full(best_key):
             break
         if best is None:
-            best = _state(plan)
-        _restore(plan, before)
+            best = plan.snapshot()
+        plan.restore(before)
         shift = best_shift if shift is None else shift
         followon.shift_across(plan, (si, ti, xi), shift)
         if nudge:
@@ -72,23 +71,9 @@ def plan_cascade(plan: VariationPlan) -> None:
             plan.s0[si], plan.moved[si] = back, True
         key = _plan_cascade(plan, found)
         if key is not None and (best_key is None or key > best_key):
-            best_key, best, best_shift = key, _state(plan), shift
+            best_key, best, best_shift = key, plan.snapshot(), shift
     if best is not None:
-        _restore(plan, best)
-
-
-def _state(plan: VariationPlan) -> dict[str, np.ndarray]:
-    """Copies of the plan's per-actor arrays (what planning a cascade may change)."""
-    return {f.name: getattr(plan, f.name).copy() for f in dataclasses.fields(plan)
-            if isinstance(getattr(plan, f.name), np.ndarray) and f.name not in READ_ONLY}
-
-
-def _restore(plan: VariationPlan, state: dict[str, np.ndarray]) -> None:
-    for name, value in state.items():
-        getattr(plan, name)[:] = value
-
-
-READ_ONLY = ("route", "speed", "length", "width", "entry_control")  # the plan's rows it never changes
+        plan.restore(best)
 
 
 def _plan_cascade(plan: VariationPlan, found: tuple[int, int, int, int, str, tuple[str, str, str]]) -> tuple | None:

@@ -151,7 +151,7 @@ def _clip_then_meet(plan: VariationPlan, a: int, partner: int, gap: float, conta
     arrays, dt = ctx.arrays, ctx.skid_paths.dt
     lo = timing.SPEED_SCALE[0]
     best, best_score = None, (-1, -math.inf)
-    saved = (plan.scale[partner], plan.speeds[partner], plan.s0[partner], plan.moved[partner])
+    before = plan.snapshot()
     tried = []  # (scale, timing, the partner's shifted start) of each partner speed with a clip
     scales, t_reaches = [], []  # the partner speeds that close in, and when actor a reaches the partner
     for scale in np.linspace(float(plan.scale[partner]), lo, CLIP_SPEEDS):
@@ -170,11 +170,10 @@ def _clip_then_meet(plan: VariationPlan, a: int, partner: int, gap: float, conta
             plan.scale[partner], plan.speeds[partner] = scale, plan.planned[partner] * scale
             timed = _clip_timing(plan, a, partner, one, path, relative)
             shifted = (plan.s0[partner], plan.moved[partner])
-            plan.s0[partner], plan.moved[partner] = saved[2], saved[3]
+            plan.restore(before)
             if timed is not None:
                 tried.append((scale, timed, shifted))
     if clipahead.ahead_in_lane(plan, partner, third):  # the clipped car is in the way: stepped with it
-        plan.scale[partner], plan.speeds[partner] = saved[0], saved[1]
         return clipahead.plan_ahead(plan, a, partner, third, later[0], tried)
     me = (float(plan.length[a]), float(plan.width[a]), cols[a].limits.mass, cols[a].limits.wheelbase_ratio)
     them = (float(plan.length[partner]), float(plan.width[partner]), cols[partner].limits.mass,
@@ -197,7 +196,6 @@ def _clip_then_meet(plan: VariationPlan, a: int, partner: int, gap: float, conta
         score = (matches(meeting, later), meeting[5])
         if score > best_score:
             best, best_score = (scale, timed, shifted, t_touch, meeting), score
-    plan.scale[partner], plan.speeds[partner] = saved[0], saved[1]
     if best is None or best[4][2] != later[0]:
         return False
     scale, timed, shifted, t_touch, meeting = best

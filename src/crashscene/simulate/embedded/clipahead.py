@@ -217,8 +217,7 @@ def plan_ahead(plan: VariationPlan, a: int, partner: int, third: int, klass: str
     if found is None:
         return False
     (scale, timed, shifted), shift = tried[found[0]], found[1]
-    saved = (plan.scale[partner], plan.speeds[partner], plan.s0[partner], plan.moved[partner], plan.s0[third],
-             plan.moved[third])
+    saved = plan.snapshot()
     placed = plan.shift_start(third, shift) if shift else float(plan.s0[third])
     if placed is None:
         return False
@@ -230,8 +229,7 @@ def plan_ahead(plan: VariationPlan, a: int, partner: int, third: int, klass: str
     times = np.arange(0.0, t_clip + pushchain.STEP, pushchain.STEP)
     _, v = pushchain.approach(plan, partner, times)
     if float(np.min(v)) < plan.speeds[partner] - BRAKE_TOLERANCE:
-        (plan.scale[partner], plan.speeds[partner], plan.s0[partner], plan.moved[partner], plan.s0[third],
-         plan.moved[third]) = saved
+        plan.restore(saved)
         return False
     plan.trigger[a] = timed.trigger
     return True

@@ -251,9 +251,6 @@ def route_pose(plan: VariationPlan, a: int, station: float, lateral: float) -> t
     return px - math.sin(pyaw) * lateral, py + math.cos(pyaw) * lateral, pyaw
 
 
-PLACED = ("s0", "moved", "scale", "speeds", "hold")  # what placing an actor changes (meetings.place_third)
-
-
 @dataclass(frozen=True)
 class Choice:
     """The cascade's options chosen for a fourth contact: the striker's corner (`offset`, row `row` of the
@@ -412,14 +409,13 @@ def _placed_speed(plan: VariationPlan, third: int, meeting: tuple, later: tuple[
                   passing: tuple[int, ...], along: float) -> float | None:
     """[m/s] the speed actor `third` meets at when placed as meetings.place_third places it (a dry run: the plan is
     left as it was); None when it cannot be placed."""
-    saved = [getattr(plan, name).copy() for name in PLACED]
+    saved = plan.snapshot()
     try:
         if not place_third(plan, third, meeting, later, arrive, passing, along):
             return None
         return float(plan.speeds[third])
     finally:
-        for name, value in zip(PLACED, saved):
-            getattr(plan, name)[:] = value
+        plan.restore(saved)
 
 
 def _body(plan: VariationPlan, a: int) -> tuple[float, float, float, float]:
@@ -434,11 +430,10 @@ def place(plan: VariationPlan, nxt: Next, choice: Choice) -> bool:
     if choice.follow is None:
         return False
     a = nxt.actor
-    saved = [getattr(plan, name).copy() for name in PLACED + ("d0", "lateral_target", "drifted")]
+    saved = plan.snapshot()
     for name in ("d0", "lateral_target", "drifted"):
         getattr(plan, name)[a] += choice.shift
     if place_third(plan, a, choice.follow, nxt.later, choice.arrive):
         return True
-    for name, value in zip(PLACED + ("d0", "lateral_target", "drifted"), saved):
-        getattr(plan, name)[:] = value
+    plan.restore(saved)
     return False

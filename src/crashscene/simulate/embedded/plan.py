@@ -14,7 +14,7 @@ Every draw comes from the variation's own generator in a fixed order, so a plan 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -79,6 +79,9 @@ class Draws:
                    lead=rng.uniform(*LEAD_TIME, n_a), trigger=rng.uniform(1.0, 4.0, n_a),
                    green=rng.uniform(*SIGNAL_GREEN), spin=rng.choice([-1.0, 1.0], n_a),
                    rotation=rng.uniform(*SKID_ROTATION, n_a), cascade=rng.uniform(0.0, 1.0, n_a))
+
+
+READ_ONLY_ROWS = ("route", "speed", "length", "width", "entry_control")  # a plan's start rows from its scene
 
 
 @dataclass
@@ -158,6 +161,17 @@ class VariationPlan:
             pushchain.place_chain(plan)
         plan.plan_signal_phase()
         return plan
+
+    def snapshot(self) -> dict[str, np.ndarray]:
+        """Copies of the per-actor rows planning may change (every array field but the scene's start rows, which
+        are read only), for `restore`: a planning step tried and dropped leaves the plan as it was."""
+        return {f.name: getattr(self, f.name).copy() for f in fields(self)
+                if f.name not in READ_ONLY_ROWS and isinstance(getattr(self, f.name), np.ndarray)}
+
+    def restore(self, snapshot: dict[str, np.ndarray]) -> None:
+        """The rows `snapshot` copied, back as they were then."""
+        for name, value in snapshot.items():
+            getattr(self, name)[:] = value
 
     def param(self, a: int, names: tuple[str, ...], default: float) -> float:
         """Actor a's sampled scene parameter (`scene_param`), else `default`."""
