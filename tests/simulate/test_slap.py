@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from crashscene.geometry import footprint_separation
-from crashscene.simulate.embedded import impact, slap, touch
+from crashscene.simulate.embedded import impact, rollout, slap, touch
 from crashscene.simulate.embedded.vehicles import VehicleLimits
 
 L, W = 4.7, 1.85  # [m]
@@ -88,3 +88,36 @@ def test_a_fresh_touch_is_left_where_it_is():
     x = np.zeros(1)
     moves = impact.separate(x, x, x, L, W, np.full(1, M), np.full(1, L - 0.01), x, x, L, W, np.full(1, M))
     assert all(m == pytest.approx([0.0]) for m in moves)
+
+
+@pytest.mark.parametrize(("d", "rel_deg", "v_s", "v_t"), [
+    ([1.5, 1.7, 2.0, -1.0], 106.0, 16.0, 4.0),  # slaps ahead of the centre, none behind it
+    # a slow striker the impulse does not upset: its driver drives it on along its heading (the simulator's
+    # rule), not carried on at the impulse's velocity and yaw rate, and it does not touch the struck car again
+    ([0.6, 0.8, 1.0], 130.0, 4.0, 8.0),
+])
+def test_after_touch_steps_the_pair_as_rollout_does_through_its_first_touch(d, rel_deg, v_s, v_t):
+    # the pair a simulator step before it touches, stepped by rollout's stepping (rollout.contact_steps, as
+    # `rollout` steps a pair) through the touch and on, and after_touch from the poses at that touch: the same
+    # next touch and so the same margin (one stepping of a contact, not two)
+    d = np.array(d)
+    n, dt = len(d), 0.1
+    poses, motions = first_touch(d, rel_deg, v_s, v_t, 0.0)  # straight on: one step back is exact
+    ones = np.ones(n)
+    bodies = [rollout.Bodies(*(np.asarray(p, dtype=float) - dt * v for p, v in zip(pose[:2], motion[:2])),
+                             np.asarray(pose[2], dtype=float) * ones, *(np.asarray(v, dtype=float) * ones
+                                                                          for v in motion),
+                             L * ones, W * ones, M * ones, VehicleLimits().wheelbase_ratio * L * ones,
+                             np.zeros(n, dtype=bool), np.zeros(n))
+              for pose, motion in zip(poses, motions)]
+    bodies[0].x += 0.05  # [m] the striker a little further in, so that its first step crosses the touch
+    steps = rollout.contact_steps(*bodies, 0.8, dt, int(round(slap.HORIZON / dt)) + 1)
+    first = next(steps)
+    assert first.onset.all()
+    at_touch = [first.contact[:3], first.contact[3:]]
+    expected = np.full(n, -np.inf)
+    done = np.zeros(n, dtype=bool)
+    for step in steps:
+        expected, done = slap.touched_again(step, expected, done, L, W)
+    got = slap.after_touch(at_touch, motions, (body(v_s), body(v_t)), ones, 0.8, dt)
+    np.testing.assert_allclose(got, expected, atol=1e-6)

@@ -10,10 +10,12 @@ move, then overlap, back to the moment of first contact at an onset, exchange wh
 pushed apart until they barely touch, `impact.separate`; a vehicle an exchange upsets slides on its tyres,
 `impact.tyre_slide`, one it does not keeps its driver, who drives on at the speed the impulse leaves, turning as it
 did), vectorised over many pairs, so that a plan can choose among its options by what the simulator will do with
-them. A body may come into the contact already sliding from an impact before (`sliding`).
+them. A body may come into the contact already sliding from an impact before (`sliding`). That stepping is written
+once (`contact_steps`); `rollout` records its poses, slap.after_touch reads its touches.
 """
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -84,33 +86,72 @@ def rollout(a: Bodies, b: Bodies, friction: float | np.ndarray, dt: float, steps
             sliding: np.ndarray | None = None, motion: bool = False
             ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The poses of N pairs (a, b) every dt [s] for `steps` steps, stepped as the simulator steps them (module
-    docstring): (x, y, yaw) of a and of b, each (3, N, steps) (with `motion`, (x, y, yaw, vx, vy, yaw rate), (6, N,
-    steps)), the time [s] of each pair's first contact (NaN when they never touch) and whether each of a, b was
-    upset by then (2, N) at the end. `sliding` (2, N) bool: which bodies come already sliding on their tyres from
-    an impact before (they must be `free` too; none when not given). The inputs are not changed."""
+    docstring, `contact_steps`): (x, y, yaw) of a and of b, each (3, N, steps) (with `motion`, (x, y, yaw, vx, vy,
+    yaw rate), (6, N, steps)), the time [s] of each pair's first contact (NaN when they never touch) and whether
+    each of a, b was upset by then (2, N) at the end. `sliding` (2, N) bool: which bodies come already sliding on
+    their tyres from an impact before (they must be `free` too; none when not given). The inputs are not changed."""
     a, b = a.copy(), b.copy()
     n = len(a.x)
     out = np.zeros((2, 6 if motion else 3, n, steps))
+    first = np.full(n, np.nan)
+    for k, step in enumerate(contact_steps(a, b, friction, dt, steps, sliding)):
+        if step.onset.any():
+            first = np.where(step.onset & np.isnan(first), (k + step.frac) * dt, first)
+        for i, q in enumerate((a, b)):
+            out[i, :, :, k] = (q.x, q.y, q.yaw, q.vx, q.vy, q.w) if motion else (q.x, q.y, q.yaw)
+    return out[0], out[1], first, np.stack([a.free, b.free])
+
+
+@dataclass
+class Step:
+    """One simulator step of N pairs (`contact_steps`): which pairs overlap at its check (N,), which began to touch
+    in it (`onset`), the fraction of the step at which they did (1 elsewhere) and, when any did, their poses at
+    that moment, before the exchange moves them apart: (x, y, yaw) of a, then of b, (N,) each (the step's end
+    elsewhere)."""
+
+    overlap: np.ndarray
+    onset: np.ndarray
+    frac: np.ndarray
+    contact: tuple[np.ndarray, ...] | None
+
+
+def contact_steps(a: Bodies, b: Bodies, friction: float | np.ndarray, dt: float, steps: int,
+                  sliding: np.ndarray | None = None, at_contact: np.ndarray | None = None) -> Iterator[Step]:
+    """The simulator's stepping of N pairs through their contact, the one copy of it (`rollout` and
+    slap.after_touch read it): each step moves both bodies (`_move`), tests their overlap, moves the pairs that
+    began to touch back to that moment (`_back_to_contact`) and exchanges an impulse where they overlap
+    (`_exchange`), in the simulator's order (simulator._check_collisions); a `Step` is yielded after each, with
+    `a` and `b` (changed in place) at its end. As in the simulator (simulator._exchange), a body is upset by what
+    one exchange changes (crashscene.upset), and one not upset keeps its driver, who drives on at its speed along
+    its heading, its yaw rate the driver's (`turn`), not the impulse's. `sliding`: as `rollout`. `at_contact` (N,)
+    bool: pairs whose poses are the moment of their first contact (a touch found by the caller): they exchange
+    before the first step, as the simulator does at a contact's onset before it steps on."""
+    n = len(a.x)
     touching = footprints_overlap(a.x, a.y, a.yaw, a.length, a.width, b.x, b.y, b.yaw, b.length, b.width)
     collided = np.zeros((2, n), dtype=bool) if sliding is None else np.array(sliding, dtype=bool, copy=True)
-    first = np.full(n, np.nan)
     friction = np.broadcast_to(np.asarray(friction, dtype=float), (n,))
-    for k in range(steps):
+    for q in (a, b):
+        if q.turn is None:
+            q.turn = np.zeros(n)
+    if at_contact is not None and at_contact.any():
+        touching = touching | at_contact
+        _exchange(a, b, at_contact)
+        collided[:, at_contact] = True
+    for _ in range(steps):
         prev = [(q.x.copy(), q.y.copy(), q.yaw.copy()) for q in (a, b)]
         for i, q in enumerate((a, b)):
             _move(q, collided[i], friction, dt)
         overlap = footprints_overlap(a.x, a.y, a.yaw, a.length, a.width, b.x, b.y, b.yaw, b.length, b.width)
         onset = overlap & ~touching
         touching = overlap
+        frac, contact = np.ones(n), None
         if onset.any():
             frac = _back_to_contact(a, b, prev, onset)
-            first = np.where(onset & np.isnan(first), (k + frac) * dt, first)
+            contact = tuple(np.array(v, copy=True) for q in (a, b) for v in (q.x, q.y, q.yaw))
         if overlap.any():
             _exchange(a, b, overlap)
             collided[:, overlap] = True
-        for i, q in enumerate((a, b)):
-            out[i, :, :, k] = (q.x, q.y, q.yaw, q.vx, q.vy, q.w) if motion else (q.x, q.y, q.yaw)
-    return out[0], out[1], first, np.stack([a.free, b.free])
+        yield Step(overlap, onset, frac, contact)
 
 
 def _move(q: Bodies, collided: np.ndarray, friction: np.ndarray, dt: float) -> None:

@@ -21,15 +21,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from crashscene.geometry import (
-    classify_contact,
-    footprint_separation,
-    heading_difference,
-    relative_position,
-    touch_fraction,
-)
-from crashscene.simulate.embedded import cascade, impact, touch
-from crashscene.upset import upsets
+from crashscene.geometry import classify_contact, footprint_separation, heading_difference, relative_position
+from crashscene.simulate.embedded import cascade, impact, rollout, touch
 
 STEP = 0.1  # [m] between candidate touches along the struck side
 HORIZON = 2.5  # [s] a slap is looked for this long after the first touch
@@ -121,66 +114,43 @@ def after_touch(poses, motion, bodies, one: np.ndarray, friction: float, dt: flo
     """[deg] (N,) how far inside the sideswipe range (side to side) the pair's next touch after a first one is
     (cascade.class_margin; -inf where they do not touch again within HORIZON), from the first touch's poses
     ([x, y, yaw] per body, (N,) each) and motions ([vx, vy, yaw rate] [m/s, rad/s]), stepped by the simulator's
-    `dt` [s] as it moves them: the impulse at every check they overlap (impact.exchange, nothing once they
-    separate) and their separation (impact.separate), a body an impulse upsets sliding on its tyres
-    (impact.tyre_slide), one it does not taken on at its velocity (its driver's steering is not foreseen); a touch
-    again is an overlap after a check apart, classed where they first touch within the step."""
+    `dt` [s] as it steps them (rollout.contact_steps, the one copy of that stepping: the impulse at every check
+    they overlap, their separation, a body one impulse upsets sliding on its tyres, one it does not driven on by
+    its driver at its speed, turning at the yaw rate it had at the first touch, as the simulator's driver does,
+    not carried on at the impulse's velocity and yaw rate); a touch again is an overlap after a check apart,
+    classed where they first touch within the step."""
     n = len(one)
-    dims = [(b.mover.length * one, b.mover.width * one, b.mass * one,
-             b.mover.limits.wheelbase_ratio * b.mover.length * one) for b in bodies]
-    inertia = [impact.yaw_inertia(m, ln, w) for ln, w, m, _ in dims]
-    pose = [list(p) for p in poses]
-    vel = [list(v) for v in motion]
-    start = [list(v) for v in motion]
-    upset = [np.zeros(n, dtype=bool), np.zeros(n, dtype=bool)]
-    (la, wa, ma, _), (lb, wb, mb, _) = dims
-    touching = np.zeros(n, dtype=bool)
+
+    def body(k: int) -> rollout.Bodies:
+        b = bodies[k]
+        x, y, yaw = (np.asarray(q, dtype=float) * one for q in poses[k])
+        vx, vy, w = (np.asarray(q, dtype=float) * one for q in motion[k])
+        return rollout.Bodies(x, y, yaw, vx, vy, w, b.mover.length * one, b.mover.width * one, b.mass * one,
+                              b.mover.limits.wheelbase_ratio * b.mover.length * one, np.zeros(n, dtype=bool),
+                              np.array(w, copy=True))
+
+    a, b = body(0), body(1)
+    half_length, half_width = (a.length + b.length) / 2, (a.width + b.width) / 2
     out = np.full(n, -np.inf)
     done = np.zeros(n, dtype=bool)
-    before = None
-    for step in range(int(round(HORIZON / dt)) + 1):
-        overlap = np.ones(n, dtype=bool) if step == 0 else \
-            footprint_separation(*pose[0], la, wa, *pose[1], lb, wb) <= 0
-        onset = overlap & ~touching & ~done & (step > 0)
-        if onset.any():
-            def within(k: int, f: np.ndarray, before=before):
-                return [b + f * (q - b) for b, q in zip(before[k], pose[k])]
-            f = touch_fraction(lambda f: within(0, f), lambda f: within(1, f), la, wa, lb, wb, n)
-            pa, pb = within(0, f), within(1, f)
-            for k, p in ((0, pa), (1, pb)):
-                pose[k] = [np.where(onset, q, q0) for q, q0 in zip(p, pose[k])]
-            rel = heading_difference(pa[2], pb[2])
-            lon, lat = relative_position(*pa, pb[0], pb[1])
-            klass = classify_contact(rel, lon, lat, (la + lb) / 2, (wa + wb) / 2)
-            margin = np.where(klass == "sideswipe", cascade.class_margin(rel, "sideswipe", side=True), -np.inf)
-            out = np.where(onset & (margin > out), margin, out)
-            done |= onset & (klass == "sideswipe")
-        touching = overlap
-        if overlap.any():
-            nx, ny, px, py, penetration = impact.contact(*pose[0], la, wa, *pose[1], lb, wb)
-            va1, wa1, vb1, wb1, _ = impact.exchange(nx, ny, px, py, pose[0][0], pose[0][1], np.stack(vel[0][:2]),
-                                                    vel[0][2], ma, inertia[0], pose[1][0], pose[1][1],
-                                                    np.stack(vel[1][:2]), vel[1][2], mb, inertia[1])
-            for k, (v1, w1) in enumerate(((va1, wa1), (vb1, wb1))):
-                new = [np.where(overlap, v1[0], vel[k][0]), np.where(overlap, v1[1], vel[k][1]),
-                       np.where(overlap, w1, vel[k][2])]
-                upset[k] |= overlap & upsets(np.hypot(new[0] - start[k][0], new[1] - start[k][1]),
-                                             new[2] - start[k][2])
-                vel[k] = new
-            # the exchange changed velocities only: the poses, normal and penetration are the contact's
-            dxa, dya, dxb, dyb = impact.separate(*pose[0], la, wa, ma, *pose[1], lb, wb, mb,
-                                                 frame=(nx, ny, penetration))
-            pose[0][0], pose[0][1] = pose[0][0] + dxa, pose[0][1] + dya
-            pose[1][0], pose[1][1] = pose[1][0] + dxb, pose[1][1] + dyb
-        still = [(np.hypot(v[0], v[1]) < impact.REST_SPEED) & (np.abs(v[2]) < impact.REST_YAW_RATE) for v in vel]
-        if (done | (still[0] & still[1] & ~overlap)).all():
+    for step in rollout.contact_steps(a, b, friction, dt, int(round(HORIZON / dt)), at_contact=np.ones(n, dtype=bool)):
+        out, done = touched_again(step, out, done, half_length, half_width)
+        still = [(np.hypot(q.vx, q.vy) < impact.REST_SPEED) & (np.abs(q.w) < impact.REST_YAW_RATE) for q in (a, b)]
+        if (done | (still[0] & still[1] & ~step.overlap)).all():
             break  # every pair slapped, or at rest apart
-        before = [list(q) for q in pose]
-        for k, (ln, w, _, wheelbase) in enumerate(dims):
-            vx, vy, yr = vel[k]
-            sx, sy, sw = impact.tyre_slide(vx, vy, pose[k][2], yr, friction, ln, w, wheelbase, dt)
-            vx1, vy1, yr1 = (np.where(upset[k], q, q0) for q, q0 in ((sx, vx), (sy, vy), (sw, yr)))
-            pose[k] = [pose[k][0] + 0.5 * (vx + vx1) * dt, pose[k][1] + 0.5 * (vy + vy1) * dt,
-                       pose[k][2] + 0.5 * (yr + yr1) * dt]
-            vel[k] = [vx1, vy1, yr1]
     return out
+
+
+def touched_again(step: rollout.Step, out: np.ndarray, done: np.ndarray, half_length, half_width):
+    """`after_touch`'s margins and slapped pairs (N,) after one more step: each pair not yet slapped that touches
+    again in it keeps the larger of its margin and this touch's (cascade.class_margin inside the sideswipe range,
+    side to side; -inf for a touch of another class), classed at its poses where they first touch."""
+    onset = step.onset & ~done
+    if not onset.any():
+        return out, done
+    xa, ya, yawa, xb, yb, yawb = step.contact
+    rel = heading_difference(yawa, yawb)
+    lon, lat = relative_position(xa, ya, yawa, xb, yb)
+    klass = classify_contact(rel, lon, lat, half_length, half_width)
+    margin = np.where(klass == "sideswipe", cascade.class_margin(rel, "sideswipe", side=True), -np.inf)
+    return np.where(onset & (margin > out), margin, out), done | (onset & (klass == "sideswipe"))
