@@ -197,16 +197,13 @@ def touch_again(struck: tuple[np.ndarray, np.ndarray, np.ndarray], striker: tupl
 
 def slide_path(x, y, yaw, vx, vy, yaw_rate, friction: float, length, width, dt: float, steps: int, wheelbase=None):
     """(x, y, yaw) (N, steps) of N sliding vehicles every dt [s] from now ([m], [m/s], [rad/s] (N,)), integrated
-    as the simulator moves a vehicle after an impact (simulator._move: impact.tyre_slide, trapezoidal), exact
+    as the simulator moves a vehicle after an impact (rollout.slide_step, as simulator._move), exact
     until it touches something else; `wheelbase` [m] (N,), a car's share of the length when not given."""
     wheelbase = CAR_WHEELBASE_RATIO * length if wheelbase is None else wheelbase
     out = np.zeros((3, len(x), steps))
     for k in range(steps):
-        vx1, vy1, w1 = impact.tyre_slide(vx, vy, yaw, yaw_rate, friction, length, width, wheelbase, dt)
-        x = x + 0.5 * (vx + vx1) * dt
-        y = y + 0.5 * (vy + vy1) * dt
-        yaw = yaw + 0.5 * (yaw_rate + w1) * dt
-        vx, vy, yaw_rate = vx1, vy1, w1
+        x, y, yaw, vx, vy, yaw_rate = rollout.slide_step(x, y, yaw, vx, vy, yaw_rate, friction, length, width,
+                                                         wheelbase, dt)
         out[:, :, k] = x, y, yaw
     return out[0], out[1], out[2]
 

@@ -158,9 +158,8 @@ def _move(q: Bodies, collided: np.ndarray, friction: np.ndarray, dt: float) -> N
     """One step of each body: a free one slides on its tyres (trapezoidal, as simulator._move), a driven one
     drives on at its speed, turning at the yaw rate its driver had (held: its steering over one step)."""
     speed = np.hypot(q.vx, q.vy)
-    vx, vy, w = impact.tyre_slide(q.vx, q.vy, q.yaw, q.w, friction, q.length, q.width, q.wheelbase, dt)
-    slide_x, slide_y = q.x + 0.5 * (q.vx + vx) * dt, q.y + 0.5 * (q.vy + vy) * dt
-    slide_yaw = q.yaw + 0.5 * (q.w + w) * dt
+    slide_x, slide_y, slide_yaw, vx, vy, w = slide_step(q.x, q.y, q.yaw, q.vx, q.vy, q.w, friction, q.length,
+                                                        q.width, q.wheelbase, dt)
     free = q.free & collided
     drive_x, drive_y, drive_yaw = bicycle_move(q.x, q.y, q.yaw, speed, q.turn, dt)
     q.x = np.where(free, slide_x, drive_x)
@@ -169,6 +168,13 @@ def _move(q: Bodies, collided: np.ndarray, friction: np.ndarray, dt: float) -> N
     q.vx = np.where(free, vx, speed * np.cos(q.yaw))
     q.vy = np.where(free, vy, speed * np.sin(q.yaw))
     q.w = np.where(free, w, q.turn)
+
+
+def slide_step(x, y, yaw, vx, vy, yaw_rate, friction, length, width, wheelbase, dt: float):
+    """One step [s] of bodies sliding on their tyres after an impact (impact.tyre_slide), integrated trapezoidally
+    as simulator._move integrates a sliding vehicle: (x, y, yaw (not wrapped), vx, vy, yaw rate) at its end."""
+    vx1, vy1, w1 = impact.tyre_slide(vx, vy, yaw, yaw_rate, friction, length, width, wheelbase, dt)
+    return x + 0.5 * (vx + vx1) * dt, y + 0.5 * (vy + vy1) * dt, yaw + 0.5 * (yaw_rate + w1) * dt, vx1, vy1, w1
 
 
 def _back_to_contact(a: Bodies, b: Bodies, prev, hit: np.ndarray) -> np.ndarray:
