@@ -7,7 +7,6 @@ import numpy as np
 import pytest
 
 from crashscene.simulate.embedded import cascade, lockstep, skid, swerve
-from crashscene.simulate.embedded.meetings import nearest_points
 
 
 def _job(k: int, seen: list):
@@ -122,23 +121,6 @@ def test_skid_touches_and_areas_at_once_equal_each_alone():
     for item, got in zip(area_items, skid._areas(area_items)):
         for a, b in zip(got, skid._areas([item])[0]):
             assert list(a) == list(b)
-
-
-@pytest.mark.parametrize("seed", range(20))
-def test_nearest_is_argmin_of_every_distance(seed):
-    rng = np.random.default_rng(seed)
-    points = np.round(rng.normal(0, 20, (int(rng.integers(1, 300)), 2)), int(rng.integers(0, 3)))
-    if seed % 3 == 0:
-        points = np.concatenate([points, points])  # exact ties: the first one
-    n = int(rng.integers(1, 90))
-    x, y = np.round(rng.normal(0, 20, n), 1), np.round(rng.normal(0, 20, n), 1)
-    if seed % 7 == 0:
-        x[0] = np.nan
-    dist = np.hypot(points[None, :, 0] - x[:, None], points[None, :, 1] - y[:, None])
-    want = np.argmin(dist, axis=1)
-    got, got_dist = nearest_points(points, x, y)
-    assert np.array_equal(got, want)
-    assert np.array_equal(got_dist, dist[np.arange(n), want], equal_nan=True)
 
 
 def test_jobs_run_with_the_callers_numpy_error_state():

@@ -90,15 +90,7 @@ def pushed_meetings(plan: VariationPlan, ti: int, xi: int, paths: list[tuple[np.
     pyaw = lockstep.per_element((p[2] for p in poses), sizes)
     r = plan.route[xi]
     xy = arrays.xy[r]
-    # the nearest route point of each path point, among those within NEAR_ROUTE of its path's box: a path point
-    # further than NEAR_ROUTE from xi's route cannot meet it, and any nearer one has its nearest among them
-    k_route, dist = np.zeros(len(wx), dtype=np.intp), np.full(len(wx), np.inf)
-    for end, size, (px, py) in zip(ends, sizes, world):
-        near = np.nonzero((xy[:, 0] >= px.min() - NEAR_ROUTE) & (xy[:, 0] <= px.max() + NEAR_ROUTE)
-                          & (xy[:, 1] >= py.min() - NEAR_ROUTE) & (xy[:, 1] <= py.max() + NEAR_ROUTE))[0]
-        if len(near):  # else no point is near xi's route: it has no hit
-            nearest, dist[end - size:end] = nearest_points(xy[near], px, py)
-            k_route[end - size:end] = near[nearest]
+    k_route, dist = route_nearest(xy, wx, wy, sizes)
     ryaw = arrays.yaw[r, k_route]
     lat = -np.sin(ryaw) * (wx - xy[k_route, 0]) + np.cos(ryaw) * (wy - xy[k_route, 1])
     lat = np.where(dist <= NEAR_ROUTE, lat, np.inf)
@@ -113,51 +105,102 @@ def pushed_meetings(plan: VariationPlan, ti: int, xi: int, paths: list[tuple[np.
     side = cascade.meeting_mode(later[0], later[2]) == "side"
     # the face of ti turned towards xi: xi comes from behind it, or (side) ti comes into xi's side
     toward = cascade.toward_third(yaw_x, later[2]) - math.pi if side else yaw_x
-    out: list = []
-    for end, size, (px, py, one_yaw) in zip(ends, sizes, poses):
-        lo = end - size
-        hit = np.nonzero(hits[lo:end])[0]
-        if len(hit) == 0:
-            out.append(None)
-            continue
-        at = lo + hit
-        klass = cascade.contact_class(rel[at], side)
-        area = cascade.facing_area(turned[at], toward[at])
-        margin = cascade.class_margin(rel[at], later[0], side)
-        # the steps with the written class and area (else the nearest to them), and among those the ones whose
-        # heading is near the most central one: a struck car that spins fast is in the class's range only
-        # briefly, and what the prediction does not foresee shifts the moment of contact
-        # (then those where its centre is in xi's lane: it is in the path it meets xi in, not just reaching
-        # into it; one coming alongside into xi's side touches it before it is in its lane)
-        inside = side | (np.abs(lat[at] - plan.d0[xi]) < plan.lane_width / 2)
-        # (class, area, inside) misses as one number ordered as the tuples are
-        group = 4 * (klass != later[0]) + 2 * (area != later[1]) + ~inside
-        best = group.min()
-        central = margin[group == best].max() - CASCADE_CENTRAL
-        # ...as soon as it reaches xi's side (later it would be inside xi's body), else at a drawn moment
-        want = hit[0] + (0.0 if side else plan.draws.cascade[xi] * CASCADE_WINDOW / cascade.DT)
-        i = int(np.lexsort((np.abs(hit - want), margin < central, group))[0])  # the first of the smallest keys
-        k = int(hit[i])
-        out.append((k, float(gap[lo + k]), str(klass[i]), str(area[i]), float(extent[lo + k]), float(margin[i])))
+    at = np.nonzero(hits)[0]  # every path's hits, path by path
+    out: list = [None] * len(paths)
+    if not len(at):
+        return out
+    path = np.searchsorted(ends, at, side="right")
+    starts = ends - sizes
+    hit = at - starts[path]  # [steps] along its path
+    klass = cascade.contact_class(rel[at], side)
+    area = cascade.facing_area(turned[at], toward[at])
+    margin = cascade.class_margin(rel[at], later[0], side)
+    # the steps with the written class and area (else the nearest to them), and among those the ones whose
+    # heading is near the most central one: a struck car that spins fast is in the class's range only
+    # briefly, and what the prediction does not foresee shifts the moment of contact
+    # (then those where its centre is in xi's lane: it is in the path it meets xi in, not just reaching
+    # into it; one coming alongside into xi's side touches it before it is in its lane)
+    inside = side | (np.abs(lat[at] - plan.d0[xi]) < plan.lane_width / 2)
+    # (class, area, inside) misses as one number ordered as the tuples are
+    group = 4 * (klass != later[0]) + 2 * (area != later[1]) + ~inside
+    best = _per_run(np.minimum, group, path)
+    central = _per_run(np.maximum, np.where(group == best, margin, -np.inf), path) - CASCADE_CENTRAL
+    # ...as soon as it reaches xi's side (later it would be inside xi's body), else at a drawn moment
+    want = _per_run(np.minimum, hit, path) + (0.0 if side else plan.draws.cascade[xi] * CASCADE_WINDOW / cascade.DT)
+    order = np.lexsort((np.abs(hit - want), margin < central, group, path))  # by path, then the smallest keys
+    for i in order[_run_starts(path[order])]:  # each path's first
+        p, k = int(path[i]), int(hit[i])
+        out[p] = (k, float(gap[starts[p] + k]), str(klass[i]), str(area[i]), float(extent[starts[p] + k]),
+                  float(margin[i]))
     return out
 
 
-def nearest_points(xy: np.ndarray, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(index, distance [m]) of the nearest of the points `xy` (K, 2) to each point (x, y) (N,): the first of
-    the smallest `np.hypot` distances, as `argmin` over them all gives it. Only the few points whose squared
-    distance is within rounding of the smallest are measured with `hypot` (a squared distance is off by a few
-    ulps at most, so the nearest is always among them)."""
-    dx, dy = xy[None, :, 0] - x[:, None], xy[None, :, 1] - y[:, None]
+def _run_starts(values: np.ndarray) -> np.ndarray:
+    """The indices where a run of equal values starts (`values` not empty)."""
+    return np.nonzero(np.r_[True, values[1:] != values[:-1]])[0]
+
+
+def route_nearest(xy: np.ndarray, x: np.ndarray, y: np.ndarray, sizes: list[int]) -> tuple[np.ndarray, np.ndarray]:
+    """(index, distance [m]) of the nearest route point `xy` (K, 2) to each point (x, y) of paths of `sizes`
+    points each (concatenated in path order), where that distance is at most NEAR_ROUTE (`nearest_within`);
+    elsewhere further than NEAR_ROUTE (inf for every point of a path with a NaN point). A path point further
+    than NEAR_ROUTE from the route cannot meet a car on it; only the route points within NEAR_ROUTE of a path's
+    box are measured."""
+    starts = np.cumsum(sizes) - sizes
+    index, dist = np.zeros(len(x), dtype=np.intp), np.full(len(x), np.inf)
+    if not len(x):
+        return index, dist
+    boxes = [np.minimum.reduceat(x, starts), np.maximum.reduceat(x, starts), np.minimum.reduceat(y, starts),
+             np.maximum.reduceat(y, starts)]  # each path's; NaN when it has a NaN point
+    near = (xy[None, :, 0] >= boxes[0][:, None] - NEAR_ROUTE) & (xy[None, :, 0] <= boxes[1][:, None] + NEAR_ROUTE) \
+        & (xy[None, :, 1] >= boxes[2][:, None] - NEAR_ROUTE) & (xy[None, :, 1] <= boxes[3][:, None] + NEAR_ROUTE)
+    rows = np.repeat(near.any(axis=1), sizes)  # the points of paths with a route point near their box
+    cols = np.nonzero(near.any(axis=0))[0]
+    if len(cols):
+        nearest, dist[rows] = nearest_within(xy[cols], x[rows], y[rows], NEAR_ROUTE)
+        index[rows] = cols[nearest]
+    return index, dist
+
+
+BLOCK = 16  # [-] consecutive points `nearest_within` rules out together by their box (8 m of route, ROUTE_DS)
+BLOCK_SLACK = 1e-6  # [m] a block is measured when its box is this much beyond `reach` too (rounding of the box test)
+
+
+def nearest_within(xy: np.ndarray, x: np.ndarray, y: np.ndarray, reach: float) -> tuple[np.ndarray, np.ndarray]:
+    """(index, distance [m]) of the nearest of the points `xy` (K, 2) to each point (x, y) (N,) where that
+    distance is at most `reach` [m]: the first of the smallest `np.hypot` distances, as `argmin` over them all
+    gives it; elsewhere a distance further than `reach` (inf: none within reach of a block's box, or a NaN
+    point). The points `xy` are taken in blocks of BLOCK consecutive ones (a route's lie together), and a block
+    is measured point by point only for the points (x, y) within `reach` of its box; then only the few points
+    whose squared distance is within rounding of the smallest are measured with `hypot` (a squared distance is
+    off by a few ulps at most, so the nearest is always among them)."""
+    index, dist = np.zeros(len(x), dtype=np.intp), np.full(len(x), np.inf)
+    if not len(x) or not len(xy):
+        return index, dist
+    blocks = np.full((-(-len(xy) // BLOCK) * BLOCK, 2), np.inf)  # the last block filled with points never nearest
+    blocks[:len(xy)] = xy
+    blocks = blocks.reshape(-1, BLOCK, 2)
+    lo, hi = blocks.min(axis=1), blocks.max(axis=1)  # each block's box (the last one's unbounded above)
+    gx = np.maximum(np.maximum(lo[None, :, 0] - x[:, None], x[:, None] - hi[None, :, 0]), 0.0)
+    gy = np.maximum(np.maximum(lo[None, :, 1] - y[:, None], y[:, None] - hi[None, :, 1]), 0.0)
+    point, block = np.nonzero(gx * gx + gy * gy <= (reach + BLOCK_SLACK) ** 2)  # by point, then block
+    if not len(point):
+        return index, dist
+    dx, dy = blocks[block, :, 0] - x[point, None], blocks[block, :, 1] - y[point, None]  # (pairs, BLOCK)
     squared = dx * dx + dy * dy
-    rows, cols = np.nonzero(squared <= squared.min(axis=1, keepdims=True) * (1.0 + 1e-9) + 1e-300)
-    dist = np.hypot(dx[rows, cols], dy[rows, cols])
-    first = np.lexsort((cols, dist, rows))  # by point, then distance, then index
-    take = first[np.r_[True, rows[first][1:] != rows[first][:-1]]] if len(rows) else rows  # each point's first
-    if len(take) != len(x):  # a NaN point: every distance, as argmin takes them
-        full = np.hypot(dx, dy)
-        nearest = np.argmin(full, axis=1)
-        return nearest, full[np.arange(len(x)), nearest]
-    return cols[take], dist[take]
+    least = _per_run(np.minimum, squared.min(axis=1), point)
+    row, j = np.nonzero(squared <= least[:, None] * (1.0 + 1e-9) + 1e-300)
+    point, col, measured = point[row], block[row] * BLOCK + j, np.hypot(dx[row, j], dy[row, j])  # by point, index
+    first = np.nonzero(measured == _per_run(np.minimum, measured, point))[0]
+    take = first[_run_starts(point[first])]  # each point's first of its smallest distances
+    index[point[take]], dist[point[take]] = col[take], measured[take]
+    return index, dist
+
+
+def _per_run(ufunc: np.ufunc, values: np.ndarray, keys: np.ndarray) -> np.ndarray:
+    """`ufunc` reduced over each run of equal `keys` (not empty), given back at each of the run's elements."""
+    runs = _run_starts(keys)
+    return np.repeat(ufunc.reduceat(values, runs), np.diff(np.r_[runs, len(keys)]))
 
 
 def later_terms(contact: tuple[str, str, str, str, str], mover: str) -> tuple[str, str, str]:
