@@ -17,7 +17,7 @@ from crashscene.simulate.embedded.followon import (
     _apart,
     full,
     group_shifts,
-    mover_state,
+    mover_states,
     option_key,
     shift_across,
     steady,
@@ -38,13 +38,16 @@ def test_lanes_beside_counts_the_same_direction_lanes_on_each_side():
     assert lanes_beside(roadmap).tolist() == [[3, 0], [2, 1], [1, 2], [0, 3], [0, 0]]
 
 
-def test_mover_state_interpolates_the_pose_and_takes_the_velocity_the_path_carries():
+def test_mover_states_interpolate_the_pose_and_take_the_velocity_the_path_carries():
     t = np.arange(10) * 0.05
-    path = (10.0 * t, np.zeros(10), 0.5 * t, np.full(10, 10.0), np.zeros(10), np.full(10, 0.5))
-    pose, motion = mover_state(path, 2.5)
-    assert pose == pytest.approx((1.25, 0.0, 0.0625))
-    assert motion == pytest.approx((10.0, 0.0, 0.5))
-    assert mover_state(path, -1.0)[0] == pytest.approx((0.0, 0.0, 0.0))  # clipped to the path
+    paths = np.array([(10.0 * t, np.zeros(10), 0.5 * t, np.full(10, 10.0), np.zeros(10), np.full(10, 0.5)),
+                      (np.zeros(10), 5.0 * t, np.full(10, 1.0), np.zeros(10), np.full(10, 5.0), np.zeros(10))])
+    pose, motion = mover_states(paths, np.array([0, 1, 0, 1]), np.array([2.5, 2.5, -1.0, 20.0]))
+    assert pose[:, 0] == pytest.approx((1.25, 0.0, 0.0625))
+    assert motion[:, 0] == pytest.approx((10.0, 0.0, 0.5))
+    assert pose[:, 1] == pytest.approx((0.0, 0.625, 1.0))
+    assert pose[:, 2] == pytest.approx((0.0, 0.0, 0.0))  # clipped to the path
+    assert pose[:, 3] == pytest.approx((0.0, 2.25, 1.0))  # ...at its end
 
 
 def _four_lanes(actor_lanes: list[int], behaviors: list[str]):
@@ -113,10 +116,14 @@ def test_apart_starts_a_prediction_before_the_two_footprints_overlap():
     plan = SimpleNamespace(ctx=SimpleNamespace(arrays=arrays, skid_paths=SimpleNamespace(dt=0.1)),
                            route=np.array([0, 0]), d0=np.zeros(2), length=np.array([4.5, 4.5]),
                            width=np.array([2.0, 2.0]))
-    lead, mover_pose, _, third_pose = _apart(plan, 0, 1, path, 4, 1.0, 100.0, 20.0)  # 1.0 s: a step boundary
-    assert lead == pytest.approx(0.2)
+    far = tuple(q + np.array([0.0, 5.0, 0, 0, 0, 0])[i] for i, q in enumerate(path))  # 5 m further across: clear
+    (lead, mover_pose, _, third_pose), clear = _apart(plan, 0, 1, [far, path], [(1, 4, 1.0, 100.0, 20.0),
+                                                                                (0, 4, 1.0, 100.0, 20.0)])
+    assert lead == pytest.approx(0.2)  # 1.0 s: a step boundary
     assert mover_pose == pytest.approx((96.0, -2.25, 0.0))
     assert third_pose == pytest.approx((96.0, 0.0, 0.0))
+    assert clear[0] == pytest.approx(0.1)  # apart at the meeting step's own simulator step
+    assert clear[1] == pytest.approx((98.0, 3.05, 0.0))
 
 
 def test_option_key_ranks_a_steady_impact_then_the_sooner_meeting_below_the_written_classes():

@@ -232,23 +232,29 @@ def steady(items: list[cascade.Push], moving: tuple[np.ndarray, ...], striker: b
     return out
 
 
-def mover_state(path: tuple[np.ndarray, ...], k: float
-                ) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
-    """The pose (x, y, yaw) and motion (vx, vy, yaw rate) of a vehicle moving along `path` (world x, y, yaw, vx, vy,
-    yaw rate every cascade.DT) at step `k` of it (fractional: linear between steps)."""
-    last = len(path[0]) - 1
-    k = float(np.clip(k, 0.0, last))
-    i0 = min(int(k), last - 1)
+def mover_states(paths: np.ndarray, rows: np.ndarray, k: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The poses (x, y, yaw) and motions (vx, vy, yaw rate), (3, N) each, of vehicles moving along `paths` (M, 6,
+    steps: world x, y, yaw, vx, vy, yaw rate every cascade.DT; yaw continuous, np.unwrap) at step `k` (N,)
+    (fractional: linear between steps) of paths `rows` (N,)."""
+    last = paths.shape[2] - 1
+    k = np.clip(k, 0.0, last)
+    i0 = np.minimum(k.astype(np.intp), last - 1)
     f = k - i0
-    rows = [path[0], path[1], np.unwrap(path[2]), *path[3:6]]
-    at = [float(q[i0] + f * (q[i0 + 1] - q[i0])) for q in rows]
-    return (at[0], at[1], at[2]), (at[3], at[4], at[5])
+    before, after = paths[rows, :, i0], paths[rows, :, i0 + 1]  # (N, 6)
+    at = (before + f[:, None] * (after - before)).T
+    return at[:3], at[3:]
+
+
+def route_poses(plan: VariationPlan, a: int, station: np.ndarray, lateral: float) -> np.ndarray:
+    """World poses (3, N) [m, m, rad] of the points `lateral` [m] left of actor a's route at stations `station`
+    (N,) [m] (`route_pose` of each)."""
+    px, py, pyaw = plan.ctx.arrays.point(np.full(len(station), plan.route[a]), station)
+    return np.stack([px - np.sin(pyaw) * lateral, py + np.cos(pyaw) * lateral, pyaw])
 
 
 def route_pose(plan: VariationPlan, a: int, station: float, lateral: float) -> tuple[float, float, float]:
-    """World pose [m, m, rad] of a point `lateral` [m] left of actor a's route at `station` [m]."""
-    px, py, pyaw = (float(q[0]) for q in plan.ctx.arrays.point(np.array([plan.route[a]]), np.array([station])))
-    return px - math.sin(pyaw) * lateral, py + math.cos(pyaw) * lateral, pyaw
+    """World pose [m, m, rad] of a point `lateral` [m] left of actor a's route at `station` [m] (`route_poses`)."""
+    return tuple(route_poses(plan, a, np.array([station], dtype=float), lateral)[:, 0].tolist())
 
 
 @dataclass(frozen=True)
@@ -282,7 +288,7 @@ def choose(plan: VariationPlan, nxt: Next, candidates: list[tuple[int, float, tu
     sooner meeting, then by the nominal one's (`_follow_key`) (`option_key`),
     then by how far inside its class's heading range the third car's meeting is."""
     dt = plan.ctx.skid_paths.dt
-    options, touches = [], []
+    placed, starts = [], []
     for row, offset, meeting, clean, steady_one in candidates:
         k = meeting[0]
         arrive = t1 + (k + 1) * cascade.DT
@@ -291,13 +297,17 @@ def choose(plan: VariationPlan, nxt: Next, candidates: list[tuple[int, float, tu
             if speed is None:
                 continue
             reach = float(plan.s0[third]) + third_reach(plan, third, meeting, later, along)
-            lead, mover_pose, mover_motion, third_pose = _apart(plan, mover, third, paths[row], k, arrive, reach,
-                                                                speed)
-            options.append((row, offset, along, meeting, clean, reach - speed * lead, steady_one, lead))
-            touches.append(Touch(mover_pose, mover_motion, third_pose, speed, _body(plan, mover), _body(plan, third),
-                                 plan.ctx.friction, dt))
-    if not options:
+            placed.append((row, offset, along, meeting, clean, steady_one))
+            starts.append((row, k, arrive, reach, speed))
+    if not placed:
         return None
+    options, touches = [], []
+    for (row, offset, along, meeting, clean, steady_one), (_, _, _, reach, speed), (
+            lead, mover_pose, mover_motion, third_pose) in zip(placed, starts, _apart(plan, mover, third, paths,
+                                                                                      starts)):
+        options.append((row, offset, along, meeting, clean, reach - speed * lead, steady_one, lead))
+        touches.append(Touch(mover_pose, mover_motion, third_pose, speed, _body(plan, mover), _body(plan, third),
+                             plan.ctx.friction, dt))
     predicted = predict(touches)
     follows = _follows(plan, nxt, third, predicted)
     # the options whose next contact has its written class: the third car SPREAD earlier and later too
@@ -325,23 +335,34 @@ def choose(plan: VariationPlan, nxt: Next, candidates: list[tuple[int, float, tu
     return Choice(row, offset, along, meeting, follow[0], follow[1], arrive, best_key)
 
 
-def _apart(plan: VariationPlan, mover: int, third: int, path: Path, k: int, arrive: float, reach: float,
-           speed: float) -> tuple[float, tuple, tuple, tuple]:
-    """Where a candidate's prediction starts: (how long before `arrive` [s], the time the third car's station is
-    `reach` [m], the deflected car's pose and motion then, the third car's pose then), at the simulator's last step
-    before the meeting, or as many steps earlier as the two footprints still overlap there (the meeting is where
-    the deflected car is well into the third car's side, pushed_meetings: they touched before, and a prediction
-    that starts with the two in each other finds no contact), at most APART_STEPS."""
+Start = tuple[int, int, float, float, float]  # a candidate's path row, meeting step, arrival [s], reach [m], speed [m/s]
+
+
+def _apart(plan: VariationPlan, mover: int, third: int, paths: list[tuple[np.ndarray, ...]], starts: list[Start]
+           ) -> list[tuple[float, tuple, tuple, tuple]]:
+    """Where each candidate's prediction starts, for `starts` (row of `paths`, the meeting step k of that path,
+    arrive [s], reach [m], speed [m/s]): (how long before `arrive` [s], the time the third car's station is `reach`
+    [m] at `speed`, the deflected car's pose and motion then (`paths[row]` k steps after the first touch), the
+    third car's pose then), at the simulator's last step before the meeting, or as many steps earlier as the two
+    footprints still overlap there (the meeting is where the deflected car is well into the third car's side,
+    pushed_meetings: they touched before, and a prediction that starts with the two in each other finds no
+    contact), at most APART_STEPS; all candidates at once."""
     dt = plan.ctx.skid_paths.dt
-    lead = cascade.step_lead(arrive, dt)  # [s] from the simulator's last step before the touch
+    stacked = np.array(paths, dtype=float)  # (M, 6, steps)
+    stacked[:, 2] = np.unwrap(stacked[:, 2], axis=-1)
+    rows, k, arrive, reach, speed = (np.array(q) for q in zip(*starts))
+    lead = np.array([cascade.step_lead(float(t), dt) for t in arrive])  # [s] from the simulator's last step before
+    pose, motion, third_pose = np.zeros((3, len(starts))), np.zeros((3, len(starts))), np.zeros((3, len(starts)))
+    todo = np.arange(len(starts))
     length, width = plan.length, plan.width
     for _ in range(APART_STEPS + 1):
-        mover_pose, mover_motion = mover_state(path, k - lead / cascade.DT)
-        third_pose = route_pose(plan, third, reach - speed * lead, float(plan.d0[third]))
-        if not footprints_overlap(*mover_pose, length[mover], width[mover], *third_pose, length[third], width[third]):
-            break
-        lead += dt
-    return lead, mover_pose, mover_motion, third_pose
+        pose[:, todo], motion[:, todo] = mover_states(stacked, rows[todo], k[todo] - lead[todo] / cascade.DT)
+        third_pose[:, todo] = route_poses(plan, third, reach[todo] - speed[todo] * lead[todo], float(plan.d0[third]))
+        todo = todo[footprints_overlap(*pose[:, todo], length[mover], width[mover], *third_pose[:, todo],
+                                       length[third], width[third])]
+        lead[todo] += dt
+    return [(float(lead[i]), tuple(pose[:, i].tolist()), tuple(motion[:, i].tolist()),
+             tuple(third_pose[:, i].tolist())) for i in range(len(starts))]
 
 
 def option_key(later: int, clean: bool, least: int, steady_one: bool, step: int, follow: tuple[int, bool, float],
