@@ -7,7 +7,14 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from crashscene.simulate.embedded.meetings import NEAR_ROUTE, nearest_within, pushed_meetings, route_nearest
+from crashscene.simulate.embedded.meetings import (
+    NEAR_ROUTE,
+    along_route,
+    meetings_along,
+    nearest_within,
+    pushed_meetings,
+    route_nearest,
+)
 
 
 def _argmin(points: np.ndarray, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -79,3 +86,21 @@ def test_pushed_meetings_measures_every_path_with_the_others_as_alone(later):
     alone = [pushed_meetings(plan, 0, 1, [p], [q], later)[0] for p, q in zip(paths, poses)]
     assert together == alone
     assert together[-1] is None and sum(m is not None for m in together) >= 6
+
+
+def test_paths_measured_along_a_route_once_meet_the_third_actor_wherever_it_starts_across_it():
+    """`along_route` holds nothing of where across its route the third actor starts: `meetings_along` of it after the
+    third actor moves a lane across is `pushed_meetings` there."""
+    plan = _plan_on_straight_road()
+    t = np.arange(80) * 0.05
+    paths = [(20.0 * t, -3.0 * t, -0.5 * t), (15.0 * t, 3.0 * t, 0.4 * t), (18.0 * t, 2.0 * t, 0.0 * t)]
+    poses = [(60.0, 4.0, 0.0), (60.0, -4.0, 0.0), (40.0, 1.0, 0.3)]
+    later = ("sideswipe", "right", "left")
+    measured = along_route(plan, 0, 1, paths, poses)
+    seen = set()
+    for shift in (0.0, 3.5, -3.5):
+        plan.d0[1] = shift
+        found = meetings_along(plan, 1, measured, later)
+        assert found == pushed_meetings(plan, 0, 1, paths, poses, later)
+        seen.add(tuple(m is not None for m in found))
+    assert len(seen) > 1  # where it starts across its route changes which paths meet it

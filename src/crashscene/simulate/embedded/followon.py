@@ -29,7 +29,14 @@ import numpy as np
 
 from crashscene.geometry import footprints_overlap
 from crashscene.simulate.embedded import cascade, lockstep, rollout
-from crashscene.simulate.embedded.meetings import later_terms, matches, place_third, pushed_meetings, third_reach
+from crashscene.simulate.embedded.meetings import (
+    along_route,
+    later_terms,
+    matches,
+    meetings_along,
+    place_third,
+    third_reach,
+)
 from crashscene.simulate.embedded.stations import relative_to_route
 from crashscene.simulate.roads import ROUTE_DS
 
@@ -391,10 +398,11 @@ def _follows(plan: VariationPlan, nxt: Next, third: int, predicted: list) -> dic
     if not live:
         return out
     moving = [predicted[i][0] if nxt.moving == third else predicted[i][2] for i in live]
+    measured = along_route(plan, nxt.moving, nxt.actor, moving, [(0.0, 0.0, 0.0)] * len(live))
     for shift in lanes(plan, nxt.actor, third):
         plan.d0[nxt.actor] += shift
         try:
-            found = pushed_meetings(plan, nxt.moving, nxt.actor, moving, [(0.0, 0.0, 0.0)] * len(live), nxt.later)
+            found = meetings_along(plan, nxt.actor, measured, nxt.later)
         finally:
             plan.d0[nxt.actor] -= shift
         for i, path, meeting in zip(live, moving, found):

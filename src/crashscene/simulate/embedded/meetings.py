@@ -5,6 +5,7 @@ along its route, or (no room behind) slowed and held at its start.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -79,12 +80,36 @@ def pushed_meetings(plan: VariationPlan, ti: int, xi: int, paths: list[tuple[np.
     (class, ti's area, xi's area) written (xi met as cascade.meeting_mode says), else the one nearest a drawn
     moment in the window after ti enters xi's path (the first step it reaches xi's side, when it comes
     alongside into it); None for a path that never meets xi."""
-    arrays = plan.ctx.arrays
     if not paths:
         return []
+    return meetings_along(plan, xi, along_route(plan, ti, xi, paths, poses), later)
+
+
+@dataclass(frozen=True)
+class AlongRoute:
+    """Paths of a moving actor measured against a third actor's route (`along_route`), each point's: how far
+    [m] left of the route's nearest point (inf: beyond NEAR_ROUTE), that point's station from the third actor's
+    start [m] and heading [rad], the moving actor's heading [rad] and how far it is turned from the route's [rad],
+    its half extent across the route [m], and whether the third actor could be placed further back to meet there;
+    the paths' `sizes` (points each, concatenated in path order)."""
+
+    lat: np.ndarray
+    gap: np.ndarray
+    yaw_x: np.ndarray
+    turned: np.ndarray
+    rel: np.ndarray
+    extent: np.ndarray
+    room: np.ndarray
+    sizes: np.ndarray
+
+
+def along_route(plan: VariationPlan, ti: int, xi: int, paths: list[tuple[np.ndarray, np.ndarray, np.ndarray]],
+                poses: list[tuple[float, float, float]]) -> AlongRoute:
+    """Actor ti's `paths` (`pushed_meetings`) measured against actor xi's route from its start (what does not
+    depend on where across its route xi starts: `meetings_along` of xi there)."""
+    arrays = plan.ctx.arrays
     world = [cascade.to_world(px, py, pyaw, fwd, left) for (px, py, pyaw), (fwd, left, _) in zip(poses, paths)]
-    sizes = [len(w[0]) for w in world]
-    ends = np.cumsum(sizes)
+    sizes = np.array([len(w[0]) for w in world])
     wx, wy = np.concatenate([w[0] for w in world]), np.concatenate([w[1] for w in world])
     yaw = np.concatenate([p[2] for p in paths])
     pyaw = lockstep.per_element((p[2] for p in poses), sizes)
@@ -100,13 +125,24 @@ def pushed_meetings(plan: VariationPlan, ti: int, xi: int, paths: list[tuple[np.
     rel = turned - yaw_x
     extent = plan.length[ti] / 2 * np.abs(np.sin(rel)) + plan.width[ti] / 2 * np.abs(np.cos(rel))
     # on its route far enough from its start for it to be placed further back to meet there
-    hits = (np.abs(lat - plan.d0[xi]) < plan.width[xi] / 2 + extent - 0.3) \
-        & (k_route * ROUTE_DS > START_MARGIN + plan.length[xi])
+    room = k_route * ROUTE_DS > START_MARGIN + plan.length[xi]
+    return AlongRoute(lat, gap, yaw_x, turned, rel, extent, room, sizes)
+
+
+def meetings_along(plan: VariationPlan, xi: int, measured: AlongRoute, later: tuple[str, str, str]
+                   ) -> list[tuple[int, float, str, str, float, float] | None]:
+    """`pushed_meetings` of the paths `measured` against actor xi's route (`along_route`), xi starting where it
+    is across its route now."""
+    lat, gap, yaw_x, turned, rel, extent = (measured.lat, measured.gap, measured.yaw_x, measured.turned,
+                                            measured.rel, measured.extent)
+    sizes = measured.sizes
+    ends = np.cumsum(sizes)
+    hits = (np.abs(lat - plan.d0[xi]) < plan.width[xi] / 2 + extent - 0.3) & measured.room
     side = cascade.meeting_mode(later[0], later[2]) == "side"
     # the face of ti turned towards xi: xi comes from behind it, or (side) ti comes into xi's side
     toward = cascade.toward_third(yaw_x, later[2]) - math.pi if side else yaw_x
     at = np.nonzero(hits)[0]  # every path's hits, path by path
-    out: list = [None] * len(paths)
+    out: list = [None] * len(sizes)
     if not len(at):
         return out
     path = np.searchsorted(ends, at, side="right")
@@ -140,7 +176,7 @@ def _run_starts(values: np.ndarray) -> np.ndarray:
     return np.nonzero(np.r_[True, values[1:] != values[:-1]])[0]
 
 
-def route_nearest(xy: np.ndarray, x: np.ndarray, y: np.ndarray, sizes: list[int]) -> tuple[np.ndarray, np.ndarray]:
+def route_nearest(xy: np.ndarray, x: np.ndarray, y: np.ndarray, sizes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(index, distance [m]) of the nearest route point `xy` (K, 2) to each point (x, y) of paths of `sizes`
     points each (concatenated in path order), where that distance is at most NEAR_ROUTE (`nearest_within`);
     elsewhere further than NEAR_ROUTE (inf for every point of a path with a NaN point). A path point further
