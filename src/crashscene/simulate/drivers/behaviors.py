@@ -45,6 +45,8 @@ DECELERATE_RATE = 4.0  # [m/s2]
 SPIN_RATE = 0.35  # [rad/s] yaw rate of a vehicle out of control
 OVERTAKE_TIME = 6.0  # [s] in the opposing lane during an overtake
 DRIFTING = ("cross_centerline", "overtake", "lose_control", "leave_road")
+EDGE_TARGETS = ("leave_road",)  # behaviours that steer over the road's edge: their lateral target is that edge
+# (setup: the road edge's offset), not an offset from their lane, so a plan that moves their start across keeps it
 LANE_CHANGE_GAP = 1.0  # [s] time gap a careful driver needs in the target lane
 
 

@@ -28,6 +28,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from crashscene.geometry import footprints_overlap
+from crashscene.simulate.drivers.behaviors import EDGE_TARGETS
 from crashscene.simulate.embedded import cascade, lockstep, rollout
 from crashscene.simulate.embedded.meetings import (
     along_route,
@@ -62,7 +63,6 @@ STEADY_MISS = 0.5  # [m] a moving car predicted this much elsewhere at its meeti
 # overlap is gone or doubled
 STEADY_AFTER = 0.5  # [s] ...from its meeting step on this long (a sideswipe goes on while the two are alongside)
 APART_STEPS = 5  # [-] simulator steps a prediction may start earlier than the meeting (`_apart`)
-EDGE_TARGETS = ("leave_road",)  # behaviours whose lateral target is the road's edge (setup._set_lateral_targets)
 AIM_MISS = 0.3  # [m] a fourth actor is aimed at the moving car when its lane lets it drive this near its centre
 
 

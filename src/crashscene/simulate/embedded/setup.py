@@ -19,7 +19,7 @@ from crashscene.monitor.rules import Disposition, dispositions_of
 from crashscene.geometry import LANE_WIDTH
 from crashscene.scene import SampledActor, SampledScene
 from crashscene.simulate.backend import SimulationError, SimulationSettings
-from crashscene.simulate.drivers.behaviors import NO_YIELD_CODES
+from crashscene.simulate.drivers.behaviors import EDGE_TARGETS, NO_YIELD_CODES
 from crashscene.simulate.embedded import lockstep, skid, timing
 from crashscene.simulate.embedded.control import control_tables, entry_before, priorities
 from crashscene.simulate.embedded.arrivals import stop_dist, struck_offset
@@ -258,7 +258,7 @@ def _route_layout(scenario: Scenario, scenes: list[SampledScene], columns: list[
             route_lane, target = _route_lane(roadmap, lane, actor)
             lateral_target[v, a] = target
             start_lanes[v, a] = route_lane
-            if actor.behavior == "leave_road":
+            if actor.behavior in EDGE_TARGETS:
                 road_edge[v, a] = _road_edge_offset(roadmap, lane, scenario)
             key = (route_lane.uid, _junction_intent(actor), min_length)
             if key not in route_index:
@@ -295,7 +295,7 @@ def _set_lateral_targets(columns: list[ActorColumn], layout: _RouteLayout, start
     co = layout.arrays.sample(layout.arrays.centerline_offset, layout.route, start.s0)
     target = layout.lateral_target
     for a, col in enumerate(columns):
-        if col.behavior == "leave_road":
+        if col.behavior in EDGE_TARGETS:
             edge = np.where(np.isnan(layout.road_edge[:, a]), -lane_width[:, a] / 2.0, layout.road_edge[:, a])
             target[:, a] = edge + np.sign(edge) * OFF_ROAD_MARGIN
             continue
