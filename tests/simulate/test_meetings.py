@@ -15,6 +15,7 @@ from crashscene.simulate.embedded.meetings import (
     pushed_meetings,
     route_nearest,
 )
+from crashscene.simulate.embedded.stations import relative_to_route
 
 
 def _argmin(points: np.ndarray, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -104,3 +105,28 @@ def test_paths_measured_along_a_route_once_meet_the_third_actor_wherever_it_star
         assert found == pushed_meetings(plan, 0, 1, paths, poses, later)
         seen.add(tuple(m is not None for m in found))
     assert len(seen) > 1  # where it starts across its route changes which paths meet it
+
+
+def test_a_paths_lateral_offset_along_a_route_is_the_one_relative_to_route_measures():
+    """On a route curving left (radius 60 m), each path point within NEAR_ROUTE of it is as far left of it as
+    stations.relative_to_route has it, to the bit."""
+    s = np.arange(0.0, 200.0, 0.5)
+    xy = np.stack([60 * np.sin(s / 60), 60 - 60 * np.cos(s / 60)], axis=1)[None]
+
+    def point(r, at):
+        at = np.asarray(at, dtype=float)
+        return 60 * np.sin(at / 60), 60 - 60 * np.cos(at / 60), at / 60
+
+    plan = _plan_on_straight_road()
+    plan.ctx.arrays = SimpleNamespace(xy=xy, yaw=(s / 60)[None], point=point)
+    t = np.arange(80) * 0.05
+    paths = [(15.0 * t, 4.0 * t - 5.0, 0.1 * t), (30.0 + 10.0 * t, 9.0 - 2.0 * t, 0.0 * t)]
+    measured = along_route(plan, 0, 1, paths, [(0.0, 0.0, 0.0)] * 2)
+    checked = 0
+    for j, (x, y, _) in enumerate(paths):
+        for k in range(len(x)):
+            lateral = measured.lateral(j, k)
+            if np.isfinite(lateral):
+                assert lateral == relative_to_route(plan.ctx.arrays, 0, 20.0, float(x[k]), float(y[k]))[1]
+                checked += 1
+    assert checked > 50

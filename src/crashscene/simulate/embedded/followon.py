@@ -405,22 +405,22 @@ def _follows(plan: VariationPlan, nxt: Next, third: int, predicted: list) -> dic
             found = meetings_along(plan, nxt.actor, measured, nxt.later)
         finally:
             plan.d0[nxt.actor] -= shift
-        for i, path, meeting in zip(live, moving, found):
+        for j, (i, meeting) in enumerate(zip(live, found)):
             if meeting is None:
                 continue
-            one = _aimed(plan, nxt, path, meeting, shift)
+            one = _aimed(plan, nxt, measured.lateral(j, meeting[0]), meeting, shift)
             if i not in out or _follow_key(one, nxt) > _follow_key(out[i], nxt):
                 out[i] = one
     return out
 
 
-def _aimed(plan: VariationPlan, nxt: Next, path: Path, meeting: tuple, shift: float) -> tuple[float, tuple, bool]:
+def _aimed(plan: VariationPlan, nxt: Next, lat: float, meeting: tuple, shift: float) -> tuple[float, tuple, bool]:
     """(lateral shift [m], meeting, whether it is aimed) of the fourth actor meeting the moving car as `meeting`
-    has it, in the lane `shift` [m] across: within that lane, it drives where the moving car's centre is predicted
-    to be then (its front meets the moving car end to end, not with a side); aimed when that is within its lane
+    has it, the moving car's centre `lat` [m] left of the fourth actor's route then (meetings.AlongRoute.lateral),
+    in the lane `shift` [m] across: within that lane, it drives where the moving car's centre is predicted to be
+    then (its front meets the moving car end to end, not with a side); aimed when that is within its lane
     (AIM_MISS)."""
-    a, k = nxt.actor, meeting[0]
-    _, lat = relative_to_route(plan.ctx.arrays, plan.route[a], plan.s0[a], float(path[0][k]), float(path[1][k]))
+    a = nxt.actor
     lane = float(plan.d0[a]) + shift
     room = max(plan.lane_width - float(plan.width[a]), 0.0) / 2
     within = float(np.clip(lat - lane, -room, room))

@@ -102,6 +102,11 @@ class AlongRoute:
     room: np.ndarray
     sizes: np.ndarray
 
+    def lateral(self, path: int, step: int) -> float:
+        """[m] how far left of the route's nearest point path `path` is at `step` (as stations.relative_to_route
+        has it where that is within NEAR_ROUTE; inf further away)."""
+        return float(self.lat[int(np.sum(self.sizes[:path])) + step])
+
 
 def along_route(plan: VariationPlan, ti: int, xi: int, paths: list[tuple[np.ndarray, np.ndarray, np.ndarray]],
                 poses: list[tuple[float, float, float]]) -> AlongRoute:
