@@ -13,6 +13,7 @@ Every draw comes from the variation's own generator in a fixed order, so a plan 
 """
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, fields
 from typing import TYPE_CHECKING
@@ -82,6 +83,13 @@ class Draws:
 
 
 READ_ONLY_ROWS = ("route", "speed", "length", "width", "entry_control")  # a plan's start rows from its scene
+
+
+@functools.cache
+def _changeable_rows(cls: type) -> tuple[str, ...]:
+    """The array fields of a plan class (annotated np.ndarray) but READ_ONLY_ROWS: what `snapshot` copies (found
+    once per class; a followon dry run snapshots tens of thousands of times a case)."""
+    return tuple(f.name for f in fields(cls) if f.type in ("np.ndarray", np.ndarray) and f.name not in READ_ONLY_ROWS)
 
 
 @dataclass
@@ -165,8 +173,7 @@ class VariationPlan:
     def snapshot(self) -> dict[str, np.ndarray]:
         """Copies of the per-actor rows planning may change (every array field but the scene's start rows, which
         are read only), for `restore`: a planning step tried and dropped leaves the plan as it was."""
-        return {f.name: getattr(self, f.name).copy() for f in fields(self)
-                if f.name not in READ_ONLY_ROWS and isinstance(getattr(self, f.name), np.ndarray)}
+        return {name: getattr(self, name).copy() for name in _changeable_rows(type(self))}
 
     def restore(self, snapshot: dict[str, np.ndarray]) -> None:
         """The rows `snapshot` copied, back as they were then."""
