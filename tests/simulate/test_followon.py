@@ -3,7 +3,6 @@ state of a deflected car along its predicted path."""
 from __future__ import annotations
 
 import functools
-import math
 from dataclasses import dataclass, replace
 from types import SimpleNamespace
 

@@ -327,7 +327,6 @@ def clip_slides(clips: list[Clip]) -> list[tuple[float, tuple[np.ndarray, np.nda
         return np.array(list(values), dtype=float)
 
     b = [column(p[j] for p in before) for j in range(3)]
-    a = [column(p[j] for p in after) for j in range(3)]
     step = [column(p[j] - q[j] for p, q in zip(after, before)) for j in range(3)]
     dt, t0 = column(c.dt for c in sel), column(t_before)
     ahead, p_speed = column(c.partner_ahead for c in sel), column(c.partner_speed for c in sel)

@@ -218,8 +218,7 @@ def steady(items: list[cascade.Push], moving: tuple[np.ndarray, ...], striker: b
     step (`steps`, None: no meeting) also when the striker comes APPROACH_SHAKE more or less turned, or the touch
     LEAD_SHAKE earlier or later in the simulator's step: an offset impact whose contacts can throw the striker
     either way (cascade's module docstring) does so on less than the plan can foresee."""
-    shakes = [(da, dl) for da in (-APPROACH_SHAKE, APPROACH_SHAKE) for dl in (0.0,)] + \
-        [(0.0, dl) for dl in (-LEAD_SHAKE, LEAD_SHAKE)]
+    shakes = [(-APPROACH_SHAKE, 0.0), (APPROACH_SHAKE, 0.0), (0.0, -LEAD_SHAKE), (0.0, LEAD_SHAKE)]
     shaken = [replace(p, approach=p.approach + da, lead=float(np.clip(p.lead + dl, 1e-3, p.dt)))
               for p, k in zip(items, steps) if k is not None for da, dl in shakes]
     found = lockstep.together(cascade.pushes_moving, shaken)
