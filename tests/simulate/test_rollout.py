@@ -130,3 +130,26 @@ def test_a_body_sliding_from_an_impact_before_slides_on_its_tyres_from_the_start
     # its tyres (mu g: 3 m/s is gone within 0.4 s)
     assert driven[0, 0, -1] == pytest.approx(1.5) and driven[1, 0, -1] == 0.0
     assert slid[0, 0, -1] == 0.0 and 0.4 < slid[1, 0, -1] < 0.6
+
+
+def test_a_turning_driven_striker_meets_the_other_along_its_heading_at_the_contact():
+    """A car 20 m/s, its driver turning it at 1 rad/s, touches a car standing still ahead half way into a 0.1 s
+    step: as the simulator does (simulator._exchange), the impulse is exchanged with its velocity along its heading
+    at the contact (the pose moved back to it), not along the heading its step ended at (0.05 rad further: 1 m/s
+    across)."""
+    from crashscene.simulate.embedded import impact
+    from crashscene.simulate.embedded.rollout import contact_steps
+
+    a, b = _pair(1.0)
+    a.turn = np.ones(1)
+    step = next(contact_steps(a, b, 0.8, 0.1, 1))
+    assert step.onset[0] and 0.2 < step.frac[0] < 0.8
+    xa, ya, yaw_a, xb, yb, yaw_b = step.contact
+    one = np.ones(1)
+    inertia = impact.yaw_inertia(1500.0 * one, 4.5 * one, 1.8 * one)
+    nx, ny, px, py, _ = impact.contact(xa, ya, yaw_a, 4.5 * one, 1.8 * one, xb, yb, yaw_b, 4.5 * one, 1.8 * one)
+    va, wa, vb, wb, _ = impact.exchange(nx, ny, px, py, xa, ya, np.stack([20.0 * np.cos(yaw_a), 20.0 * np.sin(yaw_a)]),
+                                        one, 1500.0 * one, inertia, xb, yb, np.zeros((2, 1)), 0 * one, 1500.0 * one,
+                                        inertia)
+    assert (a.vx[0], a.vy[0], a.w[0]) == pytest.approx((va[0, 0], va[1, 0], wa[0]), abs=1e-9)
+    assert (b.vx[0], b.vy[0], b.w[0]) == pytest.approx((vb[0, 0], vb[1, 0], wb[0]), abs=1e-9)
