@@ -89,6 +89,12 @@ class Behavior(StrEnum):
     LEAVE_ROAD = "leave_road"
 
 
+# the behaviours by what they do, as plain tokens (the simulator, monitor, extractor and exporters test these)
+STANDING = (Behavior.STOP.value, Behavior.STATIC.value)  # the vehicle stands still (stopped or parked)
+LANE_CHANGES = (Behavior.CHANGE_LANE_LEFT.value, Behavior.CHANGE_LANE_RIGHT.value)  # into an adjacent lane
+OPPOSING_PASSES = (Behavior.CROSS_CENTERLINE.value, Behavior.OVERTAKE.value)  # into the opposing lane
+
+
 class RoadElement(StrEnum):
     """Position references that are road elements rather than actors."""
 

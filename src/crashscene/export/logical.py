@@ -27,6 +27,7 @@ from pathlib import Path
 
 from scenariogeneration import xosc
 
+from crashscene.dsl.tokens import LANE_CHANGES, STANDING
 from crashscene.export.errors import ExportError
 from crashscene.export.program import ProgramSampling
 from crashscene.export.roadframe import RoadFrame, RoadPoint
@@ -169,7 +170,7 @@ def build_logical(plan: RenderPlan, sampling: ProgramSampling, scene: SampledSce
         lane_pos = xosc.LanePosition(_s_expression(item, values), 0.0, item.point.lane, item.point.road)
         init.add_init_action(actor.role, xosc.TeleportAction(lane_pos))
         speed = f"${prefix(actor.role)}_SPEED" if f"{prefix(actor.role)}_SPEED" in values else actor.speed
-        if actor.behavior in ("stop", "static"):
+        if actor.behavior in STANDING:
             speed = 0.0
         init.add_init_action(actor.role, xosc.AbsoluteSpeedAction(
             speed, xosc.TransitionDynamics(xosc.DynamicsShapes.step, xosc.DynamicsDimension.time, 0.0)))
@@ -249,7 +250,7 @@ def _behaviour_events(actor: SampledActor, start: RoadPoint, frame: RoadFrame, v
     """The actor's DSL behaviour as timed OpenSCENARIO actions (none for cruising, turning, static)."""
     p, role, b = prefix(actor.role), actor.role, actor.behavior
     t_man = f"${p}_MANEUVER_TIME" if f"{p}_MANEUVER_TIME" in values else 0.0
-    if b in ("change_lane_left", "change_lane_right"):
+    if b in LANE_CHANGES:
         return [_event(f"{role}_lane_change", "lane_change", _lane_change(role, 1 if b.endswith("left") else -1),
                        t_man)]
     if b == "cross_centerline":

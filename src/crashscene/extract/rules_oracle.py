@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import re
 
+from crashscene.dsl.tokens import OPPOSING_PASSES, STANDING
 from crashscene.extract.narrative import around, clip, label_at, last_label_before
 from crashscene.extract.rules_road import driveway_vehicle
 from crashscene.extract.rules_state import RulesState, relative_heading
@@ -116,7 +117,7 @@ def _manoeuvre_oracle(state: RulesState, road: dict, oracle: _Oracle) -> None:
         if behavior == "lose_control" or label in too_fast:
             oracle.add("CVC_22350", role,
                        f"{label} lost control or was driven too fast for the conditions.", quote)
-        crossed = behavior in ("cross_centerline", "overtake") or (
+        crossed = behavior in OPPOSING_PASSES or (
             behavior == "lose_control" and "cross_centerline" in vehicle.flags)
         if crossed:
             oracle.add("CVC_21650", role, f"{label} entered the opposing lanes of the roadway.", quote)
@@ -201,7 +202,7 @@ def _junction_oracle(state: RulesState, road: dict, oracle: _Oracle) -> None:
             if label in ran_stop:
                 oracle.add("CVC_22450", role, f"{label} did not stop at its stop sign.",
                            around(text, ran_stop[label]))
-            elif vehicle.behavior not in ("stop", "static"):  # stopped, or the stop is not stated, then entered
+            elif vehicle.behavior not in STANDING:  # stopped, or the stop is not stated, then entered
                 oracle.add("CVC_21802", role,
                            f"{label} left its stop-controlled approach into the path of cross traffic.", quote)
         elif "yield_sign" in devices and label in state.yield_controlled:
@@ -239,7 +240,7 @@ def _sequence_oracle(state: RulesState, oracle: _Oracle) -> None:
         # a vehicle stopped in the striker's path (stopped at an angle across the lane)
         rear_end = contact.areas.get("striking") != "rear" and contact.areas.get("struck") == "rear"
         moving = struck.behavior in _MOVING and state.uses("rules_oracle.a_turning_vehicle_is_moving")
-        stopped = struck.behavior in ("stop", "static") or (not moving and bool(re.search(
+        stopped = struck.behavior in STANDING or (not moving and bool(re.search(
             rf"\b{struck.label}\b[^.]{{0,60}}\b(?:was|had)\s+(?:\w+\s+)?stopped|stopped {struck.label}\b", text, re.I)))
         in_path = stopped and relative_heading(striker, struck) in (None, "same_direction")
         free = not contact.pushed and striker.label not in struck_before
@@ -276,7 +277,7 @@ def _rear_end_by_phrase(state: RulesState, oracle: _Oracle) -> None:
             struck = state.vehicles.get(match.group(1))
             if struck is None or struck.label == label:
                 continue
-            if struck.behavior in ("stop", "static") or re.search(
+            if struck.behavior in STANDING or re.search(
                     rf"{struck.label}\b[^.]{{0,60}}\bstopped|stopped {struck.label}", text, re.I):
                 oracle.add("CVC_22350", vehicle.role,
                            f"{label} struck the stopped {struck.label} from behind: too fast for the traffic ahead.",

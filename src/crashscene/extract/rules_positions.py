@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import re
 
+from crashscene.dsl.tokens import LANE_CHANGES, OPPOSING_PASSES, STANDING
 from crashscene.extract.narrative import COMPASS, around, clip, label_at
 from crashscene.extract.rules_state import RulesState, Vehicle, has_cross_traffic, relative_heading
 from crashscene.units import KMH_PER_MPH
@@ -107,7 +108,7 @@ def _guess_heading(state: RulesState, ego: Vehicle, npc: Vehicle, at_junction: b
                    one_way: bool = False) -> str:
     """A heading when the report gives no travel direction: from the manoeuvres and the impact."""
     label = npc.label
-    if npc.behavior in ("cross_centerline", "overtake") or ego.behavior == "cross_centerline":
+    if npc.behavior in OPPOSING_PASSES or ego.behavior == "cross_centerline":
         return "opposite_direction"
     if state.uses("rules_positions.stated_opposite_direction") and re.search(
             rf"\b{label}\b[^.]{{0,60}}\b(?:in the opposite direction|oncoming|opposing direction)", text, re.I):
@@ -138,7 +139,7 @@ def _same_direction_relation(state: RulesState, ego: Vehicle, npc: Vehicle, text
                                               rf"\b(?:shoulder|curb|roadside|side of the road)", text, re.I):
         side = re.search(rf"\b{label}\b[^.]{{0,160}}\b(left|median|inside)\b[^.]{{0,10}}shoulder", text, re.I)
         return "left" if side else "right"
-    if npc.behavior in ("change_lane_left", "change_lane_right") and not (ego.lane_side and npc.lane_side) and \
+    if npc.behavior in LANE_CHANGES and not (ego.lane_side and npc.lane_side) and \
             state.uses("rules_positions.lane_changer_comes_from_the_side_it_leaves"):
         return "right" if npc.behavior == "change_lane_left" else "left"  # it comes from the side it leaves
     if ego.lane_side and npc.lane_side and ego.lane_side != npc.lane_side and "middle" not in (ego.lane_side,
@@ -170,7 +171,7 @@ def _position_stated(text: str, label: str) -> bool:
                re.search(_POSITION_WORDS, sentence, re.I) for sentence in re.split(r"(?<=[.!?])\s+", text))
 
 
-KEEPS_ITS_LANE = ("go_forward", "decelerate", "stop", "static")  # manoeuvres that keep the vehicle in its lane
+KEEPS_ITS_LANE = ("go_forward", "decelerate", *STANDING)  # manoeuvres that keep the vehicle in its lane
 
 
 def struck_in_turn(chain: list[tuple[str, str]]) -> dict[str, list[str]]:

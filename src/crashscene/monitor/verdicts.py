@@ -25,13 +25,14 @@ from dataclasses import dataclass
 import numpy as np
 import pyarrow as pa
 
+from crashscene.dsl.tokens import LANE_CHANGES, OPPOSING_PASSES, STANDING
 from crashscene.dsl.model import Contact, Scenario
 from crashscene.monitor.arrays import TraceArrays
 from crashscene.monitor.conflicts import arc_length
 from crashscene.monitor.rules.base import RuleOutcome
 
 VERDICTS = ("violation", "collision", "pass", "invalid")
-STATIONARY_BEHAVIORS = ("static", "stop")
+STATIONARY_BEHAVIORS = STANDING
 MIN_TRAVEL = 0.5  # [m] an actor under test that moved less never took part
 
 VERDICT_SCHEMA = pa.schema([
@@ -87,7 +88,7 @@ def expected_collision(scenario: Scenario | None) -> ExpectedCollision | None:
             klass, also = "angle", ("sideswipe",)
         else:
             klass = "head_on"
-    elif behaviors & {"change_lane_left", "change_lane_right", "overtake", "cross_centerline", "leave_road"}:
+    elif behaviors & {*LANE_CHANGES, *OPPOSING_PASSES, "leave_road"}:
         klass = "sideswipe"
     else:
         klass = "rear_end"

@@ -22,6 +22,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from crashscene.dsl.model import Actor, Scenario
 from crashscene.dsl.tokens import (
+    OPPOSING_PASSES,
     Behavior,
     Heading,
     Relation,
@@ -465,7 +466,7 @@ def _map_spec(scenario: Scenario, actors: list[ActorPlan], speed_limit: float | 
         notes.append(f"{forward} lane(s) in the ego's direction cannot hold the side placements "
                      f"({need_left} left, {need_right} right); generated map widened")
         forward = need_left + need_right + 1
-    oncoming = any(a.placement is Placement.ONCOMING or a.behavior in ("cross_centerline", "overtake")
+    oncoming = any(a.placement is Placement.ONCOMING or a.behavior in OPPOSING_PASSES
                    or (a.placement is Placement.APPROACH and a.relative_heading == 3.141592653589793)
                    for a in actors)
     if backward == 0 and oncoming:

@@ -26,6 +26,7 @@ from typing import Any
 
 import jinja2
 
+from crashscene.dsl.tokens import LANE_CHANGES, OPPOSING_PASSES
 from crashscene.render.errors import RenderError
 from crashscene.render.plan import (
     BLUEPRINT_DIMS,
@@ -95,7 +96,7 @@ def _behavior_call(actor: dict[str, Any]) -> str:
         return f"CsStop({p}_STOP_DURATION, {p}_PROCEED_SPEED)"
     if b == "decelerate":
         return f"CsDecelerate({p}_SPEED, {p}_MANEUVER_TIME)"
-    if b in ("change_lane_left", "change_lane_right"):
+    if b in LANE_CHANGES:
         return f"CsChangeLane({p}_SPEED, {p}_MANEUVER_TIME, {py(b.rsplit('_', 1)[1])})"
     if b == "cross_centerline":
         return f"CsCrossCenterline({p}_SPEED, {p}_MANEUVER_TIME, 0)"
@@ -111,7 +112,7 @@ def _behavior_call(actor: dict[str, Any]) -> str:
 def _needs(actor, actors) -> dict[str, int]:
     """Lanes an actor's start lane must offer: same-direction lanes left/right, an oncoming lane."""
     left = right = 0
-    oncoming = actor.behavior in ("cross_centerline", "overtake")
+    oncoming = actor.behavior in OPPOSING_PASSES
     if actor.behavior == "change_lane_left":
         left = 1
     if actor.behavior == "change_lane_right":

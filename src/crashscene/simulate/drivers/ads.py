@@ -14,6 +14,7 @@ from collections import deque
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
+from crashscene.dsl.tokens import LANE_CHANGES
 from crashscene.simulate.backend import SimulationError, import_ads
 from crashscene.simulate.drivers.base import Action, Driver, DriverContext, Observation
 from crashscene.simulate.drivers.longitudinal import (
@@ -94,7 +95,7 @@ class ReferenceADS(Driver):
         accel = np.minimum(delayed, np.maximum(accel, -ctx.limits.brake_comfort))
 
         offset = np.zeros(ctx.n_variations)
-        if ctx.behavior in ("change_lane_left", "change_lane_right"):
+        if ctx.behavior in LANE_CHANGES:
             gap = self.config.lane_change_gap
             ok = (obs.t >= self.config.lane_change_time) & (obs.target_gap_front > 5.0 + gap * obs.speed) & (
                 obs.target_gap_rear > 5.0 + gap * np.nan_to_num(obs.target_rear_speed, nan=0.0))

@@ -14,6 +14,7 @@ from collections import deque
 
 import numpy as np
 
+from crashscene.dsl.tokens import LANE_CHANGES, OPPOSING_PASSES
 from crashscene.monitor.rules import Disposition, codes_with, dispositions_of
 from crashscene.simulate.drivers.base import (
     Action,
@@ -33,7 +34,7 @@ from crashscene.units import G
 CLOSE_HEADWAY = 0.5  # [s] a tailgater's time headway
 REACTION = 1.0  # [s] perception-reaction time of an ordinary human driver
 TAILGATE_RANGE = 80.0  # [m] a tailgater matches the speed of a car ahead closer than this
-PULL_OUT_BEHAVIORS = ("change_lane_left", "change_lane_right", "cross_centerline", "overtake")
+PULL_OUT_BEHAVIORS = LANE_CHANGES + OPPOSING_PASSES
 PULL_OUT_GAP = 2.0  # [m] a tailgater about to pass pulls out when this close to the car ahead...
 PULL_OUT_TIME = 0.25  # [s] ...or this close in time
 CLOSING_SPEED = 3.0  # [m/s] how much faster than the car ahead a tailgater about to pass drives
@@ -165,7 +166,7 @@ class BehaviorDriver(Driver):
         offset = np.zeros(n)
         lose = None
         spin = None
-        if behavior in ("change_lane_left", "change_lane_right"):
+        if behavior in LANE_CHANGES:
             ok = triggered
             if self.check_gap:
                 ok = ok & (obs.target_gap_front > 5.0 + LANE_CHANGE_GAP * obs.speed) & (

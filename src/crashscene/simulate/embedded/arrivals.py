@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from crashscene.dsl.tokens import STANDING
 from crashscene.geometry import clip_scalar, wrap_angle
 from crashscene.monitor.rules import Disposition
 from crashscene.simulate.embedded import slap, timing, touch
@@ -244,7 +245,7 @@ def _delay_anchor(plan: VariationPlan, cs_e: float, late: float, slack: float) -
     ctx = plan.ctx
     anchor = ctx.anchor
     anchor_col = ctx.columns[anchor]
-    if anchor_col.is_ads or anchor_col.behavior in ("static", "stop") or plan.anchor_stop is not None \
+    if anchor_col.is_ads or anchor_col.behavior in STANDING or plan.anchor_stop is not None \
             or plan.hold[anchor] != 0.0:
         return
     arrays, ra, va = ctx.arrays, plan.route[anchor], plan.anchor_speed

@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from crashscene.dsl.tokens import STANDING
 from crashscene.monitor.rules import Disposition
 from crashscene.render.plan import LATERAL_BEHAVIORS
 from crashscene.simulate.embedded import cascade, followon, lockstep, timing
@@ -302,7 +303,7 @@ def _cascade_actors(plan: VariationPlan) -> tuple[int, int, int, int, str, tuple
     # a rear-end into a stopped car, by a driver going straight on or drifting into it (not one whose loss of
     # control is planned as a skid)
     if seq[0][2] == "rear_end" and (cols[si].behavior not in ("go_forward", *DRIFT_BEHAVIORS)
-                                    or cols[ti].behavior not in ("stop", "static")):
+                                    or cols[ti].behavior not in STANDING):
         return None
     if seq[0][2] == "head_on" and (cols[ti].is_ads or cols[ti].behavior != "go_forward"
                                    or cols[si].behavior not in ("go_forward", "overtake", "cross_centerline")):

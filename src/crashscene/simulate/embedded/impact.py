@@ -222,3 +222,10 @@ def tyre_slide(vx, vy, yaw, yaw_rate, friction, length, width, wheelbase, dt: fl
     vx, vy = u * c - w * s, u * s + w * c
     rest = (np.hypot(vx, vy) < REST_SPEED) & (np.abs(yaw_rate) < REST_YAW_RATE)
     return np.where(rest, 0.0, vx), np.where(rest, 0.0, vy), np.where(rest, 0.0, yaw_rate)
+
+
+def glide(x, y, yaw, vx0, vy0, yaw_rate0, vx1, vy1, yaw_rate1, dt: float):
+    """The pose (x, y, yaw, the yaw not wrapped) of a sliding vehicle after a step of dt [s] in which its velocity
+    [m/s] and yaw rate [rad/s] went from (vx0, vy0, yaw_rate0) to (vx1, vy1, yaw_rate1): trapezoidal, the one
+    integration of a slide (the simulator's step, the plans' predictions of it)."""
+    return x + 0.5 * (vx0 + vx1) * dt, y + 0.5 * (vy0 + vy1) * dt, yaw + 0.5 * (yaw_rate0 + yaw_rate1) * dt

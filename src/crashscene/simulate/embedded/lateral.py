@@ -10,8 +10,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from crashscene.dsl.tokens import LANE_CHANGES, OPPOSING_PASSES
 from crashscene.render.plan import LATERAL_BEHAVIORS
 from crashscene.scene import SampledScene
+from crashscene.simulate.drivers.behaviors import SPIN_RATE
 from crashscene.simulate.embedded import skid as skid_plan
 from crashscene.simulate.embedded import timing
 from crashscene.simulate.embedded.clip import clip
@@ -21,7 +23,7 @@ if TYPE_CHECKING:
     from crashscene.simulate.embedded.plan import PlanContext, VariationPlan
     from crashscene.simulate.embedded.setup import ActorColumn
 
-VEER_BEHAVIORS = ("change_lane_left", "change_lane_right", "cross_centerline", "overtake")
+VEER_BEHAVIORS = LANE_CHANGES + OPPOSING_PASSES
 DRIFT_BEHAVIORS = VEER_BEHAVIORS + ("leave_road",)  # lateral manoeuvres a driver steers (not a loss of control)
 WRONG_WAY_LEFT = 0.4  # [lanes] a drift across several lanes starts this far short of the partner's lane
 
@@ -55,17 +57,17 @@ def plan_lateral(plan: VariationPlan, a: int) -> None:
             and plan.contact_area(a, partner) in ("front", "left", "right") \
             and clip(plan, a, partner, gap, contact, rate):
         return
-    if contact == "sideswipe" and not opposite and col.behavior in ("change_lane_left", "change_lane_right") \
+    if contact == "sideswipe" and not opposite and col.behavior in LANE_CHANGES \
             and _place_alongside(plan, a, partner, gap, dist):
         return
     if _plan_skid(plan, a, partner, contact, gap, lateral, opposite):
         return
     if col.behavior == "lose_control":
-        t_trig = timing.skid_trigger(gap, plan.speeds[a], plan.speeds[partner], lateral, timing.SPIN_RATE,
+        t_trig = timing.skid_trigger(gap, plan.speeds[a], plan.speeds[partner], lateral, SPIN_RATE,
                                      opposite=opposite) - lead
     else:
         t_trig = timing.lateral_trigger(gap, plan.speeds[a], plan.speeds[partner], opposite, dist, lead, rate)
-    if t_trig < 0 and col.behavior in ("cross_centerline", "overtake") and opposite:
+    if t_trig < 0 and col.behavior in OPPOSING_PASSES and opposite:
         # too close for the whole manoeuvre: the actor is already drifting across at t = 0; several
         # lanes across (a wrong-way driver on a divided road), it has crossed all but the last part
         reach = max(abs(dist) * 0.6, abs(dist) - WRONG_WAY_LEFT * plan.lane_width)
@@ -210,7 +212,7 @@ def _partner(a: int, anchor: int, columns: list[ActorColumn], scene: SampledScen
         if b == a:
             continue
         opposite = math.cos(other.yaw - me.yaw) < -0.3
-        if behavior in ("cross_centerline", "overtake", "lose_control") and not opposite:
+        if behavior in (*OPPOSING_PASSES, "lose_control") and not opposite:
             continue
         dist = math.hypot(other.x - me.x, other.y - me.y)
         if dist < best_dist:

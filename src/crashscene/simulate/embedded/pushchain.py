@@ -24,6 +24,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from crashscene.dsl.tokens import STANDING
 from crashscene.monitor.rules import Disposition
 from crashscene.simulate.drivers.base import idm_accel
 from crashscene.simulate.drivers.behaviors import LATE_REACTION, REACTION, rules_for
@@ -72,7 +73,7 @@ def links(plan: VariationPlan) -> list[Link]:
         if klass != "rear_end" or striking != roles[pushed] or struck not in roles:
             break
         ahead = roles.index(struck)
-        if cols[ahead].is_ads or cols[ahead].behavior not in ("go_forward", "stop", "static") \
+        if cols[ahead].is_ads or cols[ahead].behavior not in ("go_forward", *STANDING) \
                 or ahead in (pusher, pushed) or any(ahead in (k.pusher, k.pushed) for k in out) \
                 or not same_lane(plan.route, plan.d0, pushed, ahead) or plan.s0[ahead] <= plan.s0[pushed]:
             break
@@ -117,7 +118,7 @@ def motion(plan: VariationPlan, a: int, times: np.ndarray) -> tuple[np.ndarray, 
     """(station [m], speed [m/s]) of actor a at `times` [s] as its behaviour has it (`stations.lane_motion`);
     one that stops or stands and starts at rest (setup: a sampled speed of 0) stays where it is, one held at its
     start (`VariationPlan.hold`) until then."""
-    if plan.speed[a] <= 0.0 and plan.ctx.columns[a].behavior in ("stop", "static"):
+    if plan.speed[a] <= 0.0 and plan.ctx.columns[a].behavior in STANDING:
         return np.full(len(times), float(plan.s0[a])), np.zeros(len(times))
     hold = float(plan.hold[a])
     if hold <= 0.0:

@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pyarrow as pa
 
+from crashscene.dsl.tokens import LANE_CHANGES, STANDING
 from crashscene.geometry import LANE_WIDTH
 from crashscene.scene import SampledScene
 from crashscene.simulate.backend import SimulationSettings
@@ -17,9 +18,9 @@ from crashscene.simulate.roads import MARKERS, RoadMap
 from crashscene.simulate.tables import actors_table, collisions_table, variations_table
 from crashscene.traces import CONTROLS, MANEUVERS, SIGNAL_STATES, TRACE_SCHEMA
 
-LANE_CHANGE_BEHAVIORS = ("change_lane_left", "change_lane_right", "overtake")
+LANE_CHANGE_BEHAVIORS = (*LANE_CHANGES, "overtake")
 NEVER_MOVED = 0.5  # [m] an ego that travels less than this never moved
-STILL_BEHAVIORS = ("stop", "static")
+STILL_BEHAVIORS = STANDING
 
 
 class Recorder:

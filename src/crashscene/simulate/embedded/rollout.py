@@ -171,10 +171,11 @@ def _move(q: Bodies, collided: np.ndarray, friction: np.ndarray, dt: float) -> N
 
 
 def slide_step(x, y, yaw, vx, vy, yaw_rate, friction, length, width, wheelbase, dt: float):
-    """One step [s] of bodies sliding on their tyres after an impact (impact.tyre_slide), integrated trapezoidally
-    as simulator._move integrates a sliding vehicle: (x, y, yaw (not wrapped), vx, vy, yaw rate) at its end."""
+    """One step [s] of bodies sliding on their tyres after an impact (impact.tyre_slide), integrated as
+    simulator._move integrates a sliding vehicle (impact.glide): (x, y, yaw (not wrapped), vx, vy, yaw rate) at its
+    end."""
     vx1, vy1, w1 = impact.tyre_slide(vx, vy, yaw, yaw_rate, friction, length, width, wheelbase, dt)
-    return x + 0.5 * (vx + vx1) * dt, y + 0.5 * (vy + vy1) * dt, yaw + 0.5 * (yaw_rate + w1) * dt, vx1, vy1, w1
+    return (*impact.glide(x, y, yaw, vx, vy, yaw_rate, vx1, vy1, w1, dt), vx1, vy1, w1)
 
 
 def _back_to_contact(a: Bodies, b: Bodies, prev, hit: np.ndarray) -> np.ndarray:

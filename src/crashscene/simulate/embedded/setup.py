@@ -14,6 +14,7 @@ from functools import cached_property
 
 import numpy as np
 
+from crashscene.dsl.tokens import LANE_CHANGES, OPPOSING_PASSES
 from crashscene.dsl import Scenario
 from crashscene.monitor.rules import Disposition, dispositions_of
 from crashscene.geometry import LANE_WIDTH
@@ -677,7 +678,7 @@ def _junction_intent(actor: SampledActor) -> str:
 def _route_lane(roadmap: RoadMap, lane: Lane, actor: SampledActor) -> tuple[Lane, float]:
     """The lane the route follows and the lateral target on it [m] (lane changes follow the target lane)."""
     change = actor.route_intent if actor.route_intent.startswith("lane_change") else None
-    if change is None and actor.behavior in ("change_lane_left", "change_lane_right"):
+    if change is None and actor.behavior in LANE_CHANGES:
         change = "lane_change_" + actor.behavior.rsplit("_", 1)[1]
     if change == "lane_change_left":
         if lane.left:
@@ -712,11 +713,11 @@ def _lateral_target(behavior: str, current: np.ndarray, centre_offset: np.ndarra
                     d0: np.ndarray) -> np.ndarray:
     """Lateral offset [m] a behaviour steers to, on its route."""
     across = np.where(np.isnan(centre_offset), lane_width, 2.0 * centre_offset)
-    if behavior in ("cross_centerline", "overtake"):
+    if behavior in OPPOSING_PASSES:
         return across
     if behavior == "leave_road":
         return -(lane_width / 2.0 + LANE_WIDTH)  # one lane's width beyond the road's edge
-    if behavior in ("change_lane_left", "change_lane_right"):
+    if behavior in LANE_CHANGES:
         return np.where(np.isnan(current), across, current)
     return np.nan_to_num(current)
 

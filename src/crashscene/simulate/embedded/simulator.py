@@ -325,7 +325,7 @@ def _observe_all(batch: batch_setup.BatchSetup, state: State, geo: Geometry, t: 
     routes = batch.routes
     x, y, yaw, v, s, d, acc = (np.ascontiguousarray(arr.T) for arr in (state.x, state.y, state.yaw, state.v,
                                                                          state.s, state.d, state.a))
-    r, wa = fixed.r, fixed.wa
+    r = fixed.r
     front, lane_w, target = (np.ascontiguousarray(arr.T) for arr in (geo.front, geo.lane_width,
                                                                       batch.lateral_target))
     others = fixed.others
@@ -449,9 +449,11 @@ def _move(batch: batch_setup.BatchSetup, state: State, accel_cmd: np.ndarray, la
         # or rest
         v_slide = np.hypot(vx, vy)
         # (x_new ... v_new are this step's own arrays: written in place)
-        np.put(x_new, rows, state.x.reshape(-1)[rows] + 0.5 * (vx0 + vx) * dt)
-        np.put(y_new, rows, state.y.reshape(-1)[rows] + 0.5 * (vy0 + vy) * dt)
-        np.put(yaw_new, rows, yaw0 + 0.5 * (w0 + w) * dt)
+        x1, y1, yaw1 = impact.glide(state.x.reshape(-1)[rows], state.y.reshape(-1)[rows], yaw0, vx0, vy0, w0, vx, vy,
+                                    w, dt)
+        np.put(x_new, rows, x1)
+        np.put(y_new, rows, y1)
+        np.put(yaw_new, rows, yaw1)
         np.put(accel, rows, (v_slide - state.v.reshape(-1)[rows]) / dt)
         np.put(yaw_rate, rows, w)
         np.put(v_new, rows, v_slide)

@@ -98,9 +98,8 @@ def trajectories(speeds: np.ndarray, friction: float, dt: float) -> tuple[np.nda
     out = np.zeros((3, *shape, steps))
     for k in range(steps):
         vx1, vy1, _ = impact.slide(vx, vy, yaw, spin, friction, size, size, dt)
-        x = x + 0.5 * (vx + vx1) * dt
-        y = y + 0.5 * (vy + vy1) * dt
-        yaw = yaw + np.where(np.hypot(vx1, vy1) > impact.REST_SPEED, spin, 0.0) * dt
+        turning = np.where(np.hypot(vx1, vy1) > impact.REST_SPEED, spin, 0.0)  # the spin held until rest
+        x, y, yaw = impact.glide(x, y, yaw, vx, vy, turning, vx1, vy1, turning, dt)
         vx, vy = vx1, vy1
         out[:, :, :, k] = x, y, yaw
     return out[0], out[1], out[2]

@@ -16,6 +16,8 @@ import math
 
 import numpy as np
 
+from crashscene.simulate.drivers.behaviors import DRIFTING
+
 SPEED_SCALE = (0.6, 1.4)  # [-] range of cruise-speed adjustment for timing
 ARRIVAL_OFFSET_SD = 0.3  # [s] default spread of the arrival offset
 ARRIVAL_OFFSET_MEAN = 0.25  # [s] the other actor arrives just after the anchor: it strikes the anchor's side
@@ -23,9 +25,8 @@ ARRIVAL_OFFSET_MAX = 0.8  # [s]
 TURNER_LEAD = 0.0  # [s] a turning vehicle reaches a crossing conflict point this much before a straight one (measured best: 0)
 REPRODUCE_OFFSET_SCALE = 0.4  # [-] reproduce mode narrows the sampled offset window (the crash must happen)
 LATERAL_RATE = 1.2  # [m/s] lateral speed of a lane change
-SPIN_RATE = 0.35  # [rad/s] yaw rate of a car out of control (drivers.behaviors.SPIN_RATE)
 SWERVE_RATE = 2.0  # [m/s] lateral speed of a drift or swerve across the centre line or off the road
-SWERVE_BEHAVIORS = ("cross_centerline", "overtake", "leave_road", "lose_control")
+SWERVE_BEHAVIORS = DRIFTING  # the drifts across the centre line or off the road swerve at SWERVE_RATE
 
 
 def lateral_rate(behavior: str) -> float:
