@@ -136,6 +136,8 @@ def test_option_key_ranks_a_steady_impact_then_the_sooner_meeting_below_the_writ
     assert option_key(3, True, 2, True, 4, aimed, 5.0) < base  # sooner, but the next contact's class not robust
     assert option_key(3, True, 3, True, 10, (3, True, 25.0), 5.0) > base  # same time: the more central heading
     assert full(base) and not full(option_key(3, True, 3, False, 4, aimed, 5.0))
+    # the fourth actor not aimed at the moving car (it cannot drive at its centre within its lane): not full
+    assert not full(option_key(3, True, 3, True, 10, (3, False, 20.0), 5.0))
 
 
 def test_the_corners_a_fourth_contact_tries_are_a_fine_grid_across_the_struck_cars_rear():
