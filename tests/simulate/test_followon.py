@@ -3,6 +3,7 @@ state of a deflected car along its predicted path."""
 from __future__ import annotations
 
 import functools
+import math
 from dataclasses import dataclass, replace
 from types import SimpleNamespace
 
@@ -209,3 +210,26 @@ def test_a_fourth_contact_keeps_the_best_plan_when_none_has_it(monkeypatch):
 def test_a_fourth_contact_planned_as_placed_is_kept(monkeypatch):
     plan, tried = _alternatives(monkeypatch, [_key(3, True)])
     assert tried == [(100.0, 0.0)] and plan.lateral_target[3] == 1
+
+
+def test_touch_class_is_the_monitors_class_of_the_recorded_contact():
+    """Two cars (4.8 x 2 m) 160 deg apart: touching front to front they are a head-on; 2.1 m apart across (front
+    corners along each other's sides) they are side to side, a sideswipe, as monitor.collisions classifies them,
+    the pair taken in actor order; a car struck 20 deg turned from behind is a rear-end, not the sideswipe the
+    headings alone would allow."""
+    from crashscene.simulate.embedded.followon import _later_match, touch_class
+
+    plan = SimpleNamespace(length=np.full(4, 4.8), width=np.full(4, 2.0))
+    turned = math.radians(160.0)
+    assert touch_class(plan, 1, 0, (0.0, 0.0, 0.0, 4.655, -0.821, turned)) == "head_on"  # front corners meet
+    assert touch_class(plan, 1, 0, (0.0, 0.0, 0.0, 4.0, 2.1, turned)) == "sideswipe"
+    assert touch_class(plan, 0, 3, (4.0, 2.1, turned, 0.0, 0.0, 0.0)) == "sideswipe"
+    behind = (0.0, 0.0, math.radians(20.0), 4.7, 0.0, 0.0)  # the third (actor 0) 4.7 m ahead of the mover
+    assert touch_class(plan, 1, 0, behind) == "rear_end"
+    meeting = (3, 10.0, "sideswipe", "left", 1.0, 5.0)  # a meeting read as the written sideswipe, on the area
+    later = ("sideswipe", "left", "right")
+    assert _later_match(plan, meeting, later, None, 1, 0) == 3
+    assert _later_match(plan, meeting, later, (None, 0.0, None, behind), 1, 0) == 1
+    side = (0.0, 0.0, 0.0, 0.5, 2.0, math.radians(15.0))
+    assert touch_class(plan, 1, 0, side) == "sideswipe"
+    assert _later_match(plan, meeting, later, (None, 0.0, None, side), 1, 0) == 3

@@ -153,3 +153,19 @@ def test_a_turning_driven_striker_meets_the_other_along_its_heading_at_the_conta
                                         inertia)
     assert (a.vx[0], a.vy[0], a.w[0]) == pytest.approx((va[0, 0], va[1, 0], wa[0]), abs=1e-9)
     assert (b.vx[0], b.vy[0], b.w[0]) == pytest.approx((vb[0, 0], vb[1, 0], wb[0]), abs=1e-9)
+
+
+def test_stepped_gives_the_poses_the_simulator_records_the_first_contact_at():
+    """The pair of `_pair` 0.5 m and 5 m apart: the first contact falls in the first and in the third 0.1 s step;
+    the recorded poses are the rollout's at the end of that step (after its exchange and separation)."""
+    near, far = _pair(0.5), _pair(5.0)
+    a = Bodies(*(np.concatenate([getattr(near[0], f), getattr(far[0], f)]) for f in Bodies.__dataclass_fields__
+                 if f != "turn"))
+    b = Bodies(*(np.concatenate([getattr(near[1], f), getattr(far[1], f)]) for f in Bodies.__dataclass_fields__
+                 if f != "turn"))
+    pa, pb, first, _ = rollout(a, b, 0.8, 0.1, 10)
+    *_, first_stepped, recorded = stepped(a, b, 0.8, 0.1, 20, 0.05, recorded=True)
+    assert 0.0 < first[0] <= 0.1 and 0.2 < first[1] <= 0.3
+    assert np.array_equal(first, first_stepped)
+    for j, k in ((0, 0), (1, 2)):
+        assert recorded[:, j].tolist() == [*pa[:, j, k], *pb[:, j, k]]

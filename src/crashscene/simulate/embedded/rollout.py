@@ -57,12 +57,15 @@ class Bodies:
 
 
 def stepped(a: Bodies, b: Bodies, friction: float | np.ndarray, dt: float, steps: int, dt_out: float,
-            sliding: np.ndarray | None = None, motion: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+            sliding: np.ndarray | None = None, motion: bool = False, recorded: bool = False) -> tuple:
     """`rollout` of N pairs that touch within their first step, resampled from their first contact on: (x, y, yaw)
     of a and of b (3, N, steps) every dt_out [s] after it (the simulator's pose at each of its steps taken at the
     step's time, as it records it, linearly between; from the first step's end where they never touch), and the
     time [s] of the first contact from the start (NaN where they never touch); `sliding`, `motion`: as `rollout`
-    (with `motion`, each body's velocity too, (6, N, steps))."""
+    (with `motion`, each body's velocity too, (6, N, steps)). With `recorded`, also the poses (x, y, yaw of a,
+    then of b; (6, N)) the simulator records at the end of the step the first contact falls in (the step's
+    exchange and separation done), which the monitor classifies the contact by (the step's end where they never
+    touch)."""
     sim_steps = int(np.ceil(steps * dt_out / dt)) + 2
     pa, pb, first, _ = rollout(a, b, friction, dt, sim_steps, sliding, motion)
     times = dt * np.arange(1, sim_steps + 1)
@@ -71,7 +74,12 @@ def stepped(a: Bodies, b: Bodies, friction: float | np.ndarray, dt: float, steps
     for p in (pa, pb):
         rows = [p[0], p[1], np.unwrap(p[2], axis=1), *p[3:]]
         out.append(np.stack([_interp(want, times, q) for q in rows]))
-    return out[0], out[1], first
+    if not recorded:
+        return out[0], out[1], first
+    # the first contact at (k + fraction) steps, fraction in (0, 1]: recorded at the end of step k
+    k = np.clip(np.ceil(np.nan_to_num(first, nan=dt) / dt - 1e-9).astype(np.intp) - 1, 0, sim_steps - 1)
+    rows = np.arange(len(k))
+    return out[0], out[1], first, np.stack([q[rows, k] for p in (pa, pb) for q in p[:3]])
 
 
 def _interp(want: np.ndarray, times: np.ndarray, values: np.ndarray) -> np.ndarray:
