@@ -233,3 +233,25 @@ def test_touch_class_is_the_monitors_class_of_the_recorded_contact():
     side = (0.0, 0.0, 0.0, 0.5, 2.0, math.radians(15.0))
     assert touch_class(plan, 1, 0, side) == "sideswipe"
     assert _later_match(plan, meeting, later, (None, 0.0, None, side), 1, 0) == 3
+
+
+@pytest.mark.parametrize("turned, across, klass", [(180, 0.0, "head_on"), (180, 1.5, "head_on"), (180, 2.5, None),
+                                                    (160, -1.0, "head_on"), (160, 0.0, "head_on"),
+                                                    (160, 1.0, "sideswipe"), (160, 3.0, None)])
+def test_the_fourth_contact_is_classed_where_the_fourth_car_first_touches_the_moving_one(turned, across, klass):
+    """A car (4.8 x 2 m) stopped facing back down the fourth car's route 50 m ahead of it, `turned` [deg] from the
+    fourth car's heading; the fourth car at 20 m/s timed to meet it, `across` [m] to its right: anti-parallel,
+    they meet end to end wherever they touch (a head-on), 2.5 m across they pass; turned 20 deg off (its front to
+    the left), met 1 m to its right the fourth car's front corner meets its side first (a sideswipe for the
+    monitor), 1 m to its left its front."""
+    from crashscene.simulate.embedded.followon import Next, _met
+
+    arrays = SimpleNamespace(point=lambda r, s: (s.astype(float), np.zeros(len(s)), np.zeros(len(s))))
+    plan = SimpleNamespace(ctx=SimpleNamespace(arrays=arrays), route=np.array([0, 0]), s0=np.zeros(2),
+                           d0=np.zeros(2), speeds=np.array([0.0, 20.0]), length=np.full(2, 4.8), width=np.full(2, 2.0))
+    rel = math.radians(turned)
+    path = (np.full(40, 50.0), np.full(40, across), np.full(40, rel))
+    extent = 2.4 * abs(math.sin(rel)) + 1.0 * abs(math.cos(rel))  # [m] its half extent across the route
+    meeting = (20, 50.0, "head_on", "front", extent, 10.0)  # at step 20 its centre 50 m along the route
+    nxt = Next(1, 0, ("head_on", "front", "front"))
+    assert _met(plan, nxt, [path], [(0.0, meeting, True)])[0][1][2] == klass

@@ -27,7 +27,13 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from crashscene.geometry import classify_contact, footprints_overlap, heading_difference, relative_position
+from crashscene.geometry import (
+    classify_contact,
+    footprints_overlap,
+    heading_difference,
+    relative_position,
+    touch_fraction,
+)
 from crashscene.simulate.drivers.behaviors import EDGE_TARGETS
 from crashscene.simulate.embedded import cascade, lockstep, rollout
 from crashscene.simulate.embedded.meetings import (
@@ -434,12 +440,58 @@ def _follows(plan: VariationPlan, nxt: Next, third: int, predicted: list) -> dic
             found = meetings_along(plan, nxt.actor, measured, nxt.later)
         finally:
             plan.d0[nxt.actor] -= shift
-        for j, (i, meeting) in enumerate(zip(live, found)):
-            if meeting is None:
-                continue
-            one = _aimed(plan, nxt, measured.lateral(j, meeting[0]), meeting, shift)
+        ones = {j: _aimed(plan, nxt, measured.lateral(j, meeting[0]), meeting, shift)
+                for j, meeting in enumerate(found) if meeting is not None}
+        # the meetings with the written class by their headings, classed where the two first touch (`_met`)
+        classed = [j for j, one in ones.items() if one[1][2] == nxt.later[0]]
+        for j, one in zip(classed, _met(plan, nxt, [moving[j] for j in classed], [ones[j] for j in classed])):
+            ones[j] = one
+        for j, one in ones.items():
+            i = live[j]
             if i not in out or _follow_key(one, nxt) > _follow_key(out[i], nxt):
                 out[i] = one
+    return out
+
+
+def _met(plan: VariationPlan, nxt: Next, paths: list[Path], follows: list[tuple[float, tuple, bool]]
+         ) -> list[tuple[float, tuple, bool]]:
+    """Each of `follows` (`_aimed`: the fourth actor's lateral shift [m], its meeting with the moving car along the
+    path of `paths`) with its meeting's class the one the monitor gives the contact (`touch_class`, at the poses
+    where the two first touch, as the simulator records a contact: simulator._back_to_contact) where the fourth
+    actor, driving straight along its route at its speed, across as shifted and timed to the meeting
+    (meetings.third_reach), first touches the moving car on its path; no class (None) where it never does. The
+    meeting reads the class off the two headings alone; a car turned 20 deg off a head-on and met off its centre
+    line is met side to side. All at once (the paths of one length, `predict`'s)."""
+    if not follows:
+        return []
+    a, n = nxt.actor, len(follows)
+    x, y, yaw = (np.array([np.asarray(p[q]) for p in paths]) for q in range(3))  # (n, steps)
+    steps = x.shape[1]
+    k = np.array([f[1][0] for f in follows], dtype=float)
+    reach = np.array([third_reach(plan, a, f[1], nxt.later) for f in follows])
+    station = float(plan.s0[a]) + reach[:, None] - float(plan.speeds[a]) * cascade.DT * (k[:, None] - np.arange(steps))
+    px, py, pyaw = plan.ctx.arrays.point(np.full(n * steps, plan.route[a]), station.reshape(-1))
+    lateral = np.repeat(float(plan.d0[a]) + np.array([f[0] for f in follows]), steps)
+    mine = tuple(q.reshape(n, steps) for q in (px - np.sin(pyaw) * lateral, py + np.cos(pyaw) * lateral, pyaw))
+    lm, wm, la, wa = plan.length[nxt.moving], plan.width[nxt.moving], plan.length[a], plan.width[a]
+    touch = footprints_overlap(x, y, yaw, lm, wm, *mine, la, wa)
+    hit = touch.any(axis=1)
+    m = np.argmax(touch, axis=1)
+    rows = np.arange(n)
+    before = np.maximum(m - 1, 0)
+
+    def between(q: tuple[np.ndarray, ...]):
+        return lambda f: tuple(v[rows, before] + f * (v[rows, m] - v[rows, before]) for v in q)
+
+    theirs, ours = between((x, y, np.unwrap(yaw, axis=1))), between(mine)
+    one = np.ones(n)
+    # back to where they first touch (already touching at the path's start: there)
+    f = np.where(m > 0, touch_fraction(theirs, ours, lm * one, wm * one, la * one, wa * one, n), 1.0)
+    at = (*theirs(f), *ours(f))
+    out = []
+    for r, (shift, meeting, aimed) in enumerate(follows):
+        klass = touch_class(plan, nxt.moving, a, tuple(float(v[r]) for v in at)) if hit[r] else None
+        out.append((shift, (*meeting[:2], klass, *meeting[3:]), aimed))
     return out
 
 
