@@ -5,7 +5,8 @@ simulated sequence matches the evidence).
 The timing plans (plan.VariationPlan) predict contacts with pairwise models; where the prediction is wrong the
 variation does not give the written crash sequence. `refine` runs a chunk's batch once as it is (a dry run, the
 real simulator), judges each variation's contacts with the monitor's own code (classified as the monitor
-classifies them, matched by `verdicts.match_sequence`), and for each variation that misses its sequence simulates
+classifies them, matched by `verdicts.match_sequence`), and for each valid variation that misses its sequence
+(an invalid one, a spawn overlap, stays as it was sampled) simulates
 K candidates at once: copies of its plan perturbed in the plan's own degrees of freedom, within the ranges the
 plans already allow (a cruise-speed timing scale within timing.SPEED_SCALE, a start moved along its lane, alone
 or with the queue ahead of it, a manoeuvre's trigger time). The first candidate, in the order drawn, that gives
@@ -62,8 +63,8 @@ def refine(batch: batch_setup.BatchSetup, scenario: Scenario, scenes: list[Sampl
 
     settings = batch.settings
     dry = batch_setup.build(scenario, scenes, roadmap, settings, plans=batch.plans)
-    gives = sequence_given(dry, scenario)
-    missed = [v for v in range(len(scenes)) if not gives[v] and batch.invalid[v] is None]
+    valid, gives = judged(dry, scenario)
+    missed = [v for v in range(len(scenes)) if valid[v] and not gives[v]]  # an invalid one stays as sampled
     if not missed:
         return batch
     trial_scenes, trial_plans, owner = [], [], []
@@ -78,7 +79,8 @@ def refine(batch: batch_setup.BatchSetup, scenario: Scenario, scenes: list[Sampl
     for first in range(0, len(trial_scenes), size):
         part = slice(first, first + size)
         trial = batch_setup.build(scenario, trial_scenes[part], roadmap, settings, plans=trial_plans[part])
-        for j, ok in enumerate(sequence_given(trial, scenario), start=first):
+        valid, gives = judged(trial, scenario)
+        for j, ok in enumerate(np.logical_and(valid, gives), start=first):
             if ok and owner[j] not in found:
                 found[owner[j]] = trial_plans[j]
     if not found:
@@ -89,9 +91,9 @@ def refine(batch: batch_setup.BatchSetup, scenario: Scenario, scenes: list[Sampl
     return refined
 
 
-def sequence_given(batch: batch_setup.BatchSetup, scenario: Scenario) -> list[bool]:
-    """(V,) whether each variation of `batch`, simulated (it is changed: a dry run), is valid and gives the
-    written crash sequence, judged as the monitor judges it."""
+def judged(batch: batch_setup.BatchSetup, scenario: Scenario) -> tuple[list[bool], list[bool]]:
+    """(V,) whether each variation of `batch`, simulated (it is changed: a dry run), is valid, and whether it
+    gives the written crash sequence, judged as the monitor judges them."""
     from crashscene.simulate.embedded.simulator import run_batch  # the simulator imports this module
 
     recorder = Recorder(batch.roadmap, batch.settings)
@@ -107,11 +109,8 @@ def sequence_given(batch: batch_setup.BatchSetup, scenario: Scenario) -> list[bo
         for v, *contact in zip(*cols.values()):
             contacts[row[int(v)]].append(tuple(contact))
     reported = scenario.collisions or []
-    out = []
-    for scene in batch.scenes:
-        i = row[scene.index]
-        out.append(reasons[i] is None and match_sequence(contacts[i], reported).sequence)
-    return out
+    rows = [row[scene.index] for scene in batch.scenes]
+    return ([reasons[i] is None for i in rows], [match_sequence(contacts[i], reported).sequence for i in rows])
 
 
 def candidates(plan: VariationPlan, rng: np.random.Generator, k: int) -> list[VariationPlan]:
