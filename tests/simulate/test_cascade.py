@@ -162,3 +162,27 @@ def test_where_in_its_step_the_touch_falls_changes_what_the_repeated_exchanges_d
                   -0.015, -0.05, lead=lead) for lead in (0.015, 0.1)]
     (_, early), (_, late) = pushes(items)
     assert np.all(np.isfinite(early[2])) and abs(early[2][0, 10] - late[2][0, 10]) > math.radians(5)
+
+
+def test_a_drifting_striker_touches_at_its_approach_heading_and_place(monkeypatch):
+    """A striker whose driver turns it right at 0.055 rad/s (a drift to the road's edge) comes into the corner of
+    a parked car: its approach (-0.025 rad) is its heading at the touch, 0.06 s after the simulator's last step,
+    and it touches there end to end (its centre the two half lengths behind the struck car's): the prediction
+    starts it a step earlier less turned (measured on 3-C1-2017-001: started at its approach heading, the striker
+    came 0.003 rad further right, and its slide after the impact drifted 0.1 m/s off the simulator's)."""
+    from crashscene.simulate.embedded import cascade, rollout
+
+    seen, original = [], rollout.stepped
+
+    def stepped(a, b, *args, **kwargs):
+        steps = rollout.contact_steps(a.copy(), b.copy(), 0.8, 0.1, 2)
+        seen.append(next(s for s in steps if s.onset.any()).contact)
+        return original(a, b, *args, **kwargs)
+
+    monkeypatch.setattr(cascade.rollout, "stepped", stepped)
+    push = cascade.Push(28.0, 0.0, np.array([0.3]), 1500.0, 1500.0, 4.5, 1.8, 4.5, 1.8, 0.8, dt=0.1,
+                        approach=-0.025, approach_rate=-0.055, lead=0.06)
+    cascade.pushes([push])
+    xa, ya, yaw_a = (float(q[0]) for q in seen[0][:3])
+    assert yaw_a == pytest.approx(-0.025, abs=1e-4)
+    assert (xa, ya) == pytest.approx((-4.5, 0.3 * 1.8), abs=0.01)  # (its front corner first: 0.007 m sooner)

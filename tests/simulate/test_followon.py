@@ -3,6 +3,7 @@ state of a deflected car along its predicted path."""
 from __future__ import annotations
 
 import functools
+import math
 from dataclasses import dataclass, replace
 from types import SimpleNamespace
 
@@ -92,7 +93,10 @@ def _drift_push(offset: float, approach: float, rate: float) -> Push:
 
 
 def test_steady_tells_an_impact_that_throws_the_striker_either_way_on_a_hundredth_of_a_radian():
-    items = [_drift_push(0.1005, -0.0246, -0.0527), _drift_push(0.3503, -0.0139, -0.0418)]
+    # (approach: the heading at the touch; measured as -0.0246 and -0.0139 rad a step before it, when the
+    # prediction started the striker at its approach heading: the drift turns it 0.0052 and 0.0041 rad further in
+    # the 0.0982 s to the touch, cascade.pushes)
+    items = [_drift_push(0.1005, -0.0298, -0.0527), _drift_push(0.3503, -0.0180, -0.0418)]
     found = pushes_moving(items)
     striker = tuple(np.concatenate([one[1][q] for one in found]) for q in range(2))
     # the nominal predictions: both strikers turned back left by the impact
@@ -133,6 +137,8 @@ def test_option_key_ranks_a_steady_impact_then_the_sooner_meeting_below_the_writ
     assert option_key(3, True, 2, True, 4, aimed, 5.0) < base  # sooner, but the next contact's class not robust
     assert option_key(3, True, 3, True, 10, (3, True, 25.0), 5.0) > base  # same time: the more central heading
     assert full(base) and not full(option_key(3, True, 3, False, 4, aimed, 5.0))
+    # the fourth actor not aimed at the moving car (it cannot drive at its centre within its lane): not full
+    assert not full(option_key(3, True, 3, True, 10, (3, False, 20.0), 5.0))
 
 
 def test_the_corners_a_fourth_contact_tries_are_a_fine_grid_across_the_struck_cars_rear():
@@ -204,3 +210,26 @@ def test_a_fourth_contact_keeps_the_best_plan_when_none_has_it(monkeypatch):
 def test_a_fourth_contact_planned_as_placed_is_kept(monkeypatch):
     plan, tried = _alternatives(monkeypatch, [_key(3, True)])
     assert tried == [(100.0, 0.0)] and plan.lateral_target[3] == 1
+
+
+def test_touch_class_is_the_monitors_class_of_the_recorded_contact():
+    """Two cars (4.8 x 2 m) 160 deg apart: touching front to front they are a head-on; 2.1 m apart across (front
+    corners along each other's sides) they are side to side, a sideswipe, as monitor.collisions classifies them,
+    the pair taken in actor order; a car struck 20 deg turned from behind is a rear-end, not the sideswipe the
+    headings alone would allow."""
+    from crashscene.simulate.embedded.followon import _later_match, touch_class
+
+    plan = SimpleNamespace(length=np.full(4, 4.8), width=np.full(4, 2.0))
+    turned = math.radians(160.0)
+    assert touch_class(plan, 1, 0, (0.0, 0.0, 0.0, 4.655, -0.821, turned)) == "head_on"  # front corners meet
+    assert touch_class(plan, 1, 0, (0.0, 0.0, 0.0, 4.0, 2.1, turned)) == "sideswipe"
+    assert touch_class(plan, 0, 3, (4.0, 2.1, turned, 0.0, 0.0, 0.0)) == "sideswipe"
+    behind = (0.0, 0.0, math.radians(20.0), 4.7, 0.0, 0.0)  # the third (actor 0) 4.7 m ahead of the mover
+    assert touch_class(plan, 1, 0, behind) == "rear_end"
+    meeting = (3, 10.0, "sideswipe", "left", 1.0, 5.0)  # a meeting read as the written sideswipe, on the area
+    later = ("sideswipe", "left", "right")
+    assert _later_match(plan, meeting, later, None, 1, 0) == 3
+    assert _later_match(plan, meeting, later, (None, 0.0, None, behind), 1, 0) == 1
+    side = (0.0, 0.0, 0.0, 0.5, 2.0, math.radians(15.0))
+    assert touch_class(plan, 1, 0, side) == "sideswipe"
+    assert _later_match(plan, meeting, later, (None, 0.0, None, side), 1, 0) == 3

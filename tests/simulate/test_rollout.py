@@ -130,3 +130,42 @@ def test_a_body_sliding_from_an_impact_before_slides_on_its_tyres_from_the_start
     # its tyres (mu g: 3 m/s is gone within 0.4 s)
     assert driven[0, 0, -1] == pytest.approx(1.5) and driven[1, 0, -1] == 0.0
     assert slid[0, 0, -1] == 0.0 and 0.4 < slid[1, 0, -1] < 0.6
+
+
+def test_a_turning_driven_striker_meets_the_other_along_its_heading_at_the_contact():
+    """A car 20 m/s, its driver turning it at 1 rad/s, touches a car standing still ahead half way into a 0.1 s
+    step: as the simulator does (simulator._exchange), the impulse is exchanged with its velocity along its heading
+    at the contact (the pose moved back to it), not along the heading its step ended at (0.05 rad further: 1 m/s
+    across)."""
+    from crashscene.simulate.embedded import impact
+    from crashscene.simulate.embedded.rollout import contact_steps
+
+    a, b = _pair(1.0)
+    a.turn = np.ones(1)
+    step = next(contact_steps(a, b, 0.8, 0.1, 1))
+    assert step.onset[0] and 0.2 < step.frac[0] < 0.8
+    xa, ya, yaw_a, xb, yb, yaw_b = step.contact
+    one = np.ones(1)
+    inertia = impact.yaw_inertia(1500.0 * one, 4.5 * one, 1.8 * one)
+    nx, ny, px, py, _ = impact.contact(xa, ya, yaw_a, 4.5 * one, 1.8 * one, xb, yb, yaw_b, 4.5 * one, 1.8 * one)
+    va, wa, vb, wb, _ = impact.exchange(nx, ny, px, py, xa, ya, np.stack([20.0 * np.cos(yaw_a), 20.0 * np.sin(yaw_a)]),
+                                        one, 1500.0 * one, inertia, xb, yb, np.zeros((2, 1)), 0 * one, 1500.0 * one,
+                                        inertia)
+    assert (a.vx[0], a.vy[0], a.w[0]) == pytest.approx((va[0, 0], va[1, 0], wa[0]), abs=1e-9)
+    assert (b.vx[0], b.vy[0], b.w[0]) == pytest.approx((vb[0, 0], vb[1, 0], wb[0]), abs=1e-9)
+
+
+def test_stepped_gives_the_poses_the_simulator_records_the_first_contact_at():
+    """The pair of `_pair` 0.5 m and 5 m apart: the first contact falls in the first and in the third 0.1 s step;
+    the recorded poses are the rollout's at the end of that step (after its exchange and separation)."""
+    near, far = _pair(0.5), _pair(5.0)
+    a = Bodies(*(np.concatenate([getattr(near[0], f), getattr(far[0], f)]) for f in Bodies.__dataclass_fields__
+                 if f != "turn"))
+    b = Bodies(*(np.concatenate([getattr(near[1], f), getattr(far[1], f)]) for f in Bodies.__dataclass_fields__
+                 if f != "turn"))
+    pa, pb, first, _ = rollout(a, b, 0.8, 0.1, 10)
+    *_, first_stepped, recorded = stepped(a, b, 0.8, 0.1, 20, 0.05, recorded=True)
+    assert 0.0 < first[0] <= 0.1 and 0.2 < first[1] <= 0.3
+    assert np.array_equal(first, first_stepped)
+    for j, k in ((0, 0), (1, 2)):
+        assert recorded[:, j].tolist() == [*pa[:, j, k], *pb[:, j, k]]

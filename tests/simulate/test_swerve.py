@@ -70,3 +70,14 @@ def test_the_path_turns_toward_the_offset_and_settles_there():
     x, y, yaw = swerve.path(20.0, -3.5, 2.0, 2.8, math.radians(60), math.radians(35), 0.1)
     assert y[0, -1] == pytest.approx(-3.5, abs=0.05) and yaw.min() < -0.05 and abs(yaw[0, -1]) < 0.01
     assert np.all(np.diff(x[0]) > 0)
+
+
+def test_bicycle_before_is_the_pose_one_bicycle_move_takes_to_the_given_one():
+    """A car at 28 m/s turning at -0.055 rad/s (a driver drifting to the road's edge) reaches pose (10, -2, -0.02)
+    0.06 s after the pose bicycle_before gives: less turned by 0.0033 rad, 1.68 m back along its mid heading."""
+    from crashscene.simulate.embedded.swerve import bicycle_before, bicycle_move
+
+    x0, y0, yaw0 = bicycle_before(10.0, -2.0, -0.02, 28.0, -0.055, 0.06)
+    assert yaw0 == pytest.approx(-0.02 + 0.055 * 0.06)
+    assert bicycle_move(x0, y0, yaw0, 28.0, -0.055, 0.06) == pytest.approx((10.0, -2.0, -0.02), abs=1e-12)
+    assert math.hypot(10.0 - x0, -2.0 - y0) == pytest.approx(28.0 * 0.06)

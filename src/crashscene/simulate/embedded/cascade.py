@@ -28,7 +28,7 @@ from crashscene.geometry import (
     wrap_angle,
 )
 from crashscene.simulate.backend import DEFAULT_DT as SIM_DT
-from crashscene.simulate.embedded import impact, lockstep, rollout
+from crashscene.simulate.embedded import impact, lockstep, rollout, swerve
 from crashscene.simulate.embedded.vehicles import limits_for
 from crashscene.upset import upsets
 
@@ -151,15 +151,17 @@ def pushes(items: list[Push], striker: bool = True, motion: bool = False
                 out[3:, r] = np.gradient(out[:3, r], DT, axis=2)
     free = np.zeros(len(xa), dtype=bool)
     # the pair one simulator step before they touch, stepped through the contact as the simulator steps them; the
-    # striker comes at its approach heading (one exchange at the first touch takes it square)
-    heading = yaw_a + each(lambda p: p.approach)
-    vx_s, vy_s = v_striker * np.cos(heading), v_striker * np.sin(heading)
+    # striker's centre where the two first touch end to end, at its approach heading (one exchange at the first
+    # touch takes it square), at the touch: its driver turns it at the approach rate, so that a step before it
+    # (`lead` before the touch) it was less turned (swerve.bicycle_before)
     lead = each(lambda p: p.lead)
     lead = np.where(lead > 0, lead, dt)
-    # its centre where the two first touch end to end at the touch (the rows of one exchange start 0.05 m into it)
+    rate = each(lambda p: p.approach_rate)
     touching = np.where(head_on, 1.0, -1.0) * (l_striker + l_struck) / 2
-    striker_body = rollout.Bodies(touching - vx_s * lead, ya - vy_s * lead, heading, vx_s, vy_s, zero, l_striker,
-                                  w_striker, ma, ra, free, each(lambda p: p.approach_rate))
+    x_s, y_s, heading = swerve.bicycle_before(touching, ya, yaw_a + each(lambda p: p.approach), v_striker, rate,
+                                              lead)
+    vx_s, vy_s = v_striker * np.cos(heading), v_striker * np.sin(heading)
+    striker_body = rollout.Bodies(x_s, y_s, heading, vx_s, vy_s, zero, l_striker, w_striker, ma, ra, free, rate)
     struck_body = rollout.Bodies(-v_struck * lead, zero, zero, v_struck, zero, zero, l_struck, w_struck, mb, rb, free)
     for one_dt in np.unique(dt[stepped]):
         r = np.nonzero(stepped & (dt == one_dt))[0]

@@ -41,6 +41,14 @@ def bicycle_move(x, y, yaw, speed, yaw_rate, dt: float):
     return x + speed * np.cos(heading) * dt, y + speed * np.sin(heading) * dt, yaw + yaw_rate * dt
 
 
+def bicycle_before(x, y, yaw, speed, yaw_rate, dt):
+    """(x, y, yaw) [m, m, rad] of a kinematic bicycle `dt` [s] before the pose (x, y, yaw), driving at `speed`
+    [m/s] and `yaw_rate` [rad/s]: the pose `bicycle_move` takes there in one step of dt."""
+    yaw0 = yaw - yaw_rate * dt
+    heading = yaw0 + 0.5 * yaw_rate * dt
+    return x - speed * np.cos(heading) * dt, y - speed * np.sin(heading) * dt, yaw0
+
+
 def path(speed: float, offset: float, rate: float, wheelbase: float, steer_rate: float, steer_max: float,
          dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(x, y, yaw) (1, n_steps) [m, m, rad] every dt [s] after a car driving straight along x at `speed` [m/s]
