@@ -31,7 +31,7 @@ from crashscene.simulate.embedded import setup as batch_setup
 from crashscene.simulate.embedded import timing
 from crashscene.simulate.embedded.plan import VariationPlan
 from crashscene.simulate.embedded.record import Recorder
-from crashscene.simulate.embedded.stations import START_MARGIN, same_lane
+from crashscene.simulate.embedded.stations import END_MARGIN, START_GAP, START_MARGIN, same_lane
 from crashscene.simulate.roads import RoadMap
 
 K = 48  # [-] candidates per variation that misses its sequence: each costs one simulated variation. Measured with
@@ -44,8 +44,6 @@ SHIFT_TIME = timing.ARRIVAL_OFFSET_MAX  # [s] a start moves along its lane by at
 # speed: the arrival window the junction plans draw their offsets from
 TRIGGER_SHIFT = LEAD_TIME[1]  # [s] a manoeuvre's trigger moves by at most the longest lead time a lateral plan
 # draws (render.plan.LEAD_TIME): from the manoeuvre under way at the meeting to twice the longest lead before it
-GAP = 4.0  # [m] bumper gap a moved start keeps from the car behind it (stations.shift_start's margin)
-ROUTE_END = 100.0  # [m] a moved start stays this far from its route's end (stations.shift_start)
 SALT = 0x2EF1  # the refine generator's stream tag, apart from setup.variation_rng's
 
 
@@ -86,9 +84,7 @@ def refine(batch: batch_setup.BatchSetup, scenario: Scenario, scenes: list[Sampl
     if not found:
         return batch
     plans = [found.get(v, plan) for v, plan in enumerate(batch.plans)]
-    refined = batch_setup.build(scenario, scenes, roadmap, settings, plans=plans)
-    refined.notes.append(f"refine: {len(found)} of {len(missed)} variations missing their sequence replanned")
-    return refined
+    return batch_setup.build(scenario, scenes, roadmap, settings, plans=plans)
 
 
 def judged(batch: batch_setup.BatchSetup, scenario: Scenario) -> tuple[list[bool], list[bool]]:
@@ -150,17 +146,17 @@ def perturb(plan: VariationPlan, rng: np.random.Generator) -> None:
 def shift_queue(plan: VariationPlan, queue: list[int], shift: float) -> bool:
     """Moves the starts of `queue` (an actor and possibly the cars ahead of it in its lane) `shift` [m] along
     their routes together, when the routes have room and no other car of their lanes comes within a car length
-    and GAP of a moved start or between old and new; False (nothing moved) otherwise."""
+    and START_GAP of a moved start or between old and new; False (nothing moved) otherwise."""
     s0, length, route, arrays = plan.s0, plan.length, plan.route, plan.ctx.arrays
     new = {a: float(s0[a] + shift) for a in queue}
     for a, s in new.items():
-        if s < START_MARGIN or s > arrays.length[route[a]] - ROUTE_END:
+        if s < START_MARGIN or s > arrays.length[route[a]] - END_MARGIN:
             return False
         lo, hi = min(s0[a], s), max(s0[a], s)
         for b in range(len(route)):
             if b in new or not same_lane(route, plan.d0, a, b):
                 continue
-            if abs(s0[b] - s) < (length[a] + length[b]) / 2 + GAP or lo < s0[b] < hi:
+            if abs(s0[b] - s) < (length[a] + length[b]) / 2 + START_GAP or lo < s0[b] < hi:
                 return False
     for a, s in new.items():
         s0[a] = s

@@ -107,7 +107,6 @@ class BatchSetup:
     lane_road: np.ndarray  # (n_lanes,) road ordinal
     lane_forward: np.ndarray  # (n_lanes,) bool
     lane_marker: np.ndarray  # (n_lanes,) marker ordinal
-    notes: list[str] = field(default_factory=list)
     plans: list[VariationPlan] = field(default_factory=list)  # per variation, the timing plan it was built from
 
     @property
