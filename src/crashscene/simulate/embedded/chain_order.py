@@ -5,12 +5,10 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from crashscene.simulate.embedded.stations import START_MARGIN, same_lane
+from crashscene.simulate.embedded.stations import START_GAP, START_MARGIN, same_lane
 
 if TYPE_CHECKING:
     from crashscene.simulate.embedded.plan import VariationPlan
-
-CHAIN_GAP = 4.0  # [m] at least this between the bumpers of actors reordered along their lane
 
 
 def order_chain(plan: VariationPlan) -> None:
@@ -37,7 +35,7 @@ def order_chain(plan: VariationPlan) -> None:
         order.append(min(free, key=lambda i: plan.s0[i]))
     stations = sorted(float(plan.s0[i]) for i in chain)
     for k in range(len(order) - 2, -1, -1):  # from the front: each far enough behind the one ahead
-        room = (plan.length[order[k]] + plan.length[order[k + 1]]) / 2 + CHAIN_GAP
+        room = (plan.length[order[k]] + plan.length[order[k + 1]]) / 2 + START_GAP
         stations[k] = min(stations[k], stations[k + 1] - room)
     if stations[0] < START_MARGIN:
         return

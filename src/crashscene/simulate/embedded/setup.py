@@ -107,7 +107,7 @@ class BatchSetup:
     lane_road: np.ndarray  # (n_lanes,) road ordinal
     lane_forward: np.ndarray  # (n_lanes,) bool
     lane_marker: np.ndarray  # (n_lanes,) marker ordinal
-    notes: list[str] = field(default_factory=list)
+    plans: list[VariationPlan] = field(default_factory=list)  # per variation, the timing plan it was built from
 
     @property
     def lateral_rate(self) -> np.ndarray:
@@ -125,9 +125,10 @@ class BatchSetup:
 
 
 def build(scenario: Scenario, scenes: list[SampledScene], roadmap: RoadMap,
-          settings: SimulationSettings) -> BatchSetup:
+          settings: SimulationSettings, plans: list[VariationPlan] | None = None) -> BatchSetup:
     """Everything the step loop needs, for these scenes: actor columns, routes, start coordinates, lateral
-    targets, traffic control, timing plans (plan.VariationPlan), then the start poses and speeds they imply."""
+    targets, traffic control, timing plans (plan.VariationPlan), then the start poses and speeds they imply.
+    `plans`: one plan per scene, planned already (refine's candidates), used as they are instead of planning."""
     columns, anchor = _columns(scenes, settings)
     start = _StartGrid.of(scenes)
     layout = _route_layout(scenario, scenes, columns, roadmap, start, settings)
@@ -149,7 +150,7 @@ def build(scenario: Scenario, scenes: list[SampledScene], roadmap: RoadMap,
 
     factor = condition_factor(scenario, settings.conditions)
     plans = _timing_plans(scenario, scenes, columns, anchor, layout, start, tables, lane_width, factor, settings,
-                          lanes_beside(roadmap))
+                          lanes_beside(roadmap), plans)
     pullout = _pullout(scenes, columns, anchor, arrays, route, s0, tables, priority, plans.hold, settings)
     _pull_out_to_touch(pullout, plans.pull_out, plans.hold)
     start_cap = _apply_plan_moves(arrays, route, start, plans)
@@ -175,6 +176,7 @@ def build(scenario: Scenario, scenes: list[SampledScene], roadmap: RoadMap,
         lane_road=np.array([road_names.index(lane.road) for lane in roadmap.lanes]),
         lane_forward=np.array([lane.forward for lane in roadmap.lanes]),
         lane_marker=np.array([MARKERS.index(lane.marker) for lane in roadmap.lanes]),
+        plans=plans.built,
     )
 
 
@@ -319,6 +321,7 @@ class _TimingPlans:
     touch_at: np.ndarray  # (V, 2) [m] plan.VariationPlan.touch_at, NaN where the plan kept the routes' meeting
     pull_out: list  # (V,) plan.VariationPlan.pull_out, None where no actor waits at its line for the touch
     slap_offset: np.ndarray  # (V,) [m] plan.VariationPlan.slap_offset, NaN where no side slap is planned
+    built: list[VariationPlan] = field(default_factory=list)  # (V,) the plans themselves
 
     @classmethod
     def empty(cls, n_v: int, n_a: int) -> _TimingPlans:
@@ -329,6 +332,7 @@ class _TimingPlans:
                    slap_offset=np.full(n_v, np.nan))
 
     def put(self, v: int, plan: VariationPlan) -> None:
+        self.built.append(plan)
         for name in ("planned", "scale", "hold", "trigger", "moved", "drifted", "skids", "phase", "conflict_time"):
             getattr(self, name)[v] = getattr(plan, name)
         if plan.touch_at is not None:
@@ -340,9 +344,16 @@ class _TimingPlans:
 
 def _timing_plans(scenario: Scenario, scenes: list[SampledScene], columns: list[ActorColumn], anchor: int,
                   layout: _RouteLayout, start: _StartGrid, tables: list, lane_width: np.ndarray, factor: float,
-                  settings: SimulationSettings, beside: np.ndarray | None = None) -> _TimingPlans:
-    """Timing plans and signal phases, per variation from its own generator; the plans' starts (s0, d0) and
-    lateral targets are written back into `start` and `layout`."""
+                  settings: SimulationSettings, beside: np.ndarray | None = None,
+                  given: list[VariationPlan] | None = None) -> _TimingPlans:
+    """Timing plans and signal phases, per variation from its own generator (or `given`, planned already); the
+    plans' starts (s0, d0) and lateral targets are written back into `start` and `layout`."""
+    plans = _TimingPlans.empty(*start.x.shape)
+    if given is not None:
+        for v, plan in enumerate(given):
+            start.s0[v], start.d0[v], layout.lateral_target[v] = plan.s0, plan.d0, plan.lateral_target
+            plans.put(v, plan)
+        return plans
     mu = friction(scenario, settings.conditions)
     ctx = PlanContext(columns=columns, anchor=anchor, arrays=layout.arrays, classes=contact_classes(scenario),
                       strikers=contact_strikers(scenario), first_pair=first_contact_pair(scenario),
@@ -352,7 +363,6 @@ def _timing_plans(scenario: Scenario, scenes: list[SampledScene], columns: list[
                       skid_paths=skid.SkidPaths(mu, settings.dt), contacts=contact_sequence(scenario),
                       lanes_beside=beside)
     prepare_skids(ctx, layout.route, start.s0, start.speed)
-    plans = _TimingPlans.empty(*start.x.shape)
     median_lane_width = np.median(lane_width, axis=1).tolist()  # [m] per variation, one call for the batch
 
     def build(v: int) -> VariationPlan:

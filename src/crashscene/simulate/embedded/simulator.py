@@ -36,7 +36,7 @@ from crashscene.simulate.drivers.base import (
 )
 from crashscene.simulate.drivers.behaviors import BehaviorDriver
 from crashscene.simulate.embedded import setup as batch_setup
-from crashscene.simulate.embedded import impact, signals
+from crashscene.simulate.embedded import impact, refine, signals
 from crashscene.simulate.embedded.swerve import lookahead as pursuit_lookahead
 from crashscene.simulate.embedded.swerve import bicycle_move, bicycle_yaw_rate, steer_step
 from crashscene.simulate.embedded.record import Recorder
@@ -44,6 +44,7 @@ from crashscene.simulate.roads import STOP_LINE_SETBACK, RoadMap
 from crashscene.upset import upsets
 
 ACTOR_VARIATIONS = 3000  # (variation, actor) pairs simulated together: bounds memory; results do not depend on it
+REFINE = True  # reproduce mode checks each chunk's plans against a dry run (refine)
 DEFAULT_DRIFT = 0.15  # [rad] veer of a skidding car's velocity when no plan sets it
 
 
@@ -63,6 +64,8 @@ class EmbeddedSimulator(Simulator):
         for first in range(0, len(scenes), size):
             chunk = scenes[first:first + size]
             batch = batch_setup.build(request.scenario, chunk, roadmap, settings)
+            if settings.mode == "reproduce" and request.scenario.collisions and REFINE:
+                batch = refine.refine(batch, request.scenario, chunk, roadmap)
             run_batch(batch, recorder)
             if request.progress is not None:
                 request.progress(len(chunk))

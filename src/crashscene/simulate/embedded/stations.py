@@ -17,6 +17,8 @@ if TYPE_CHECKING:
     from crashscene.simulate.embedded.plan import VariationPlan
 
 START_MARGIN = 5.0  # [m] an actor moved back along its route stays this far from the route's start
+END_MARGIN = 100.0  # [m] ...and one moved on, this far from its end (room to drive through the crash)
+START_GAP = 4.0  # [m] bumper gap a moved start keeps from another car of its lane
 STOP_DECEL = 4.0  # [m/s2] a stopping driver's braking (drivers.behaviors.DECELERATE_RATE)
 
 
@@ -48,10 +50,10 @@ def shift_start(arrays: RouteArrays, a: int, route: np.ndarray, s0: np.ndarray, 
     if shift < 0:
         return start_back(arrays, a, route, s0, -shift, length, d0, passing)
     new = s0[a] + shift
-    if new > arrays.length[route[a]] - 100.0:
+    if new > arrays.length[route[a]] - END_MARGIN:
         return None
     for b in range(len(route)):
-        if same_lane(route, d0, a, b) and s0[a] < s0[b] < new + (length[a] + length[b]) / 2 + 4.0:
+        if same_lane(route, d0, a, b) and s0[a] < s0[b] < new + (length[a] + length[b]) / 2 + START_GAP:
             return None
     return float(new)
 
@@ -65,7 +67,7 @@ def start_back(arrays: RouteArrays, a: int, route: np.ndarray, s0: np.ndarray, d
     if new < START_MARGIN:
         return None
     for b in range(len(route)):
-        if same_lane(route, d0, a, b) and (abs(s0[b] - new) < (length[a] + length[b]) / 2 + 4.0
+        if same_lane(route, d0, a, b) and (abs(s0[b] - new) < (length[a] + length[b]) / 2 + START_GAP
                                            or (new < s0[b] < s0[a] and b not in passing)):
             return None
     return float(new)
