@@ -99,6 +99,13 @@ class Recorder:
         self.trace_parts.append(self._traces(batch))
         del self.f, self.i
 
+    def absorb(self, other: Recorder) -> None:
+        """The chunks `other` recorded (with these settings, on this map), as if recorded here after this one's."""
+        self.trace_parts.extend(other.trace_parts)
+        self.collision_rows.extend(other.collision_rows)
+        self.valid.extend(other.valid)
+        self.reasons.extend(other.reasons)
+
     # ------------------------------------------------------------ validity
     def _validity(self, batch, state) -> None:
         anchor = batch.anchor

@@ -3,14 +3,15 @@
 simulated sequence matches the evidence).
 
 The timing plans (plan.VariationPlan) predict contacts with pairwise models; where the prediction is wrong the
-variation does not give the written crash sequence. `refine` runs a chunk's batch once as it is (a dry run, the
-real simulator), judges each variation's contacts with the monitor's own code (classified as the monitor
-classifies them, matched by `verdicts.match_sequence`), and for each valid variation that misses its sequence
-(an invalid one, a spawn overlap, stays as it was sampled) simulates
-K candidates at once: copies of its plan perturbed in the plan's own degrees of freedom, within the ranges the
+variation does not give the written crash sequence. The simulator runs a chunk's batch as it is (`dry_run`, the
+real simulator, into a recorder of its own); `replanned` judges each variation's contacts with the monitor's own
+code (classified as the monitor classifies them, matched by `verdicts.match_sequence`), and for each valid
+variation that misses its sequence (an invalid one, a spawn overlap, stays as it was sampled) simulates K
+candidates at once: copies of its plan perturbed in the plan's own degrees of freedom, within the ranges the
 plans already allow (a cruise-speed timing scale within timing.SPEED_SCALE, a start moved along its lane, alone
 or with the queue ahead of it, a manoeuvre's trigger time). The first candidate, in the order drawn, that gives
-the sequence replaces the plan; otherwise the variation keeps its analytic plan. A variation that gives its
+the sequence replaces the plan, and the chunk is simulated again with it; otherwise the variation keeps its
+analytic plan, and when none is replanned the first run is the chunk's result. A variation that gives its
 sequence is left as it was (its batch rows untouched). Candidates come from a generator seeded by the
 variation's own (seed, index), so the same seed gives the same bytes, in any chunking.
 """
@@ -52,19 +53,18 @@ def refine_rng(seed: int, index: int) -> np.random.Generator:
     return np.random.default_rng(np.random.SeedSequence([int(seed) & 0xFFFFFFFF, int(index), SALT]))
 
 
-def refine(batch: batch_setup.BatchSetup, scenario: Scenario, scenes: list[SampledScene],
-           roadmap: RoadMap) -> batch_setup.BatchSetup:
-    """The batch to simulate: `batch` itself when every variation gives its written sequence in a dry run (or
-    no candidate of one that misses does), else a batch with the first reproducing candidate's plan in place of
-    each missing variation's plan (the other variations' plans as they were)."""
+def replanned(batch: batch_setup.BatchSetup, run: Recorder, scenario: Scenario, scenes: list[SampledScene],
+              roadmap: RoadMap) -> batch_setup.BatchSetup | None:
+    """`batch` simulated (`run`: its recording) judged: None when every valid variation gave its written sequence
+    (or no candidate of one that missed it does), else a fresh batch with the first reproducing candidate's plan in
+    place of each missing variation's plan (the other variations' plans as they were), to be simulated instead."""
     from crashscene.simulate.embedded.simulator import chunk_size  # the simulator imports this module
 
     settings = batch.settings
-    dry = batch_setup.build(scenario, scenes, roadmap, settings, plans=batch.plans)
-    valid, gives = judged(dry, scenario)
+    valid, gives = judged(run, batch.scenes, scenario)
     missed = [v for v in range(len(scenes)) if valid[v] and not gives[v]]  # an invalid one stays as sampled
     if not missed:
-        return batch
+        return None
     trial_scenes, trial_plans, owner = [], [], []
     for v in missed:
         rng = refine_rng(scenes[v].seed, scenes[v].index)
@@ -77,24 +77,29 @@ def refine(batch: batch_setup.BatchSetup, scenario: Scenario, scenes: list[Sampl
     for first in range(0, len(trial_scenes), size):
         part = slice(first, first + size)
         trial = batch_setup.build(scenario, trial_scenes[part], roadmap, settings, plans=trial_plans[part])
-        valid, gives = judged(trial, scenario)
+        valid, gives = judged(dry_run(trial), trial.scenes, scenario)
         for j, ok in enumerate(np.logical_and(valid, gives), start=first):
             if ok and owner[j] not in found:
                 found[owner[j]] = trial_plans[j]
     if not found:
-        return batch
+        return None
     plans = [found.get(v, plan) for v, plan in enumerate(batch.plans)]
     return batch_setup.build(scenario, scenes, roadmap, settings, plans=plans)
 
 
-def judged(batch: batch_setup.BatchSetup, scenario: Scenario) -> tuple[list[bool], list[bool]]:
-    """(V,) whether each variation of `batch`, simulated (it is changed: a dry run), is valid, and whether it
-    gives the written crash sequence, judged as the monitor judges them."""
+def dry_run(batch: batch_setup.BatchSetup) -> Recorder:
+    """`batch` simulated (it is changed) into a recorder of its own."""
     from crashscene.simulate.embedded.simulator import run_batch  # the simulator imports this module
 
     recorder = Recorder(batch.roadmap, batch.settings)
     run_batch(batch, recorder)
-    tables = recorder.tables(batch.scenes)
+    return recorder
+
+
+def judged(run: Recorder, scenes: list[SampledScene], scenario: Scenario) -> tuple[list[bool], list[bool]]:
+    """(V,) whether each of `scenes`, simulated into `run`, is valid, and whether it gives the written crash
+    sequence, judged as the monitor judges them."""
+    tables = run.tables(scenes)
     arrays = build_arrays(tables)
     collisions = classify_collisions(arrays, tables.get("collisions"), arrays.is_ads & arrays.present)
     reasons = invalid_reasons(arrays, ads_mask(arrays), first_contact_steps(arrays, collisions) >= 0)
@@ -105,7 +110,7 @@ def judged(batch: batch_setup.BatchSetup, scenario: Scenario) -> tuple[list[bool
         for v, *contact in zip(*cols.values()):
             contacts[row[int(v)]].append(tuple(contact))
     reported = scenario.collisions or []
-    rows = [row[scene.index] for scene in batch.scenes]
+    rows = [row[scene.index] for scene in scenes]
     return ([reasons[i] is None for i in rows], [match_sequence(contacts[i], reported).sequence for i in rows])
 
 

@@ -65,8 +65,15 @@ class EmbeddedSimulator(Simulator):
             chunk = scenes[first:first + size]
             batch = batch_setup.build(request.scenario, chunk, roadmap, settings)
             if settings.mode == "reproduce" and request.scenario.collisions and REFINE:
-                batch = refine.refine(batch, request.scenario, chunk, roadmap)
-            run_batch(batch, recorder)
+                # the chunk's run, judged: kept when no plan is replanned, else the replanned chunk run instead
+                run = refine.dry_run(batch)
+                better = refine.replanned(batch, run, request.scenario, chunk, roadmap)
+                if better is None:
+                    recorder.absorb(run)
+                else:
+                    run_batch(better, recorder)
+            else:
+                run_batch(batch, recorder)
             if request.progress is not None:
                 request.progress(len(chunk))
         tables = recorder.tables(scenes)
