@@ -1,7 +1,7 @@
 """Reproduce mode over the bundled cases: reproduction, first-contact, sequence and area-match rate per case.
 
 Run by hand: `.venv/bin/python benchmarks/bench_reproduce.py [-n 100] [--seed 7] [--cases DIR] [--dsl golden.yaml]
-[--json FILE]`. Each case's DSL file (the golden file by default; `--dsl scenario.yaml` for extracted ones)
+[--json FILE] [--no-refine]`. Each case's DSL file (the golden file by default; `--dsl scenario.yaml` for extracted ones)
 is simulated in reproduce mode on the embedded backend and judged by the monitor against its oracle and its
 crash sequence (rules.md). Prints one row per case, then the means over the cases and over those with a
 contact between actors (issue 10's figures: mean >= 0.95, none below 0.8).
@@ -30,6 +30,8 @@ def main() -> int:
     parser.add_argument("--cases", type=Path, default=REPO / "examples" / "ciren")
     parser.add_argument("--dsl", default="golden.yaml", help="DSL file name inside each case folder")
     parser.add_argument("--json", type=Path, help="also write the rows as JSON here")
+    parser.add_argument("--no-refine", action="store_true",
+                        help="the analytic plans alone (simulate --no-refine): no check against the simulator")
     args = parser.parse_args()
     rows = []
     print(f"{'case':<16} {'valid':>5} {'reprod':>7} {'first':>7} {'seq':>7} {'areas':>7} {'s':>6}  expected")
@@ -39,7 +41,7 @@ def main() -> int:
             start = time.perf_counter()
             try:
                 summary = simulate_scenario(scenario, Path(tmp) / case.name, n=args.n, seed=args.seed,
-                                            mode="reproduce")
+                                            mode="reproduce", refine=not args.no_refine)
             except Exception as exc:  # a benchmark reports every case, failures included
                 print(f"{case.name:<16} FAILED {type(exc).__name__}: {exc}")
                 rows.append({"case": case.name, "error": f"{type(exc).__name__}: {exc}"})

@@ -12,18 +12,17 @@ import pytest
 
 from crashscene.dsl import loads
 from crashscene.pipeline.simulate import simulate_scenario
-from crashscene.simulate.embedded import refine, simulator, timing
+from crashscene.simulate.embedded import refine, timing
 from tests.simulate.test_reproduce_configurations import LATER_CONTACTS
 
 # a cascade whose later contact the plan predicts with two-body models: its prediction misses in some variations
 DEFLECTED = LATER_CONTACTS["a_rear_end_deflects_the_striker_into_the_car_in_the_next_lane"][0]
 
 
-def _run(tmp_path, name: str, on: bool, monkeypatch) -> dict:
-    monkeypatch.setattr(simulator, "REFINE", on)
+def _run(tmp_path, name: str, on: bool) -> dict:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        return simulate_scenario(loads(DEFLECTED), tmp_path / name, 20, 7, mode="reproduce", workers=1)
+        return simulate_scenario(loads(DEFLECTED), tmp_path / name, 20, 7, mode="reproduce", workers=1, refine=on)
 
 
 def _rows(path, table: str, v: int):
@@ -33,10 +32,9 @@ def _rows(path, table: str, v: int):
 
 
 @pytest.mark.slow
-def test_the_search_gives_the_sequence_the_analytic_plan_misses_and_leaves_the_others_as_they_were(tmp_path,
-                                                                                                monkeypatch):
-    plain = _run(tmp_path, "plain", False, monkeypatch)
-    refined = _run(tmp_path, "refined", True, monkeypatch)
+def test_the_search_gives_the_sequence_the_analytic_plan_misses_and_leaves_the_others_as_they_were(tmp_path):
+    plain = _run(tmp_path, "plain", False)
+    refined = _run(tmp_path, "refined", True)
     assert plain["sequence_rate"] < 0.9  # the analytic plan misses here (0.75 of 40, seed 7)
     assert refined["sequence_rate"] >= 0.9 and refined["sequence_rate"] > plain["sequence_rate"]
     verdicts = pq.read_table(tmp_path / "plain" / "verdicts.parquet").to_pydict()
@@ -103,3 +101,24 @@ def test_candidates_stay_within_the_plans_ranges_and_are_the_same_for_the_same_s
         assert np.isinf(c.trigger[1:]).all()
     assert any(c.scale[0] != 1.0 for c in one) and any(c.s0[2] != 110.0 for c in one)
     assert any(c.trigger[0] != 3.0 for c in one)
+
+
+@pytest.mark.slow
+def test_the_cli_no_refine_keeps_the_analytic_plans(tmp_path, monkeypatch):
+    from typer.testing import CliRunner
+
+    from crashscene.cli import app
+    from tests.conftest import EXAMPLES
+
+    calls = []
+    real = refine.replanned
+    monkeypatch.setattr(refine, "replanned", lambda *args: calls.append(1) or real(*args))
+    args = ["simulate", str(EXAMPLES / "109176" / "golden.yaml"), "-n", "2", "--seed", "3", "--mode", "reproduce",
+            "--workers", "1", "--json"]
+    runner = CliRunner()
+    result = runner.invoke(app, [*args, "--out", str(tmp_path / "plain"), "--no-refine"])
+    assert result.exit_code == 0, result.output
+    assert not calls
+    result = runner.invoke(app, [*args, "--out", str(tmp_path / "refined")])
+    assert result.exit_code == 0, result.output
+    assert calls

@@ -48,6 +48,10 @@ def simulate(
     carla_host: CarlaHostOpt = "127.0.0.1",
     carla_port: CarlaPortOpt = 2000,
     as_json: Annotated[bool, typer.Option("--json", help="Summary as JSON on stdout.")] = False,
+    refine: Annotated[bool, typer.Option("--refine/--no-refine", help="Reproduce mode: check each variation's plan "
+                                         "against the simulator and replan one that misses the written crash "
+                                         "sequence (embedded backend); --no-refine: the analytic plans alone.")
+                      ] = True,
 ) -> None:
     """Render, sample and simulate FILE; write traces, the monitor's verdicts and summary.json into --out."""
     from crashscene.dsl import DslError, load_file
@@ -81,12 +85,13 @@ def simulate(
                     scenario, out, n=n, seed=seed, first=first, mode=mode, backend=backend, ego_role=ego,
                     map_mode=map_mode, carla_maps=carla_maps, ads=ads, ads_params=params, dt=dt, horizon=horizon,
                     carla_host=carla_host, carla_port=carla_port, progress=lambda k: bar.advance(task, k),
-                    workers=workers or os.cpu_count() or 1, sampler=sampler)
+                    workers=workers or os.cpu_count() or 1, sampler=sampler, refine=refine)
         else:
             summary = simulate_scenario(
                 scenario, out, n=n, seed=seed, first=first, mode=mode, backend=backend, ego_role=ego,
                 map_mode=map_mode, carla_maps=carla_maps, ads=ads, ads_params=params, dt=dt, horizon=horizon,
-                carla_host=carla_host, carla_port=carla_port, workers=workers or os.cpu_count() or 1, sampler=sampler)
+                carla_host=carla_host, carla_port=carla_port, workers=workers or os.cpu_count() or 1, sampler=sampler,
+                refine=refine)
     except AdsError as exc:  # the ADS under test failed, not the scenario file
         typer.echo(f"error: {exc}", err=True)
         raise typer.Exit(2) from None

@@ -78,7 +78,7 @@ def _write_run(scenario: Scenario, out_dir: Path, n: int, seed: int, first: int 
                monitor: bool = True, progress: Callable[[int], None] | None = None,
                workers: int = 1, sampler: str | None = None, final_dir: Path | None = None,
                rules_file: Path | None = None, allow_imports: bool = False,
-               rendered_dir: Path | None = None) -> dict[str, Any]:
+               rendered_dir: Path | None = None, refine: bool = True) -> dict[str, Any]:
     """Simulate variations [first, first + n) of `scenario` into `out_dir` (paths in scenes.jsonl name
     `final_dir`, where the folder will live).
 
@@ -95,7 +95,9 @@ def _write_run(scenario: Scenario, out_dir: Path, n: int, seed: int, first: int 
     Returns the JSON summary (also written to summary.json): variations, valid,
     invalid (reason -> count), collisions (by class, by actor pair), seconds, and
     the monitor's violations, verdicts and reproduced counts when it is available.
-    `progress` is called with the number of variations each time a chunk finishes.
+    `progress` is called with the number of variations each time a chunk finishes. `refine`: reproduce mode
+    checks each variation's plan against the simulator and replans one that misses the written crash sequence
+    (embedded backend, `simulate.embedded.refine`); False keeps the analytic plans alone.
     """
     if mode not in MODES:
         raise SimulationError(f"mode {mode!r} is not allowed; allowed: {', '.join(MODES)}")
@@ -110,7 +112,7 @@ def _write_run(scenario: Scenario, out_dir: Path, n: int, seed: int, first: int 
         rulebook = load_rulebook(rules_file, allow_imports)
     settings = SimulationSettings(dt=dt, horizon=horizon, mode=mode, ego_role=ego_role, ads=ads,
                                   ads_params=ads_params or {}, carla_host=carla_host, carla_port=carla_port,
-                                  conditions=_conditions(rulebook))
+                                  conditions=_conditions(rulebook), refine=refine)
     check_ego_role(scenario, settings)
     sampler = _sampler_for(backend, sampler)
     from crashscene.render import RenderError, render

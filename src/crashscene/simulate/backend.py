@@ -91,6 +91,9 @@ class SimulationSettings(BaseModel):
                                                            description="overrides of the ADS driver's parameters")
     carla_host: str = Field(default="127.0.0.1", description="CARLA server host (carla backend only)")
     carla_port: int = Field(default=2000, ge=1, le=65535, description="CARLA server port (carla backend only)")
+    refine: bool = Field(default=True, description="reproduce mode: each variation's plan is checked against the "
+                         "simulator and one that misses the written crash sequence is replanned (embedded backend; "
+                         "False: the analytic plans alone)")
     conditions: dict[str, float] = Field(default_factory=dict, description="the rulebook's CVC_22350 condition "
                                          "factors and friction coefficients (factor_wet, friction_ice, ...) the "
                                          "drivers use; missing keys keep the rules.md defaults")

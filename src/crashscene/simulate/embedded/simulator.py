@@ -44,7 +44,6 @@ from crashscene.simulate.roads import STOP_LINE_SETBACK, RoadMap
 from crashscene.upset import upsets
 
 ACTOR_VARIATIONS = 3000  # (variation, actor) pairs simulated together: bounds memory; results do not depend on it
-REFINE = True  # reproduce mode checks each chunk's plans against a dry run (refine)
 DEFAULT_DRIFT = 0.15  # [rad] veer of a skidding car's velocity when no plan sets it
 
 
@@ -64,7 +63,7 @@ class EmbeddedSimulator(Simulator):
         for first in range(0, len(scenes), size):
             chunk = scenes[first:first + size]
             batch = batch_setup.build(request.scenario, chunk, roadmap, settings)
-            if settings.mode == "reproduce" and request.scenario.collisions and REFINE:
+            if settings.mode == "reproduce" and request.scenario.collisions and settings.refine:
                 # the chunk's run, judged: kept when no plan is replanned, else the replanned chunk run instead
                 run = refine.dry_run(batch)
                 better = refine.replanned(batch, run, request.scenario, chunk, roadmap)
