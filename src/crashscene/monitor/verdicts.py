@@ -25,8 +25,8 @@ from dataclasses import dataclass
 import numpy as np
 import pyarrow as pa
 
-from crashscene.dsl.tokens import LANE_CHANGES, OPPOSING_PASSES, STANDING
 from crashscene.dsl.model import Contact, Scenario
+from crashscene.dsl.tokens import LANE_CHANGES, OPPOSING_PASSES, STANDING
 from crashscene.monitor.arrays import TraceArrays
 from crashscene.monitor.conflicts import arc_length
 from crashscene.monitor.rules.base import RuleOutcome

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -102,10 +103,15 @@ class AlongRoute:
     room: np.ndarray
     sizes: np.ndarray
 
+    @cached_property
+    def starts(self) -> np.ndarray:
+        """Each path's first point in the concatenated arrays."""
+        return np.cumsum(self.sizes) - self.sizes
+
     def lateral(self, path: int, step: int) -> float:
         """[m] how far left of the route's nearest point path `path` is at `step` (as stations.relative_to_route
         has it where that is within NEAR_ROUTE; inf further away)."""
-        return float(self.lat[int(np.sum(self.sizes[:path])) + step])
+        return float(self.lat[int(self.starts[path]) + step])
 
 
 def along_route(plan: VariationPlan, ti: int, xi: int, paths: list[tuple[np.ndarray, np.ndarray, np.ndarray]],
@@ -140,8 +146,7 @@ def meetings_along(plan: VariationPlan, xi: int, measured: AlongRoute, later: tu
     is across its route now."""
     lat, gap, yaw_x, turned, rel, extent = (measured.lat, measured.gap, measured.yaw_x, measured.turned,
                                             measured.rel, measured.extent)
-    sizes = measured.sizes
-    ends = np.cumsum(sizes)
+    sizes, starts = measured.sizes, measured.starts
     hits = (np.abs(lat - plan.d0[xi]) < plan.width[xi] / 2 + extent - 0.3) & measured.room
     side = cascade.meeting_mode(later[0], later[2]) == "side"
     # the face of ti turned towards xi: xi comes from behind it, or (side) ti comes into xi's side
@@ -150,8 +155,7 @@ def meetings_along(plan: VariationPlan, xi: int, measured: AlongRoute, later: tu
     out: list = [None] * len(sizes)
     if not len(at):
         return out
-    path = np.searchsorted(ends, at, side="right")
-    starts = ends - sizes
+    path = np.searchsorted(starts + sizes, at, side="right")
     hit = at - starts[path]  # [steps] along its path
     klass = cascade.contact_class(rel[at], side)
     area = cascade.facing_area(turned[at], toward[at])

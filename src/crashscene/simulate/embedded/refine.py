@@ -21,19 +21,16 @@ import copy
 
 import numpy as np
 
-from crashscene.dsl import Scenario
 from crashscene.dsl.tokens import STANDING
 from crashscene.monitor.arrays import build_arrays
 from crashscene.monitor.collisions import classify_collisions, first_contact_steps
 from crashscene.monitor.verdicts import ads_mask, invalid_reasons, match_sequence
 from crashscene.render.plan import LEAD_TIME
-from crashscene.scene import SampledScene
 from crashscene.simulate.embedded import setup as batch_setup
 from crashscene.simulate.embedded import timing
 from crashscene.simulate.embedded.plan import VariationPlan
 from crashscene.simulate.embedded.record import Recorder
 from crashscene.simulate.embedded.stations import END_MARGIN, START_GAP, START_MARGIN, same_lane
-from crashscene.simulate.roads import RoadMap
 
 K = 48  # [-] candidates per variation that misses its sequence: each costs one simulated variation. Measured with
 # 200 on the bundled cases (seed 7): 25 of the 47 missing variations of six cases have a candidate that gives the
@@ -53,15 +50,14 @@ def refine_rng(seed: int, index: int) -> np.random.Generator:
     return np.random.default_rng(np.random.SeedSequence([int(seed) & 0xFFFFFFFF, int(index), SALT]))
 
 
-def replanned(batch: batch_setup.BatchSetup, run: Recorder, scenario: Scenario, scenes: list[SampledScene],
-              roadmap: RoadMap) -> batch_setup.BatchSetup | None:
+def replanned(batch: batch_setup.BatchSetup, run: Recorder) -> batch_setup.BatchSetup | None:
     """`batch` simulated (`run`: its recording) judged: None when every valid variation gave its written sequence
     (or no candidate of one that missed it does), else a fresh batch with the first reproducing candidate's plan in
     place of each missing variation's plan (the other variations' plans as they were), to be simulated instead."""
     from crashscene.simulate.embedded.simulator import chunk_size  # the simulator imports this module
 
-    settings = batch.settings
-    valid, gives = judged(run, batch.scenes, scenario)
+    scenario, scenes, roadmap, settings = batch.scenario, batch.scenes, batch.roadmap, batch.settings
+    valid, gives = judged(run, batch)
     missed = [v for v in range(len(scenes)) if valid[v] and not gives[v]]  # an invalid one stays as sampled
     if not missed:
         return None
@@ -77,7 +73,7 @@ def replanned(batch: batch_setup.BatchSetup, run: Recorder, scenario: Scenario, 
     for first in range(0, len(trial_scenes), size):
         part = slice(first, first + size)
         trial = batch_setup.build(scenario, trial_scenes[part], roadmap, settings, plans=trial_plans[part])
-        valid, gives = judged(dry_run(trial), trial.scenes, scenario)
+        valid, gives = judged(dry_run(trial), trial)
         for j, ok in enumerate(np.logical_and(valid, gives), start=first):
             if ok and owner[j] not in found:
                 found[owner[j]] = trial_plans[j]
@@ -96,10 +92,10 @@ def dry_run(batch: batch_setup.BatchSetup) -> Recorder:
     return recorder
 
 
-def judged(run: Recorder, scenes: list[SampledScene], scenario: Scenario) -> tuple[list[bool], list[bool]]:
-    """(V,) whether each of `scenes`, simulated into `run`, is valid, and whether it gives the written crash
-    sequence, judged as the monitor judges them."""
-    tables = run.tables(scenes)
+def judged(run: Recorder, batch: batch_setup.BatchSetup) -> tuple[list[bool], list[bool]]:
+    """(V,) whether each variation of `batch`, simulated into `run`, is valid, and whether it gives the written
+    crash sequence, judged as the monitor judges them."""
+    tables = run.tables(batch.scenes)
     arrays = build_arrays(tables)
     collisions = classify_collisions(arrays, tables.get("collisions"), arrays.is_ads & arrays.present)
     reasons = invalid_reasons(arrays, ads_mask(arrays), first_contact_steps(arrays, collisions) >= 0)
@@ -109,8 +105,8 @@ def judged(run: Recorder, scenes: list[SampledScene], scenario: Scenario) -> tup
         cols = collisions.select(["variation", "actor_a", "actor_b", "class", "area_a", "area_b"]).to_pydict()
         for v, *contact in zip(*cols.values()):
             contacts[row[int(v)]].append(tuple(contact))
-    reported = scenario.collisions or []
-    rows = [row[scene.index] for scene in scenes]
+    reported = batch.scenario.collisions or []
+    rows = [row[scene.index] for scene in batch.scenes]
     return ([reasons[i] is None for i in rows], [match_sequence(contacts[i], reported).sequence for i in rows])
 
 

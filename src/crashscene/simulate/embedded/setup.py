@@ -14,8 +14,8 @@ from functools import cached_property
 
 import numpy as np
 
-from crashscene.dsl.tokens import LANE_CHANGES, OPPOSING_PASSES
 from crashscene.dsl import Scenario
+from crashscene.dsl.tokens import LANE_CHANGES, OPPOSING_PASSES
 from crashscene.monitor.rules import Disposition, dispositions_of
 from crashscene.geometry import LANE_WIDTH
 from crashscene.scene import SampledActor, SampledScene
@@ -725,7 +725,7 @@ def _lateral_target(behavior: str, current: np.ndarray, centre_offset: np.ndarra
     across = np.where(np.isnan(centre_offset), lane_width, 2.0 * centre_offset)
     if behavior in OPPOSING_PASSES:
         return across
-    if behavior == "leave_road":
+    if behavior in EDGE_TARGETS:
         return -(lane_width / 2.0 + LANE_WIDTH)  # one lane's width beyond the road's edge
     if behavior in LANE_CHANGES:
         return np.where(np.isnan(current), across, current)

@@ -66,7 +66,7 @@ class EmbeddedSimulator(Simulator):
             if settings.mode == "reproduce" and request.scenario.collisions and settings.refine:
                 # the chunk's run, judged: kept when no plan is replanned, else the replanned chunk run instead
                 run = refine.dry_run(batch)
-                better = refine.replanned(batch, run, request.scenario, chunk, roadmap)
+                better = refine.replanned(batch, run)
                 if better is None:
                     recorder.absorb(run)
                 else:
