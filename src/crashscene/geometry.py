@@ -72,6 +72,15 @@ def relative_position(x_a, y_a, yaw_a, x_b, y_b, cos_sin=None) -> tuple[np.ndarr
     return dx * c + dy * s, -dx * s + dy * c
 
 
+def pose_class(xa, ya, yawa, la, wa, xb, yb, yawb, lb, wb) -> tuple[np.ndarray, ...]:
+    """The class (`classify_contact`) of contacts between a and b at their poses [m, m, rad] and sizes [m], as
+    the monitor classifies a contact (a the earlier actor of the pair), with what it reads it by: (class, the
+    relative heading [rad], b's offset in a's frame (lon, lat [m], `relative_position`))."""
+    rel = heading_difference(yawa, yawb)
+    lon, lat = relative_position(xa, ya, yawa, xb, yb)
+    return classify_contact(rel, lon, lat, (la + lb) / 2, (wa + wb) / 2), rel, lon, lat
+
+
 def footprint_corners(x, y, yaw, length, width) -> np.ndarray:
     """(..., 4, 2) footprint corners [m]: front-left, front-right, rear-right, rear-left."""
     x, y, yaw = np.broadcast_arrays(np.asarray(x, float), np.asarray(y, float), np.asarray(yaw, float))

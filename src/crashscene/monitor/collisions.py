@@ -24,12 +24,11 @@ import numpy as np
 import pyarrow as pa
 
 from crashscene.geometry import (
-    classify_contact,
     contact_areas,
     footprints_overlap,
-    heading_difference,
     overlap_centre,
     pair_indices,
+    pose_class,
     relative_position,
 )
 from crashscene.monitor.arrays import TraceArrays
@@ -171,10 +170,8 @@ def classify_collisions(arrays: TraceArrays, contacts: pa.Table | None, ads: np.
     xb, yb, yawb, vb = (f[c][vv, b_idx, step] for c in ("x", "y", "yaw", "speed"))
     la, wa = arrays.length[vv, a_idx], arrays.width[vv, a_idx]
     lb, wb = arrays.length[vv, b_idx], arrays.width[vv, b_idx]
-    rel = heading_difference(yawa, yawb)
-    lon_ab, lat_ab = relative_position(xa, ya, yawa, xb, yb)
+    cls, rel, lon_ab, lat_ab = pose_class(xa, ya, yawa, la, wa, xb, yb, yawb, lb, wb)
     lon_ba, lat_ba = relative_position(xb, yb, yawb, xa, ya)
-    cls = classify_contact(rel, lon_ab, lat_ab, (la + lb) / 2, (wa + wb) / 2)
     # the striker has the other ahead of it: larger forward offset relative to its lateral offset
     a_strikes = (lon_ab - np.abs(lat_ab)) >= (lon_ba - np.abs(lat_ba))
     a_strikes = np.where(cls == "head_on", va >= vb, a_strikes)

@@ -27,13 +27,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from crashscene.geometry import (
-    classify_contact,
-    footprints_overlap,
-    heading_difference,
-    relative_position,
-    touch_fraction,
-)
+from crashscene.geometry import footprints_overlap, pose_class, touch_fraction
 from crashscene.simulate.drivers.behaviors import EDGE_TARGETS
 from crashscene.simulate.embedded import cascade, lockstep, rollout
 from crashscene.simulate.embedded.meetings import (
@@ -187,13 +181,12 @@ def predict(touches: list[Touch]) -> list[tuple[Path, float, Path, tuple[float, 
 
 def touch_class(plan: VariationPlan, mover: int, third: int, poses: tuple[float, ...]) -> str:
     """The class the monitor gives a contact between actors `mover` and `third` recorded at `poses` (x, y, yaw
-    [m, m, rad] of the mover, then of the third; `predict`): by the two headings and, as monitor.collisions
-    does, the offset of the later actor of the pair from the earlier one (geometry.classify_contact: side to side
-    where the longitudinal gap is not the nearer to touching)."""
+    [m, m, rad] of the mover, then of the third; `predict`): geometry.pose_class, the monitor's own, with the
+    earlier actor of the pair first (side to side where the longitudinal gap is not the nearer to touching)."""
     (a, pa), (b, pb) = sorted(((mover, poses[:3]), (third, poses[3:])), key=lambda q: q[0])
-    lon, lat = relative_position(*pa, *pb[:2])
-    return str(classify_contact(np.array([heading_difference(pa[2], pb[2])]), np.array([lon]), np.array([lat]),
-                                (plan.length[a] + plan.length[b]) / 2, (plan.width[a] + plan.width[b]) / 2)[0])
+    one = (np.array([v], dtype=float) for v in (*pa, plan.length[a], plan.width[a], *pb, plan.length[b],
+                                                 plan.width[b]))
+    return str(pose_class(*one)[0][0])
 
 
 def _predict(touches: list[Touch]) -> list[tuple[Path, float, Path, tuple[float, ...]] | None]:
