@@ -5,10 +5,10 @@ Run by hand: `.venv/bin/python benchmarks/bench_variants.py [-n 40] [--seed 7] [
 [--kinds KIND ...] [--json FILE]`. Issue 10's figures are also measured on unseen CIREN reports, whose roads,
 light, speeds and vehicles differ from the bundled ones. Each golden file is varied one field at a time, in ways a
 report of the same crash could differ (`KINDS`): the road surface, the light, the speed limit by 10 mph, one more
-through lane, one actor a truck instead of a car. Each variant is simulated in reproduce mode on the embedded
-backend and judged against its (unchanged) crash sequence. Prints one row per case and variant, then per kind the
-mean reproduction and first-contact rates and the variants below 0.8. A variant the DSL refuses is reported, not
-counted.
+through lane, a straight road bent either way (or a curve straightened), one actor a truck instead of a car. Each
+variant is simulated in reproduce mode on the embedded backend and judged against its (unchanged) crash sequence.
+Prints one row per case and variant, then per kind the mean reproduction and first-contact rates and the variants
+below 0.8. A variant the DSL refuses is reported, not counted.
 """
 from __future__ import annotations
 
@@ -61,6 +61,15 @@ def _lanes(raw: dict) -> Iterator[tuple[str, dict]]:
         yield "lanes+1", {**road, "number_of_lanes": road["number_of_lanes"] + 1}
 
 
+def _bend(raw: dict) -> Iterator[tuple[str, dict]]:
+    road = {k: v for k, v in raw["road_network"].items() if k != "curve_direction"}
+    if road["road_type"] == "straight":
+        for side in ("left", "right"):
+            yield f"curve-{side}", {**road, "road_type": "curve", "curve_direction": side}
+    elif road["road_type"] == "curve":
+        yield "straight", {**road, "road_type": "straight"}
+
+
 def _truck(raw: dict) -> Iterator[tuple[str, dict]]:
     for name, actor in raw["actors"].items():
         if actor["type"] == "car":
@@ -70,7 +79,7 @@ def _truck(raw: dict) -> Iterator[tuple[str, dict]]:
 # kind -> (the section it replaces, the variants of that section)
 KINDS: dict[str, tuple[str, Callable[[dict], Iterator[tuple[str, Any]]]]] = {
     "surface": ("environment", _surface), "light": ("environment", _light), "limit": ("road_network", _limit),
-    "lanes": ("road_network", _lanes), "truck": ("actors", _truck)}
+    "lanes": ("road_network", _lanes), "bend": ("road_network", _bend), "truck": ("actors", _truck)}
 
 
 def variants(raw: dict, kinds: list[str]) -> Iterator[tuple[str, str, dict]]:
