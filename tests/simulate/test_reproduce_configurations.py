@@ -345,4 +345,6 @@ def test_a_speeding_truck_is_planned_at_the_speed_it_can_reach(tmp_path):
     summary = run(SPEEDING_TRUCK, tmp_path)
     rows = pq.read_table(tmp_path / "traces.parquet", columns=["actor", "t", "speed"]).to_pylist()
     assert max(r["speed"] for r in rows if r["actor"] == "ego" and r["t"] == 0.0) <= 35.0
+    bodies = pq.read_table(tmp_path / "actors.parquet", columns=["actor", "length", "width"]).to_pylist()
+    assert {(r["length"], r["width"]) for r in bodies if r["actor"] == "ego"} == {(7.94, 2.89)}  # a truck's body
     assert summary["first_contact_rate"] >= 0.95, summary["collisions"]
