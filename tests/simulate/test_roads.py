@@ -8,7 +8,7 @@ import pytest
 
 from crashscene.simulate.backend import SimulationError
 from crashscene.simulate.embedded.world import RouteArrays
-from crashscene.simulate.roads import ROUTE_DS, RoadMap
+from crashscene.simulate.roads import ROUTE_DS, Lane, RoadMap, heading_near
 
 from .conftest import LANE, TOWN02
 
@@ -216,3 +216,15 @@ def test_point_reads_the_step_table_with_the_interpolations_floats(four_way_map)
     x, y, yaw = arrays.point(r, s)
     assert np.array_equal(x, want[0]) and np.array_equal(y, want[1]) and np.array_equal(yaw, arrays.yaw[r, k])
     assert np.array_equal(arrays.yaw_at(r, s), yaw)
+
+
+def test_heading_near_a_joints_backward_kink_is_the_lanes_direction():
+    """Scenic's centre lines step a few cm backwards where two geometries join (a straight meeting an arc): the
+    one segment nearest a point just past the joint points backwards, and an actor placed there read as facing
+    against its lane (issue 10: every variation of a curve 'starts off the road network')."""
+    points = np.array([[0.0, -1.75], [100.0, -1.75], [99.94, -1.749], [127.17, -2.68], [154.27, -5.46]])
+    lane = Lane(0, "road1_lane1", "road1", points, 3.5, math.nan, None, [], None, None, None, None, math.nan,
+                "not_mentioned")
+    for x in (80.0, 100.5, 104.6, 130.0):
+        y = float(np.interp(x, [0.0, 100.0, 127.17, 154.27], [-1.75, -1.75, -2.68, -5.46]))
+        assert math.cos(heading_near(lane, x, y)) > 0.99
