@@ -9,7 +9,7 @@ from scenariogeneration import xodr
 
 from crashscene.simulate.backend import SimulationError
 from crashscene.simulate.embedded.world import RouteArrays
-from crashscene.simulate.roads import ROUTE_DS, RoadMap
+from crashscene.simulate.roads import ROUTE_DS, Lane, RoadMap, heading_near
 
 from .conftest import LANE, TOWN02
 
@@ -235,3 +235,15 @@ def test_every_lane_knows_its_distance_to_the_centre_line(tmp_path, per_side):
         centre_y = float(np.mean(lane.points[:, 1]))  # the centre line is y = 0
         assert lane.centerline_offset == pytest.approx(abs(centre_y), abs=0.01), lane.uid
         assert abs(float(np.mean(roadmap.by_uid[lane.opposite].points[:, 1]))) == pytest.approx(LANE / 2, abs=0.01)
+
+
+def test_heading_near_a_joints_backward_kink_is_the_lanes_direction():
+    """Scenic's centre lines step a few cm backwards where two geometries join (a straight meeting an arc): the
+    one segment nearest a point just past the joint points backwards, and an actor placed there read as facing
+    against its lane (issue 10: every variation of a curve 'starts off the road network')."""
+    points = np.array([[0.0, -1.75], [100.0, -1.75], [99.94, -1.749], [127.17, -2.68], [154.27, -5.46]])
+    lane = Lane(0, "road1_lane1", "road1", points, 3.5, math.nan, None, [], None, None, None, None, math.nan,
+                "not_mentioned")
+    for x in (80.0, 100.5, 104.6, 130.0):
+        y = float(np.interp(x, [0.0, 100.0, 127.17, 154.27], [-1.75, -1.75, -2.68, -5.46]))
+        assert math.cos(heading_near(lane, x, y)) > 0.99

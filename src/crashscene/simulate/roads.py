@@ -60,6 +60,8 @@ class Lane:
 
 
 LOCATE_CHUNK = 16  # segments per disc of `locate_on_line`'s pruning
+HEADING_SPAN = 1.0  # [m] `heading_near` reads a lane's direction this far either side of a point (a car's
+# wheelbase is ~2.7 m; joints' kinks are a few cm)
 
 
 def locate_on_line(xy: np.ndarray, x, y, block: int = 512) -> np.ndarray:
@@ -322,7 +324,7 @@ class RoadMap:
             return None
         if yaw is None:
             return candidates[0]
-        return max(candidates, key=lambda lane: math.cos(_heading_near(lane, x, y) - yaw)
+        return max(candidates, key=lambda lane: math.cos(heading_near(lane, x, y) - yaw)
                    - 0.05 * _lateral_distance(lane, x, y))
 
     # ---------------------------------------------------------------- routes
@@ -449,13 +451,19 @@ def _lane_polygon(lane: Lane) -> shapely.Geometry:
     return cached
 
 
-def _heading_near(lane: Lane, x: float, y: float) -> float:
-    d = np.hypot(lane.points[:, 0] - x, lane.points[:, 1] - y)
-    k = int(np.argmin(d))
-    k2 = min(k + 1, len(lane.points) - 1)
-    k1 = k2 - 1
-    dx, dy = lane.points[k2] - lane.points[k1]
-    return math.atan2(dy, dx)
+def heading_near(lane: Lane, x: float, y: float) -> float:
+    """[rad] direction of travel of `lane` at the point of its centre line nearest to (x, y), read from
+    HEADING_SPAN behind that point to HEADING_SPAN ahead of it: Scenic's centre lines carry tiny backward kinks (a
+    few cm) at geometry joints, and the one segment nearest such a joint points backwards."""
+    pts = lane.points
+    along = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(pts, axis=0).T))])
+    s = float(locate_on_line(pts, x, y))
+    a, b = max(s - HEADING_SPAN, 0.0), min(s + HEADING_SPAN, along[-1])
+    if b <= a:
+        return math.atan2(pts[-1, 1] - pts[0, 1], pts[-1, 0] - pts[0, 0])
+    ax_, ay_, bx_, by_ = (np.interp(a, along, pts[:, 0]), np.interp(a, along, pts[:, 1]),
+                          np.interp(b, along, pts[:, 0]), np.interp(b, along, pts[:, 1]))
+    return math.atan2(by_ - ay_, bx_ - ax_)
 
 
 def _lateral_distance(lane: Lane, x: float, y: float) -> float:

@@ -263,7 +263,9 @@ def mph(value: float | None) -> float:
 
 def _planned_speed(arrays: RouteArrays, r: int, s0: float, speed: float, col: ActorColumn, cond: float,
                    default_limit: float) -> float:
-    """The cruise speed [m/s] the actor's driver will hold (capped at the condition-adjusted limit unless speeding)."""
+    """The cruise speed [m/s] the actor's driver will hold (capped at the condition-adjusted limit unless speeding),
+    never above what its vehicle can reach (`VehicleLimits.speed_max`: the simulator clips its speed there, so a plan
+    timed at a faster cruise, a speeding truck's, would arrive late)."""
     limit = arrays.speed_limit[r, min(int(s0 / ROUTE_DS), arrays.speed_limit.shape[1] - 1)]
     if np.isnan(limit):
         limit = default_limit
@@ -273,5 +275,7 @@ def _planned_speed(arrays: RouteArrays, r: int, s0: float, speed: float, col: Ac
         if np.isfinite(limit) and speed > 0:
             factor = cond if Disposition.CARELESS in col.traits else 1.0
             fast = max(fast, limit * factor + OVER_LIMIT)
-        return max(fast, 0.5)
-    return max(min(speed, limit * cond) if np.isfinite(limit) else speed, 0.5)
+        cruise = max(fast, 0.5)
+    else:
+        cruise = max(min(speed, limit * cond) if np.isfinite(limit) else speed, 0.5)
+    return min(cruise, col.limits.speed_max)

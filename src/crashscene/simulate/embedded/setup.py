@@ -29,7 +29,7 @@ from crashscene.simulate.embedded.pullout import PULL_OUT_TTA, PullOut, line_sta
 from crashscene.simulate.embedded.sync import Meeting
 from crashscene.simulate.embedded.vehicles import VehicleLimits, limits_for
 from crashscene.simulate.embedded.world import RouteArrays
-from crashscene.simulate.roads import MARKERS, ROUTE_DS, Lane, RoadMap, Route
+from crashscene.simulate.roads import MARKERS, ROUTE_DS, Lane, RoadMap, Route, heading_near
 from crashscene.simulate.tables import driver_dispositions, is_ads
 from crashscene.units import MPH
 
@@ -671,12 +671,7 @@ def _start_lane(roadmap: RoadMap, actor: SampledActor, cache: dict) -> Lane | No
 
 
 def _heading_agrees(lane: Lane, actor: SampledActor, tolerance: float = 0.5) -> bool:
-    pts = lane.points
-    k = int(np.argmin(np.hypot(pts[:, 0] - actor.x, pts[:, 1] - actor.y)))
-    k2 = min(k + 1, len(pts) - 1)
-    k1 = k2 - 1
-    heading = math.atan2(pts[k2, 1] - pts[k1, 1], pts[k2, 0] - pts[k1, 0])
-    return math.cos(heading - actor.yaw) > tolerance
+    return math.cos(heading_near(lane, actor.x, actor.y) - actor.yaw) > tolerance
 
 
 def _junction_intent(actor: SampledActor) -> str:
