@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import hashlib
 import itertools
+import math
 import re
 from enum import StrEnum
 
@@ -178,6 +179,8 @@ class ActorPlan(BaseModel):
     stop_duration: Range = Field(description="[s] how long a stopping actor waits")
     dispositions: list[str]
     controlled_by: str | None = Field(default=None, description="traffic control device on the actor's approach")
+    centre_lane: bool = Field(default=False, description="starts in the lane beside the centre line: it crosses "
+                                                         "the centre line, or meets head-on one that does")
 
 
 class MapSpec(BaseModel):
@@ -248,6 +251,7 @@ def convert(scenario: Scenario, horizon: float = HORIZON) -> RenderPlan:
     _queue(actors)
     _standing_leads(actors, notes)
     _check_references(actors)
+    _centre_lanes(actors, scenario)
     plan_map = _map_spec(scenario, actors, speed_limit, horizon, notes)
     for actor in actors:
         actor.controlled_by = plan_map.controls.get(_arm_of(actor)) if junction else None
@@ -390,6 +394,32 @@ def _standing_leads(actors: list[ActorPlan], notes: list[str]) -> None:
             actor.init_dist = Range(low=low, high=high)
             notes.append(f"{actor.role}: standing ahead of the ego; placed {low:g}-{high:g} m ahead "
                          f"({STANDING_LEAD_TIME[0]:g}-{STANDING_LEAD_TIME[1]:g} s at the ego's top speed)")
+
+
+def _centre_lanes(actors: list[ActorPlan], scenario: Scenario) -> None:
+    """Mark the actors that start in the lane beside the centre line (`centre_lane`). A driver crosses the centre
+    line from the lane next to it, into the nearest opposing lane (dsl.md: `cross_centerline` enters the opposing
+    lanes, `overtake` passes through the opposing lane); so a vehicle written as meeting such a driver head-on or
+    from the opposite direction travels in that lane too. Without this, a road with more lanes than two may start
+    either in an outer lane, one or more lanes away from where the crossing happens. A follower shares its
+    reference's lane, so the reference takes the mark as well. Only a preference: `scenic_support.candidates`
+    drops it where no placement can honour it (e.g. an actor written beside another on its left)."""
+    by_role = {a.role: a for a in actors}
+    crossers = {a.role for a in actors if a.behavior in OPPOSING_PASSES}
+    centre = set(crossers)
+    for contact in scenario.collisions or ():
+        pair = (contact.striking, contact.struck)
+        for one, other in (pair, pair[::-1]):
+            if one in crossers and other in by_role and math.cos(
+                    by_role[one].relative_heading - by_role[other].relative_heading) < 0.0:
+                centre.add(other)
+    grown = True
+    while grown:
+        followed = {a.placement_ref for a in actors if a.role in centre and a.placement is Placement.FOLLOW}
+        grown = not followed <= centre
+        centre |= followed
+    for actor in actors:
+        actor.centre_lane = actor.role in centre
 
 
 def _check_references(actors: list[ActorPlan]) -> None:
