@@ -81,6 +81,22 @@ def test_overtake_across_double_line_is_violated(check):
     assert check(tables({"ego": ego}), "CVC_21650", "ego")["verdict"] == "violated"
 
 
+def test_a_pass_that_leaves_the_far_edge_and_comes_back_is_one_stay(check):
+    # ego in the opposing lane 1.0 s (steps 20-29) while it is clear, off the road beyond it 0.5 s (30-34), back
+    # in it 0.3 s (35-37) with an oncoming car within the clear distance from step 33: one pass, not clear
+    lane, off = opposing(10), opposing(5, start=30)
+    lane[35:38] = True
+    ego = track(STEPS, opposing_lane=lane, off_road=off, in_junction=False, centerline_marker="broken_line")
+    oncoming = track(STEPS, x0=125.0, yaw=np.pi, speed=10.0)
+    row = check(tables({"ego": ego, "npc1": oncoming}), "CVC_21650", "ego")
+    assert row["verdict"] == "violated" and abs(row["measured"] - 1.8) < 1e-9
+    # off the road on the way back to its own side (own lane after it) ends the stay: a clear, permitted pass
+    back = opposing(10)
+    row = check(tables({"ego": track(STEPS, opposing_lane=back, off_road=off, in_junction=False,
+                                     centerline_marker="broken_line"), "npc1": oncoming}), "CVC_21650", "ego")
+    assert row["verdict"] == "satisfied" and "overtake" in row["note"]
+
+
 def move_left(steps: int, start: int) -> tuple[np.ndarray, np.ndarray]:
     """(y [m], lane-change flag) of a move from y=0 to the next lane (y=3.5) over the 20 steps from `start`."""
     y = np.zeros(steps)

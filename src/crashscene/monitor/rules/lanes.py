@@ -86,8 +86,11 @@ class WrongSide(Rule):
     clear of oncoming vehicles within `clear_distance` for the whole stay, at
     most `max_overtake_duration`). Our additions: a stay cut short by the
     actor's first contact counts whatever its length (the crash ended it, not
-    the driver); measured is the longest stay [s], robustness `min_duration`
-    less it.
+    the driver); steps off the road between two steps in an opposing lane are
+    part of the stay (the car ran off the far edge and came back into the
+    opposing lanes without returning to its own side: one pass, which must be
+    clear as a whole, not two); measured is the longest stay [s], robustness
+    `min_duration` less it.
 
     After an upsetting contact (`crashscene.monitor.judging`) an actor is
     judged only a grace longer, so that a vehicle pushed across the centre
@@ -111,7 +114,7 @@ class WrongSide(Rule):
     summary = ("centre in an opposing lane outside junctions for the minimum duration (or until a crash ends it), "
                "outside a permitted overtake")
     rank = 9
-    columns = ("t", "x", "y", "yaw", "speed", "lane_id", "opposing_lane", "in_junction")
+    columns = ("t", "x", "y", "yaw", "speed", "lane_id", "opposing_lane", "off_road", "in_junction")
     guide = "drove on the wrong side: entered or drifted into the opposing lanes (crossed the centre line)"
     Params = WrongSideParams
 
@@ -148,8 +151,11 @@ class WrongSide(Rule):
 
     @staticmethod
     def _opposing(a) -> np.ndarray:
-        """(V, A, T) the centre in an opposing lane outside junctions."""
-        return a.flag("opposing_lane") & ~a.flag("in_junction") & a.alive
+        """(V, A, T) the centre in an opposing lane outside junctions, or off the road between two such steps
+        (`_off_between`): a car that runs off the far edge of the opposing lanes and comes back into them never
+        returned to its own side, and its pass is one stay, not two."""
+        inside = a.flag("opposing_lane") & ~a.flag("in_junction") & a.alive
+        return inside | _off_between(inside, a.flag("off_road") & a.alive)
 
     def _own_stay_starts(self, a, upset: np.ndarray, grace: int, opposing: np.ndarray | None = None) -> np.ndarray:
         """(V, A) first step of a stay in an opposing lane that begins within `grace` steps after the actor's
@@ -247,6 +253,20 @@ class WrongSide(Rule):
                     hit = (heading_difference(yaw[rows, i], yaw[rows, j]) > np.pi / 2) & (ahead | in_its_lane)
                 close[rows, i] |= hit & a.alive[rows, j]
         return close
+
+
+def _off_between(inside: np.ndarray, off: np.ndarray) -> np.ndarray:
+    """(V, A, T) the steps of `off` (V, A, T) whose nearest steps on either side that are not `off` are both
+    `inside` (V, A, T)."""
+    n_steps = inside.shape[2]
+    steps = np.broadcast_to(np.arange(n_steps), inside.shape)
+    before = np.maximum.accumulate(np.where(off, -1, steps), axis=2)  # the last step not off, at or before
+    after = np.flip(np.minimum.accumulate(np.flip(np.where(off, n_steps, steps), axis=2), axis=2), axis=2)
+
+    def inside_at(k: np.ndarray) -> np.ndarray:
+        return np.take_along_axis(inside, np.clip(k, 0, n_steps - 1), axis=2) & (k >= 0) & (k < n_steps)
+
+    return off & inside_at(before) & inside_at(after)
 
 
 def _run_ends(mask: np.ndarray, start: np.ndarray) -> np.ndarray:
