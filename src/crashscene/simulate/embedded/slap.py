@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from crashscene.geometry import classify_contact, footprint_separation, heading_difference, relative_position
+from crashscene.geometry import classify_contact, footprint_separation, heading_difference, pose_class, relative_position
 from crashscene.simulate.embedded import cascade, impact, rollout, touch
 
 STEP = 0.1  # [m] between candidate touches along the struck side
@@ -87,9 +87,7 @@ def slap_offset(arrays, striker: Body, struck: Body, friction: float, dt: float)
         hi = np.where(touching, mid, hi)
         lo = np.where(touching, lo, mid)
     xs, ys, yaws = at(hi)
-    rel = heading_difference(yaws, yawt)
-    lon, lat = relative_position(xs, ys, yaws, xt, yt)
-    first = classify_contact(rel, lon, lat, (ls + lt) / 2, (ws + wt) / 2)
+    first, rel, _, _ = pose_class(xs, ys, yaws, ls, ws, xt, yt, yawt, lt, wt)
     ok = reached & (first == "angle") & (cascade.class_margin(rel, "angle") >= FIRST_MARGIN)
     if not ok.any():
         return None

@@ -26,6 +26,7 @@ from crashscene.geometry import (
     contact_areas,
     footprint_separation,
     heading_difference,
+    pose_class,
     relative_position,
     touch_fraction,
     wrap_angle,
@@ -208,9 +209,7 @@ def class_meeting(arrays, striker: Mover, struck: Mover, wanted: tuple[str, str 
         t_s = t_at[rows, k0] + f * (t_at[rows, k1] - t_at[rows, k0])
         xa, ya, yawa = striker_pose(t_s)
         xb, yb, yawb = theirs(f)
-        lon, lat = relative_position(xa, ya, yawa, xb, yb)
-        rel = heading_difference(yawa, yawb)
-        got = classify_contact(rel, lon, lat, (striker.length + struck.length) / 2, (striker.width + struck.width) / 2)
+        got, rel, _, _ = pose_class(xa, ya, yawa, ls, ws, xb, yb, yawb, lt, wt)
         a_s, a_t = contact_areas(xa, ya, yawa, ls, ws, xb, yb, yawb, lt, wt)
         # the class with a margin (the predicted heading is off the driven one by a few degrees), the written
         # areas only to choose among equally robust touches
