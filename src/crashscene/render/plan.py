@@ -69,7 +69,8 @@ CURVE_ANGLE = 1.3  # [rad] heading change of a generated curve (~75 deg)
 CURVE_LATERAL_ACC = 2.0  # [m/s2] design lateral acceleration at the speed limit -> curve radius
 CURVE_RADIUS_RANGE = (60.0, 400.0)  # [m]
 
-EGO_BLUEPRINT = "vehicle.lincoln.mkz_2017"
+EGO_BLUEPRINT = "vehicle.lincoln.mkz_2017"  # the ego's body when it is a car (CARLA's usual ego vehicle); an ego of
+# another type (a truck, a motorcycle) is drawn from its type's pool like any actor: its body is the report's
 BLUEPRINT_POOLS: dict[str, tuple[str, ...]] = {
     "car": ("vehicle.nissan.patrol", "vehicle.tesla.model3", "vehicle.dodge.charger_2020",
             "vehicle.toyota.prius", "vehicle.mercedes.coupe_2020", "vehicle.audi.a2"),
@@ -308,7 +309,7 @@ def _actor_plan(name: str, actor: Actor, scenario: Scenario, junction: bool, spe
     dist = ONCOMING_DIST if placement is Placement.ONCOMING else INIT_DIST
     return ActorPlan(
         role=name, label=label, type=actor.type.value, behavior=actor.behavior.value,
-        blueprints=[EGO_BLUEPRINT] if name == "ego" else list(BLUEPRINT_POOLS[actor.type.value]),
+        blueprints=blueprint_pool(name, actor),
         reference=pos.reference, relation=pos.relation.value,
         heading_relation=pos.heading.value if pos.heading else None, placement=placement, placement_ref=ref,
         along=_along(name, pos.relation),
@@ -317,6 +318,14 @@ def _actor_plan(name: str, actor: Actor, scenario: Scenario, junction: bool, spe
         init_dist=Range(low=dist[0], high=dist[1]), side_offset=Range(low=SIDE_OFFSET[0], high=SIDE_OFFSET[1]),
         arrival_offset=arrival, maneuver_time=Range(low=MANEUVER_TIME[0], high=MANEUVER_TIME[1]),
         stop_duration=Range(low=STOP_DURATION[0], high=STOP_DURATION[1]), dispositions=codes)
+
+
+def blueprint_pool(name: str, actor: Actor) -> list[str]:
+    """The blueprints an actor's body is drawn from: the ego car's fixed one, else its type's pool (a truck ego is
+    a truck's size, not the ego car's)."""
+    if name == "ego" and actor.type.value == "car":
+        return [EGO_BLUEPRINT]
+    return list(BLUEPRINT_POOLS[actor.type.value])
 
 
 def _along(name: str, relation: Relation) -> str:
