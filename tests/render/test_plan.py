@@ -117,6 +117,15 @@ def test_truck_blueprint():
     assert any("opposite_direction assumed" in n for n in plan.notes)
 
 
+def test_an_ego_of_another_type_has_that_types_body():
+    # the ego's fixed blueprint is a car's; a truck ego (a tractor-trailer in the report) is a truck's size
+    s = loads(BASE.replace("ego: {type: car,", "ego: {type: truck,") % {
+        "road_type": "straight", "ways": 2, "lanes": 2, "signs": "", "ego_behavior": "go_forward", "ego_ref": "road",
+        "npcs": ""})
+    assert convert(s).actors[0].blueprints == ["vehicle.carlamotors.european_hgv"]
+    assert convert(scenario()).actors[0].blueprints == [EGO_BLUEPRINT]
+
+
 @pytest.mark.parametrize("relation,heading,placement", [
     ("front", "same_direction", Placement.FOLLOW), ("behind", "same_direction", Placement.FOLLOW),
     ("left", "same_direction", Placement.SIDE_LEFT), ("right", "same_direction", Placement.SIDE_RIGHT),

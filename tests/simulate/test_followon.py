@@ -141,6 +141,20 @@ def test_option_key_ranks_a_steady_impact_then_the_sooner_meeting_below_the_writ
     assert not full(option_key(3, True, 3, True, 10, (3, False, 20.0), 5.0))
 
 
+def test_option_key_ranks_the_written_classes_above_the_areas():
+    # rules.md: the sequence (actors and classes) makes a reproduction, the areas are a separate figure: a
+    # candidate whose deflected car meets the third with another face (later = 2: the class alone) but keeps the
+    # next contact's class ranks above one with the written face whose next contact is another class (least = 1)
+    aimed, lost = (3, True, 20.0), (1, True, -10.0)
+    face_off = option_key(2, True, 3, True, 20, aimed, 5.0)
+    face_on = option_key(3, True, 1, True, 4, lost, 5.0)
+    assert face_off > face_on
+    # ...but the later contact's class still comes first, and between equal classes the areas decide
+    assert option_key(1, True, 3, True, 4, aimed, 5.0) < face_on
+    assert option_key(3, True, 3, True, 20, aimed, 5.0) > face_off
+    assert not full(face_off) and full(option_key(3, True, 3, True, 20, aimed, 5.0))
+
+
 def test_the_corners_a_fourth_contact_tries_are_a_fine_grid_across_the_struck_cars_rear():
     steps = np.diff(CORNERS)
     assert CORNERS[0] == pytest.approx(0.05) and CORNERS[-1] == pytest.approx(0.6)

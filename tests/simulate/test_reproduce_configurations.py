@@ -18,6 +18,8 @@ ROADS = {
     "four_way_six": "road_type: intersection\n  number_of_ways: 2\n  number_of_lanes: 6\n  road_marker: double_solid_line",
     "tee": "road_type: t_intersection\n  number_of_ways: 2\n  number_of_lanes: 2\n  road_marker: double_solid_line",
     "two_way": "road_type: straight\n  number_of_ways: 2\n  number_of_lanes: 2\n  road_marker: broken_line",
+    "two_way_three": "road_type: straight\n  number_of_ways: 2\n  number_of_lanes: 3\n  road_marker: broken_line",
+    "two_way_four": "road_type: straight\n  number_of_ways: 2\n  number_of_lanes: 4\n  road_marker: broken_line",
     "divided": "road_type: straight\n  number_of_ways: 1\n  number_of_lanes: 3\n  road_marker: none",
     "divided_four": "road_type: straight\n  number_of_ways: 1\n  number_of_lanes: 4\n  road_marker: none",
     "one_way": "road_type: straight\n  number_of_ways: 1\n  number_of_lanes: 2\n  road_marker: none",
@@ -102,6 +104,19 @@ CONFIGURATIONS = {
         "two_way", "speed_limit_sign", 55,
         actor("ego", "go_forward", "reference: road, relation: behind")
         + actor("npc1", "overtake", "reference: ego, relation: front, heading: opposite_direction"),
+        oracle("CVC_21650", "wrong_side", "npc1"), contact("npc1", "ego", "front", "front", "head_on")),
+    # two lanes the ego's way and one the other: the ego starts beside the centre line, where the overtaker comes
+    # (render.plan._centre_lanes; first contact 0.525 of 40 before, when it started in the outer lane in half)
+    "head_on_overtake_on_three_lanes": scenario(
+        "two_way_three", "speed_limit_sign", 55,
+        actor("ego", "go_forward", "reference: road, relation: behind")
+        + actor("npc1", "overtake", "reference: ego, relation: front, heading: opposite_direction"),
+        oracle("CVC_21650", "wrong_side", "npc1"), contact("npc1", "ego", "front", "front", "head_on")),
+    # two lanes each way: the drifter starts in the opposing lane nearest the ego's (scenic_support._oncoming_lane)
+    "head_on_drift_on_four_lanes": scenario(
+        "two_way_four", "speed_limit_sign", 45,
+        actor("ego", "go_forward", "reference: road, relation: behind")
+        + actor("npc1", "cross_centerline", "reference: ego, relation: front, heading: opposite_direction"),
         oracle("CVC_21650", "wrong_side", "npc1"), contact("npc1", "ego", "front", "front", "head_on")),
     "head_on_wrong_way_divided": scenario(
         "divided", "speed_limit_sign", 65,
@@ -345,4 +360,6 @@ def test_a_speeding_truck_is_planned_at_the_speed_it_can_reach(tmp_path):
     summary = run(SPEEDING_TRUCK, tmp_path)
     rows = pq.read_table(tmp_path / "traces.parquet", columns=["actor", "t", "speed"]).to_pylist()
     assert max(r["speed"] for r in rows if r["actor"] == "ego" and r["t"] == 0.0) <= 35.0
+    bodies = pq.read_table(tmp_path / "actors.parquet", columns=["actor", "length", "width"]).to_pylist()
+    assert {(r["length"], r["width"]) for r in bodies if r["actor"] == "ego"} == {(7.94, 2.89)}  # a truck's body
     assert summary["first_contact_rate"] >= 0.95, summary["collisions"]

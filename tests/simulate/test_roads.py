@@ -5,6 +5,7 @@ import math
 
 import numpy as np
 import pytest
+from scenariogeneration import xodr
 
 from crashscene.simulate.backend import SimulationError
 from crashscene.simulate.embedded.world import RouteArrays
@@ -216,6 +217,24 @@ def test_point_reads_the_step_table_with_the_interpolations_floats(four_way_map)
     x, y, yaw = arrays.point(r, s)
     assert np.array_equal(x, want[0]) and np.array_equal(y, want[1]) and np.array_equal(yaw, arrays.yaw[r, k])
     assert np.array_equal(arrays.yaw_at(r, s), yaw)
+
+
+@pytest.mark.parametrize("per_side", [1, 2, 3, 7])
+def test_every_lane_knows_its_distance_to_the_centre_line(tmp_path, per_side):
+    # Scenic 3.1 builds a backward lane group's left edge from its lanes in the wrong order: with three lanes or more
+    # it runs through the group (7 a side: the inner westbound lane read 15.75 m from the centre line, so a driver
+    # crossing it aimed four lanes too far)
+    road = xodr.create_road(xodr.Line(300.0), id=1, left_lanes=per_side, right_lanes=per_side, lane_width=LANE)
+    odr = xodr.OpenDrive("wide")
+    odr.add_road(road)
+    odr.adjust_roads_and_lanes()
+    odr.write_xml(str(tmp_path / "wide.xodr"))
+    roadmap = RoadMap.load(tmp_path / "wide.xodr")
+    assert len(roadmap.lanes) == 2 * per_side
+    for lane in roadmap.lanes:
+        centre_y = float(np.mean(lane.points[:, 1]))  # the centre line is y = 0
+        assert lane.centerline_offset == pytest.approx(abs(centre_y), abs=0.01), lane.uid
+        assert abs(float(np.mean(roadmap.by_uid[lane.opposite].points[:, 1]))) == pytest.approx(LANE / 2, abs=0.01)
 
 
 def test_heading_near_a_joints_backward_kink_is_the_lanes_direction():

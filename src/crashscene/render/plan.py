@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import hashlib
 import itertools
+import math
 import re
 from enum import StrEnum
 
@@ -69,7 +70,8 @@ CURVE_ANGLE = 1.3  # [rad] heading change of a generated curve (~75 deg)
 CURVE_LATERAL_ACC = 2.0  # [m/s2] design lateral acceleration at the speed limit -> curve radius
 CURVE_RADIUS_RANGE = (60.0, 400.0)  # [m]
 
-EGO_BLUEPRINT = "vehicle.lincoln.mkz_2017"
+EGO_BLUEPRINT = "vehicle.lincoln.mkz_2017"  # the ego's body when it is a car (CARLA's usual ego vehicle); an ego of
+# another type (a truck, a motorcycle) is drawn from its type's pool like any actor: its body is the report's
 BLUEPRINT_POOLS: dict[str, tuple[str, ...]] = {
     "car": ("vehicle.nissan.patrol", "vehicle.tesla.model3", "vehicle.dodge.charger_2020",
             "vehicle.toyota.prius", "vehicle.mercedes.coupe_2020", "vehicle.audi.a2"),
@@ -178,6 +180,8 @@ class ActorPlan(BaseModel):
     stop_duration: Range = Field(description="[s] how long a stopping actor waits")
     dispositions: list[str]
     controlled_by: str | None = Field(default=None, description="traffic control device on the actor's approach")
+    centre_lane: bool = Field(default=False, description="starts in the lane beside the centre line: it crosses "
+                                                         "the centre line, or meets head-on one that does")
 
 
 class MapSpec(BaseModel):
@@ -249,6 +253,7 @@ def convert(scenario: Scenario, horizon: float = HORIZON) -> RenderPlan:
     _queue(actors)
     _standing_leads(actors, notes)
     _check_references(actors)
+    _centre_lanes(actors, scenario)
     plan_map = _map_spec(scenario, actors, speed_limit, basis, horizon, notes)
     for actor in actors:
         actor.controlled_by = plan_map.controls.get(_arm_of(actor)) if junction else None
@@ -311,7 +316,7 @@ def _actor_plan(name: str, actor: Actor, scenario: Scenario, junction: bool, spe
     dist = ONCOMING_DIST if placement is Placement.ONCOMING else INIT_DIST
     return ActorPlan(
         role=name, label=label, type=actor.type.value, behavior=actor.behavior.value,
-        blueprints=[EGO_BLUEPRINT] if name == "ego" else list(BLUEPRINT_POOLS[actor.type.value]),
+        blueprints=blueprint_pool(name, actor),
         reference=pos.reference, relation=pos.relation.value,
         heading_relation=pos.heading.value if pos.heading else None, placement=placement, placement_ref=ref,
         along=_along(name, pos.relation),
@@ -320,6 +325,14 @@ def _actor_plan(name: str, actor: Actor, scenario: Scenario, junction: bool, spe
         init_dist=Range(low=dist[0], high=dist[1]), side_offset=Range(low=SIDE_OFFSET[0], high=SIDE_OFFSET[1]),
         arrival_offset=arrival, maneuver_time=Range(low=MANEUVER_TIME[0], high=MANEUVER_TIME[1]),
         stop_duration=Range(low=STOP_DURATION[0], high=STOP_DURATION[1]), dispositions=codes)
+
+
+def blueprint_pool(name: str, actor: Actor) -> list[str]:
+    """The blueprints an actor's body is drawn from: the ego car's fixed one, else its type's pool (a truck ego is
+    a truck's size, not the ego car's)."""
+    if name == "ego" and actor.type.value == "car":
+        return [EGO_BLUEPRINT]
+    return list(BLUEPRINT_POOLS[actor.type.value])
 
 
 def _along(name: str, relation: Relation) -> str:
@@ -390,6 +403,32 @@ def _standing_leads(actors: list[ActorPlan], notes: list[str]) -> None:
             actor.init_dist = Range(low=low, high=high)
             notes.append(f"{actor.role}: standing ahead of the ego; placed {low:g}-{high:g} m ahead "
                          f"({STANDING_LEAD_TIME[0]:g}-{STANDING_LEAD_TIME[1]:g} s at the ego's top speed)")
+
+
+def _centre_lanes(actors: list[ActorPlan], scenario: Scenario) -> None:
+    """Mark the actors that start in the lane beside the centre line (`centre_lane`). A driver crosses the centre
+    line from the lane next to it, into the nearest opposing lane (dsl.md: `cross_centerline` enters the opposing
+    lanes, `overtake` passes through the opposing lane); so a vehicle written as meeting such a driver head-on or
+    from the opposite direction travels in that lane too. Without this, a road with more lanes than two may start
+    either in an outer lane, one or more lanes away from where the crossing happens. A follower shares its
+    reference's lane, so the reference takes the mark as well. Only a preference: `scenic_support.candidates`
+    drops it where no placement can honour it (e.g. an actor written beside another on its left)."""
+    by_role = {a.role: a for a in actors}
+    crossers = {a.role for a in actors if a.behavior in OPPOSING_PASSES}
+    centre = set(crossers)
+    for contact in scenario.collisions or ():
+        pair = (contact.striking, contact.struck)
+        for one, other in (pair, pair[::-1]):
+            if one in crossers and other in by_role and math.cos(
+                    by_role[one].relative_heading - by_role[other].relative_heading) < 0.0:
+                centre.add(other)
+    grown = True
+    while grown:
+        followed = {a.placement_ref for a in actors if a.role in centre and a.placement is Placement.FOLLOW}
+        grown = not followed <= centre
+        centre |= followed
+    for actor in actors:
+        actor.centre_lane = actor.role in centre
 
 
 def _check_references(actors: list[ActorPlan]) -> None:

@@ -111,7 +111,8 @@ def _behavior_call(actor: dict[str, Any]) -> str:
 
 
 def _needs(actor, actors) -> dict[str, int]:
-    """Lanes an actor's start lane must offer: same-direction lanes left/right, an oncoming lane."""
+    """Lanes an actor's start lane must offer: same-direction lanes left/right, an oncoming lane; "centre": no
+    same-direction lane on its left (the lane beside the centre line, `ActorPlan.centre_lane`; a preference)."""
     left = right = 0
     oncoming = actor.behavior in OPPOSING_PASSES
     if actor.behavior == "change_lane_left":
@@ -127,7 +128,10 @@ def _needs(actor, actors) -> dict[str, int]:
             right = max(right, 1)
         elif other.placement is Placement.ONCOMING:
             oncoming = True
-    return {"left": left, "right": right, "oncoming": int(oncoming)}
+    needs = {"left": left, "right": right, "oncoming": int(oncoming)}
+    if actor.centre_lane:  # only where set, so that the programs of every other scenario stay as they were
+        needs["centre"] = 1
+    return needs
 
 
 def _actor_params(a: dict[str, Any]) -> list[tuple[str, Any, str]]:

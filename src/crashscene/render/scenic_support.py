@@ -122,16 +122,18 @@ def _side_lane(lane, s_local, side, steps=1):
 
 
 def _oncoming_lane(lane, s_local=0.0, index=None):
-    """The opposite-direction lane nearest the ego's side: the opposite lane group's innermost lane, else (divided
-    roads, CARLA highways) the nearest lane within 30 m running the other way, from `index`; or None."""
+    """The opposite-direction lane nearest the ego's side: the opposite lane group's innermost lane (the one nearest
+    `lane` at `s_local` [m]: a group's order of lanes is not its order across the road, Scenic lists a backward
+    group of a generated map centre line first), else (divided roads, CARLA highways) the nearest lane within
+    30 m running the other way, from `index`; or None."""
     group = lane.group
     opposite = group._opposite if group is not None else None
-    if opposite is not None and opposite.lanes:
-        return opposite.lanes[-1]
-    if index is None:
-        return None
     line = lane.centerline.lineString
     p = line.interpolate(min(max(s_local, 0.0), line.length))
+    if opposite is not None and opposite.lanes:
+        return min(opposite.lanes, key=lambda other: other.centerline.lineString.distance(p))
+    if index is None:
+        return None
     q = line.interpolate(min(max(s_local, 0.0) + 2.0, line.length))
     own = _math.atan2(-(q.x - p.x), q.y - p.y)
     best, best_d = None, 30.0
@@ -273,6 +275,8 @@ def _needs_ok(actor, route, s_local_lane, lane, index=None):
     if need.get("left", 0) and _same_dir_count(lane, s_local_lane, "left") < need["left"]:
         return False
     if need.get("right", 0) and _same_dir_count(lane, s_local_lane, "right") < need["right"]:
+        return False
+    if need.get("centre", 0) and _same_dir_count(lane, s_local_lane, "left") > 0:
         return False
     return not (need.get("oncoming") and _oncoming_lane(lane, s_local_lane, index) is None)
 
@@ -559,6 +563,10 @@ def candidates(network, actors, topology, hint, curve_sign, ego_roads=(), map_na
     on it; candidates without it are dropped unless none has it (then actors may be clamped to route ends).
     """
     found = _combos(network, actors, topology, hint, curve_sign, ego_roads, room)
+    if not found and any(a.get("needs", {}).get("centre") for a in actors):
+        # the lane beside the centre line is a preference (plan._centre_lanes): without it where none can have it
+        actors = [dict(a, needs={k: v for k, v in a["needs"].items() if k != "centre"}) for a in actors]
+        found = _combos(network, actors, topology, hint, curve_sign, ego_roads, room)
     roomy = [c for c in found if c.routes["ego"].anchor >= room[0]
              and c.routes["ego"].length - c.routes["ego"].anchor >= room[1]]
     found = roomy or found

@@ -470,8 +470,15 @@ def _lateral_distance(lane: Lane, x: float, y: float) -> float:
     return float(shapely.LineString(lane.points).distance(shapely.Point(x, y)))
 
 
+CENTRE_LINE_TOLERANCE = 0.05  # [m] a group's left edge is the centre line when it lies on the way from a lane to its
+# nearest opposite lane and along that lane's edge, within this (a few cm: the polylines' sampling)
+
+
 def _opposite(lane, pts: np.ndarray) -> tuple[str | None, float]:
-    """The nearest opposite-direction lane and the offset [m] to the centre line between them."""
+    """The nearest opposite-direction lane and the offset [m] to the centre line between them: the lane group's left
+    edge when it lies between the two along that lane's edge, else the opposite group's (Scenic 3.1 builds a backward
+    group's edges from its lanes in the wrong order: with three lanes or more its left edge runs through the group,
+    not along the centre line), else half the opposite lane's width short of its centre."""
     group = lane.group
     if group is None or group._opposite is None:
         return None, math.nan
@@ -479,11 +486,17 @@ def _opposite(lane, pts: np.ndarray) -> tuple[str | None, float]:
     if not opp_lanes:
         return None, math.nan
     mid = shapely.Point(*pts[len(pts) // 2])
-    nearest = min(opp_lanes, key=lambda other: shapely.LineString(
-        np.asarray(other.centerline.points)[:, :2]).distance(mid))
-    edge = shapely.LineString(np.asarray(group.leftEdge.points)[:, :2])
-    offset = float(edge.distance(mid))
-    return nearest.uid, offset
+    lines = {other.uid: shapely.LineString(np.asarray(other.centerline.points)[:, :2]) for other in opp_lanes}
+    nearest = min(opp_lanes, key=lambda other: lines[other.uid].distance(mid))
+    across = float(lines[nearest.uid].distance(mid))  # [m] to the nearest opposite lane's centre
+    half = float(nearest.polygon.area / lines[nearest.uid].length) / 2.0  # [m] half its width
+    for group_edge in (group.leftEdge, group._opposite.leftEdge):
+        edge = shapely.LineString(np.asarray(group_edge.points)[:, :2])
+        offset = float(edge.distance(mid))
+        beyond = float(lines[nearest.uid].distance(edge.interpolate(edge.project(mid))))
+        if abs(offset + beyond - across) < CENTRE_LINE_TOLERANCE and abs(beyond - half) < CENTRE_LINE_TOLERANCE:
+            return nearest.uid, offset
+    return nearest.uid, across - half
 
 
 _FALLBACK = {"u_turn": ("u_turn", "left", "straight", "right"), "left": ("left", "straight", "right"),

@@ -31,6 +31,7 @@ from crashscene.geometry import footprints_overlap, pose_class, touch_fraction
 from crashscene.simulate.drivers.behaviors import EDGE_TARGETS
 from crashscene.simulate.embedded import cascade, lockstep, rollout
 from crashscene.simulate.embedded.meetings import (
+    CLASS_MATCH,
     along_route,
     later_terms,
     matches,
@@ -301,11 +302,11 @@ def choose(plan: VariationPlan, nxt: Next, candidates: list[tuple[int, float, tu
     x, y, yaw, vx, vy, yaw rate every cascade.DT after the first touch at t1 [s]), and every `alongs` fraction: the
     one whose predicted contact with the third car leaves the written next contact (`predict`, met in one of the
     `lanes` of the fourth actor):
-    first by the third car's meeting having its written class and area (meetings.matches), then by not pushing again,
-    then by the next contact's class and areas where the third car comes SPREAD earlier or later too (the least of
-    the three: a sideswipe's outcome can turn on a few centimetres), then by a steady first impact, then by the
-    sooner meeting, then by the nominal one's (`_follow_key`) (`option_key`),
-    then by how far inside its class's heading range the third car's meeting is."""
+    first by the third car's meeting having its written class, then by not pushing again, then by the next contact's
+    class where the third car comes SPREAD earlier or later too (the least of the three: a sideswipe's outcome can
+    turn on a few centimetres), then by those two with their areas (meetings.matches), then by a steady first
+    impact, then by the sooner meeting, then by the nominal one's (`_follow_key`), then by how far inside its
+    class's heading range the third car's meeting is (`option_key`)."""
     dt = plan.ctx.skid_paths.dt
     placed, starts = [], []
     for row, offset, meeting, clean, steady_one in candidates:
@@ -397,14 +398,23 @@ def _later_match(plan: VariationPlan, meeting: tuple, later: tuple[str, str, str
 
 def option_key(later: int, clean: bool, least: int, steady_one: bool, step: int, follow: tuple[int, bool, float],
                margin: float) -> tuple:
-    """How `choose` ranks a candidate (larger is better): the third car's meeting's match of the written later
-    contact (meetings.matches), a striker that does not push again before it, the next contact's least match when
-    the third car comes SPREAD earlier or later, a steady first impact (`steady`), then the sooner meeting (`step`
-    of cascade.DT after the first impact: a prediction of two bodies holds less the longer after it, as the cars
-    it leaves out come back into play; in 3-C1-2017-001, seed 7, 66 of the 70 reproduced variations met the third
-    car within 0.5 s of the first impact, 16 of the 30 others later), the nominal next contact's `_follow_key`,
-    and how far inside its class's heading range the third car's meeting is [deg]."""
-    return (later, clean, least, steady_one, -step, *follow, margin)
+    """How `choose` ranks a candidate (larger is better): the written classes first, then the areas (rules.md: a
+    variation reproduces its report when the crash sequence happens, a contact's two actors and class in order; the
+    areas each touched are a separate figure, not required): the third car's meeting having the written later
+    contact's class, a striker that does not push the first car again before it, the next contact's class where the
+    third car comes SPREAD earlier or later too (`least`), then those two matches with their areas
+    (meetings.matches), a steady first impact (`steady`), then the sooner meeting (`step` of cascade.DT after the
+    first impact: a prediction of two bodies holds less the longer after it, as the cars it leaves out come back
+    into play; in 3-C1-2017-001, seed 7, 66 of the 70 reproduced variations met the third car within 0.5 s of the
+    first impact, 16 of the 30 others later), the nominal next contact's `_follow_key`, and how far inside its
+    class's heading range the third car's meeting is [deg]. A candidate whose deflected car meets the third with
+    another face than the written one but leaves the next contact's class ranks above one with the written face
+    that loses it (3-C1-2017-001 at a 60 mph limit, seed 7: in 13 of its 18 failures the only candidates with the
+    written head-on after the sideswipe met the third car with another face of the striker)."""
+    return (later >= CLASS_MATCH, clean, least >= CLASS_MATCH, later, least, steady_one, -step, *follow, margin)
+
+
+_LATER, _LEAST, _STEADY, _AIMED = 3, 4, 5, 8  # where option_key puts them
 
 
 def full(key: tuple) -> bool:
@@ -415,7 +425,7 @@ def full(key: tuple) -> bool:
     headings (geometry.classify_contact; 3-C1-2017-001, seed 2: of the variations planned full but for this, with
     the third car met within 0.45 s of the first impact, 9 of 16 did not reproduce, against 2 of 48 with the fourth
     car aimed). plan_cascade tries its alternatives until one is."""
-    return bool(key) and key[0] == 3 and key[2] == 3 and key[3] and key[6]
+    return bool(key) and key[_LATER] == 3 and key[_LEAST] == 3 and key[_STEADY] and key[_AIMED]
 
 
 def _follows(plan: VariationPlan, nxt: Next, third: int, predicted: list) -> dict[int, tuple[float, tuple, bool]]:

@@ -255,7 +255,10 @@ def later_terms(contact: tuple[str, str, str, str, str], mover: str) -> tuple[st
     return (klass, striking_area, struck_area) if striking == mover else (klass, struck_area, striking_area)
 
 
+CLASS_MATCH = 2  # [-] what `matches` gives the written class (the area adds 1)
+
+
 def matches(meeting: tuple[int, float, str, str, float, float], later: tuple[str, str, str]) -> int:
     """How well a predicted meeting (`pushed_meetings`) has the written later contact (class, area):
     2 for the class, plus 1 for the area."""
-    return 2 * (meeting[2] == later[0]) + (meeting[3] == later[1])
+    return CLASS_MATCH * (meeting[2] == later[0]) + (meeting[3] == later[1])
