@@ -17,12 +17,16 @@ ROADS = {
     "four_way_wide": "road_type: intersection\n  number_of_ways: 2\n  number_of_lanes: 4\n  road_marker: double_solid_line",
     "four_way_six": "road_type: intersection\n  number_of_ways: 2\n  number_of_lanes: 6\n  road_marker: double_solid_line",
     "tee": "road_type: t_intersection\n  number_of_ways: 2\n  number_of_lanes: 2\n  road_marker: double_solid_line",
+    "tee_six": "road_type: t_intersection\n  number_of_ways: 2\n  number_of_lanes: 6\n  road_marker: double_solid_line",
     "two_way": "road_type: straight\n  number_of_ways: 2\n  number_of_lanes: 2\n  road_marker: broken_line",
     "two_way_three": "road_type: straight\n  number_of_ways: 2\n  number_of_lanes: 3\n  road_marker: broken_line",
     "two_way_four": "road_type: straight\n  number_of_ways: 2\n  number_of_lanes: 4\n  road_marker: broken_line",
     "divided": "road_type: straight\n  number_of_ways: 1\n  number_of_lanes: 3\n  road_marker: none",
     "divided_four": "road_type: straight\n  number_of_ways: 1\n  number_of_lanes: 4\n  road_marker: none",
     "one_way": "road_type: straight\n  number_of_ways: 1\n  number_of_lanes: 2\n  road_marker: none",
+    "bend_left": "road_type: curve\n  curve_direction: left\n  number_of_ways: 1\n  number_of_lanes: 4\n  road_marker: none",
+    "bend_right": "road_type: curve\n  curve_direction: right\n  number_of_ways: 1\n  number_of_lanes: 4\n"
+                  "  road_marker: none",
 }
 
 
@@ -229,6 +233,18 @@ LATER_CONTACTS = {  # cascades planned from a predicted slide: (scenario, least 
         contact("ego", "npc1", "right", "rear", "sideswipe") + contact("ego", "npc2", "front", "left", "angle"))
         .replace("weather: clear, time_of_day: daytime, road_surface: dry",
                  "weather: rainy, time_of_day: daytime, road_surface: wet"), 0.8),
+    # a car standing at a junction on a six-lane road is pushed by a rear-end into an oncoming car's path: the two
+    # meet across the centre line, so both start in the lanes beside it (render.plan._centre_lanes; 0.6 of 20 when
+    # the standing car took any of its three lanes, 1.0 of 20 beside the centre line)
+    "a_rear_end_pushes_the_standing_car_into_an_oncoming_one": (scenario(
+        "tee_six", "speed_limit_sign", 50,
+        actor("ego", "stop", "reference: intersection, relation: behind")
+        + actor("npc1", "go_forward", "reference: ego, relation: behind, heading: same_direction")
+        + actor("npc2", "go_forward", "reference: ego, relation: front, heading: opposite_direction"),
+        oracle("CVC_22350", "unsafe_speed", "npc1"),
+        contact("npc1", "ego", "front", "rear", "rear_end") + contact("npc2", "ego", "front", "right", "angle"))
+        .replace("weather: clear, time_of_day: daytime, road_surface: dry",
+                 "weather: rainy, time_of_day: nighttime, road_surface: wet"), 0.9),
     # a truck knocks the slowing car ahead of it aside and runs on into the next one: the plan chooses the corner
     # that takes the knocked car out of the lane soonest and starts the cars ahead far enough on for it to leave
     # before it reaches them (0.65 of 20 when the corner was fixed and the cars ahead were where sampled: the knocked
@@ -363,3 +379,21 @@ def test_a_speeding_truck_is_planned_at_the_speed_it_can_reach(tmp_path):
     bodies = pq.read_table(tmp_path / "actors.parquet", columns=["actor", "length", "width"]).to_pylist()
     assert {(r["length"], r["width"]) for r in bodies if r["actor"] == "ego"} == {(7.94, 2.89)}  # a truck's body
     assert summary["first_contact_rate"] >= 0.95, summary["collisions"]
+
+
+def spin_on_a_bend(side: str) -> str:
+    return scenario(
+        f"bend_{side}", "speed_limit_sign", 70,
+        actor("ego", "lose_control", "reference: road, relation: behind")
+        + actor("npc1", "change_lane_left", "reference: ego, relation: right, heading: same_direction"),
+        oracle("CVC_22350", "unsafe_speed", "ego"), contact("npc1", "ego", "front", "left", "angle"))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("side", ["left", "right"])
+def test_a_car_spinning_on_a_bend_is_struck_where_its_skid_meets_the_lane_round_the_bend(side, tmp_path):
+    # the skid is planned in the road's frame round the bend (a car out of control keeps its course while its
+    # partner follows the lane), and the partner keeps its speed on a 400 m bend (the route's curvature is the
+    # bend's, not its chords' vertices'); planned as on a straight road: 0.40 / 0.15 of 20 bent left / right
+    summary = run(spin_on_a_bend(side), tmp_path)
+    assert summary["first_contact_rate"] >= 0.9, summary["collisions"]
