@@ -4,11 +4,11 @@ nobody here has seen.
 Run by hand: `.venv/bin/python benchmarks/bench_variants.py [-n 40] [--seed 7] [--cases DIR] [--only CASE ...]
 [--kinds KIND ...] [--json FILE]`. Issue 10's figures are also measured on unseen CIREN reports, whose roads,
 light, speeds and vehicles differ from the bundled ones. Each golden file is varied one field at a time, in ways a
-report of the same crash could differ (`KINDS`): the road surface, the light, the speed limit by 10 mph, one more
-through lane, a straight road bent either way (or a curve straightened), one actor a truck instead of a car. Each
-variant is simulated in reproduce mode on the embedded backend and judged against its (unchanged) crash sequence.
-Prints one row per case and variant, then per kind the mean reproduction and first-contact rates and the variants
-below 0.8. A variant the DSL refuses is reported, not counted.
+report of the same crash could differ (`KINDS`): the road surface, the light, the speed limit by 10 mph or
+unstated, one more through lane, a straight road bent either way (or a curve straightened), one actor a truck
+instead of a car. Each variant is simulated in reproduce mode on the embedded backend and judged against its
+(unchanged) crash sequence. Prints one row per case and variant, then per kind the mean reproduction and
+first-contact rates and the variants below 0.8. A variant the DSL refuses is reported, not counted.
 """
 from __future__ import annotations
 
@@ -50,6 +50,9 @@ def _limit(raw: dict) -> Iterator[tuple[str, dict]]:
     limit = road.get("speed_limit_mph")
     if limit is None:
         return
+    # a report that does not state the limit (no sign either: validation pairs the two)
+    yield "limit-unstated", {**{k: v for k, v in road.items() if k != "speed_limit_mph"},
+                             "traffic_signs": [s for s in road["traffic_signs"] if s != "speed_limit_sign"]}
     yield f"limit+{LIMIT_STEP_MPH}", {**road, "speed_limit_mph": limit + LIMIT_STEP_MPH}
     if limit - LIMIT_STEP_MPH >= LIMIT_FLOOR_MPH:
         yield f"limit-{LIMIT_STEP_MPH}", {**road, "speed_limit_mph": limit - LIMIT_STEP_MPH}

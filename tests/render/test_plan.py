@@ -7,8 +7,8 @@ import pytest
 
 from crashscene.dsl import load_file, loads
 from crashscene.dsl.tokens import TimeOfDay, Weather
+from crashscene.monitor.rules.speed import unposted_limit
 from crashscene.render.plan import (
-    DEFAULT_SPEED,
     EGO_BLUEPRINT,
     MPH,
     Placement,
@@ -75,9 +75,23 @@ def test_time_of_day_hours():
     assert convert(night).hour == 22.0
 
 
-def test_default_speed_is_reference_range_around_10():
-    plan = convert(scenario())
-    assert (plan.actors[0].speed.low, plan.actors[0].speed.high) == (DEFAULT_SPEED - 2, DEFAULT_SPEED + 2)
+@pytest.mark.parametrize("road_type, ways, lanes, mph", [
+    ("straight", 2, 2, 55), ("curve", 2, 2, 55), ("straight", 2, 4, 65), ("straight", 1, 2, 65),
+    ("intersection", 2, 2, 25), ("t_intersection", 2, 4, 25)])
+def test_unstated_speed_is_up_to_the_limit_the_speed_rules_apply_where_none_is_posted(road_type, ways, lanes, mph):
+    """A report silent on both the speed and the limit: traffic drives up to the limit the monitor applies there
+    (rules.md rule 7: 25 mph in a junction, 55 mph on a two-lane two-way road, 65 mph otherwise), the same
+    law-abiding range a posted limit gives, not the reference pipeline's 10 m/s on a rural highway."""
+    kw = {"curve": "\n  curve_direction: left"}.get(road_type, "")
+    plan = convert(loads((BASE % {"road_type": road_type, "ways": ways, "lanes": lanes, "signs": "",
+                                  "ego_behavior": "go_forward", "ego_ref": "road", "npcs": ""}).replace(
+        "  traffic_signs: []", "  traffic_signs: []" + kw)))
+    assert plan.speed_limit is None  # nothing posted reaches the map or the program
+    speed = plan.actors[0].speed
+    limit = mph * MPH
+    assert speed.high == pytest.approx(limit, abs=1e-3)
+    assert speed.low == pytest.approx(limit - 2 * max(2.0, 0.1 * limit), abs=1e-3)  # as under a posted limit
+    assert unposted_limit(ways, lanes, road_type in ("intersection", "t_intersection")) == pytest.approx(mph * MPH)
 
 
 def test_stated_speed_and_limit_set_the_nominal_speed():

@@ -23,6 +23,9 @@ ROADS = {
     "divided": "road_type: straight\n  number_of_ways: 1\n  number_of_lanes: 3\n  road_marker: none",
     "divided_four": "road_type: straight\n  number_of_ways: 1\n  number_of_lanes: 4\n  road_marker: none",
     "one_way": "road_type: straight\n  number_of_ways: 1\n  number_of_lanes: 2\n  road_marker: none",
+    "bend_left": "road_type: curve\n  curve_direction: left\n  number_of_ways: 1\n  number_of_lanes: 4\n  road_marker: none",
+    "bend_right": "road_type: curve\n  curve_direction: right\n  number_of_ways: 1\n  number_of_lanes: 4\n"
+                  "  road_marker: none",
 }
 
 
@@ -384,3 +387,21 @@ def test_a_wide_striker_starts_clear_of_the_car_alongside(tmp_path):
     # invalid at seeds 7 and 1)
     summary = run(SHOULDER_TRUCK, tmp_path)
     assert summary["valid"] == N, summary["invalid"]
+
+
+def spin_on_a_bend(side: str) -> str:
+    return scenario(
+        f"bend_{side}", "speed_limit_sign", 70,
+        actor("ego", "lose_control", "reference: road, relation: behind")
+        + actor("npc1", "change_lane_left", "reference: ego, relation: right, heading: same_direction"),
+        oracle("CVC_22350", "unsafe_speed", "ego"), contact("npc1", "ego", "front", "left", "angle"))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("side", ["left", "right"])
+def test_a_car_spinning_on_a_bend_is_struck_where_its_skid_meets_the_lane_round_the_bend(side, tmp_path):
+    # the skid is planned in the road's frame round the bend (a car out of control keeps its course while its
+    # partner follows the lane), and the partner keeps its speed on a 400 m bend (the route's curvature is the
+    # bend's, not its chords' vertices'); planned as on a straight road: 0.40 / 0.15 of 20 bent left / right
+    summary = run(spin_on_a_bend(side), tmp_path)
+    assert summary["first_contact_rate"] >= 0.9, summary["collisions"]

@@ -2,12 +2,14 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
 from scenariogeneration import xodr
 
 from crashscene.simulate.backend import SimulationError
+from crashscene.simulate.embedded.stations import bent_frames
 from crashscene.simulate.embedded.world import RouteArrays
 from crashscene.simulate.roads import ROUTE_DS, Lane, RoadMap, heading_near
 
@@ -247,3 +249,40 @@ def test_heading_near_a_joints_backward_kink_is_the_lanes_direction():
     for x in (80.0, 100.5, 104.6, 130.0):
         y = float(np.interp(x, [0.0, 100.0, 127.17, 154.27], [-1.75, -1.75, -2.68, -5.46]))
         assert math.cos(heading_near(lane, x, y)) > 0.99
+
+
+def _chorded_bend(radius: float = 400.0, chord: float = 28.0) -> Lane:
+    """A lane 100 m straight along +x, then chords of an arc of `radius` bending left (the generated curve map)."""
+    step = 2.0 * math.asin(chord / (2.0 * radius))  # [rad] the arc's angle per chord
+    angles = step * np.arange(31)
+    arc = np.stack([100.0 + radius * np.sin(angles), radius * (1.0 - np.cos(angles))], axis=1)
+    return Lane(0, "road1_lane1", "road1", np.concatenate([[[0.0, 0.0]], arc]), 3.5, math.nan, None, [], None,
+                None, None, None, math.nan, "not_mentioned")
+
+
+def test_bent_frames_put_a_straight_plans_point_on_the_bend():
+    """A path planned along a straight road from a station (a pull-out that clips the car ahead) is read on a
+    bend in a frame turned so that its point `along` ahead (the touch) lies on the route there, heading with it;
+    on a straight stretch the frame is the route's pose (the same floats)."""
+    arrays = RouteArrays.pack([RoadMap(Path("none.xodr"), [_chorded_bend()], []).route("road1_lane1", min_length=10.0)])
+    s, along = np.array([20.0, 150.0]), np.array([40.0, 60.0])
+    x, y, yaw = bent_frames(arrays, 0, s, along)
+    px, py, pyaw = arrays.point(np.zeros(2, dtype=int), s)
+    assert (x[0], y[0], yaw[0]) == (px[0], py[0], pyaw[0])  # 20 -> 60 m: straight
+    cx, cy, cyaw = arrays.point(np.zeros(1, dtype=int), s[1:] + along[1:])
+    assert x[1] + math.cos(yaw[1]) * along[1] == pytest.approx(cx[0], abs=1e-9)
+    assert y[1] + math.sin(yaw[1]) * along[1] == pytest.approx(cy[0], abs=1e-9) and yaw[1] == cyaw[0]
+    assert cy[0] - (py[1] + math.sin(pyaw[1]) * along[1]) > 3.0  # read straight from s, the touch lies 4 m off
+
+
+def test_route_curvature_of_a_chorded_arc_is_the_arcs():
+    """Scenic's centre line of a bend is a chain of chords (here 28 m chords of a 400 m radius after a 100 m
+    straight, the shape of the generated curve map): the route's curvature is the bend's, not 0 along each chord
+    and ~30 times the bend's at its vertices (where drivers looking ahead for curves slowed to ~6 m/s)."""
+    radius, chord = 400.0, 28.0
+    route = RoadMap(Path("none.xodr"), [_chorded_bend(radius, chord)], []).route("road1_lane1", min_length=10.0)
+    s = np.arange(len(route.curvature)) * ROUTE_DS
+    on_arc = (s > 100.0 + chord) & (s < route.length - chord)
+    assert np.abs(route.curvature).max() < 1.05 / radius
+    assert route.curvature[on_arc] == pytest.approx(1.0 / radius, rel=0.02)
+    assert np.abs(route.curvature[s < 70.0]).max() < 0.5 / radius

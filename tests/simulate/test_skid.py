@@ -181,3 +181,22 @@ def test_the_other_starts_of_a_clip_each_clip_the_car_ahead_as_written(partner):
             klass, t = first_touch_on_path(path, trigger, speed, gap + shift, v, 0.0, partner)
             assert klass == "sideswipe"
             assert t == pytest.approx(trigger + DT / 2 + t_meet, abs=DT + 1e-9)
+
+
+@pytest.mark.parametrize("curvature", [1 / 400.0, -1 / 400.0])
+def test_along_road_reads_a_skid_in_the_frame_of_the_bend(curvature):
+    """A car out of control keeps its course while its partner follows the lane round a bend: a path going
+    straight on ends up off the road's outside, one that follows the arc stays on it, turned with it."""
+    radius = 1.0 / curvature
+    theta = np.linspace(0.0, 0.3, 7)[None, :]  # [rad] round the arc
+    on_arc = (abs(radius) * np.sin(theta), radius * (1.0 - np.cos(theta)), np.sign(curvature) * theta)
+    s, d, yaw = skid.along_road(on_arc, curvature)
+    assert s == pytest.approx(abs(radius) * theta, abs=1e-9)
+    assert d == pytest.approx(0.0, abs=1e-9) and yaw == pytest.approx(0.0, abs=1e-12)
+    x = np.linspace(0.0, 100.0, 5)[None, :]
+    s, d, yaw = skid.along_road((x, np.zeros_like(x), np.zeros_like(x)), curvature)
+    outside = np.abs(radius) - np.hypot(x, radius)  # [m] the bend's radius less the straight path's distance
+    assert d == pytest.approx(np.sign(curvature) * outside, abs=1e-9)
+    assert yaw == pytest.approx(-curvature * s, abs=1e-12)
+    straight = (x, x * 0.1, x * 0.01)
+    assert all(a is b for a, b in zip(skid.along_road(straight, 0.0), straight))

@@ -93,6 +93,7 @@ class Behavior(StrEnum):
 STANDING = (Behavior.STOP.value, Behavior.STATIC.value)  # the vehicle stands still (stopped or parked)
 LANE_CHANGES = (Behavior.CHANGE_LANE_LEFT.value, Behavior.CHANGE_LANE_RIGHT.value)  # into an adjacent lane
 OPPOSING_PASSES = (Behavior.CROSS_CENTERLINE.value, Behavior.OVERTAKE.value)  # into the opposing lane
+JUNCTIONS = (RoadType.INTERSECTION.value, RoadType.T_INTERSECTION.value)  # road types whose crash is in a junction
 
 
 class RoadElement(StrEnum):

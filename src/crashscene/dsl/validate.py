@@ -12,12 +12,20 @@ from pathlib import Path
 from crashscene.dsl.errors import Diagnostic, DslError, Severity
 from crashscene.dsl.io import parse_yaml, from_raw
 from crashscene.dsl.model import Scenario
-from crashscene.dsl.tokens import CLASS_AREAS, Heading, RoadElement, RoadType, Sign, areas_fit_class, monitored_codes
+from crashscene.dsl.tokens import (
+    CLASS_AREAS,
+    JUNCTIONS,
+    Heading,
+    RoadElement,
+    RoadType,
+    Sign,
+    areas_fit_class,
+    monitored_codes,
+)
 
 ERROR, WARNING = Severity.ERROR, Severity.WARNING
 _SIGN_REFERENCES = {RoadElement.STOP_SIGN: Sign.STOP_SIGN, RoadElement.YIELD_SIGN: Sign.YIELD_SIGN,
                     RoadElement.TRAFFIC_LIGHT: Sign.TRAFFIC_LIGHT}
-_JUNCTIONS = (RoadType.INTERSECTION, RoadType.T_INTERSECTION)
 
 
 MAX_ACTORS = 6  # ego + 5 NPCs: CIREN crashes involve at most 3; beyond this placement is rejection sampling for minutes
@@ -83,11 +91,11 @@ def _actor_checks(s: Scenario) -> Iterator[Diagnostic]:
         if ref == RoadElement.CURVE and s.road_network.road_type != RoadType.CURVE:
             yield Diagnostic("references the curve on a road that is not a curve", f"{base}.reference",
                              value=ref, severity=WARNING)
-        if ref == RoadElement.INTERSECTION and s.road_network.road_type not in _JUNCTIONS:
+        if ref == RoadElement.INTERSECTION and s.road_network.road_type not in JUNCTIONS:
             yield Diagnostic("references an intersection on a road without one", f"{base}.reference",
                              value=ref, severity=WARNING)
         crossing = actor.position.heading in (Heading.FROM_LEFT, Heading.FROM_RIGHT)
-        if crossing and s.road_network.road_type not in _JUNCTIONS:
+        if crossing and s.road_network.road_type not in JUNCTIONS:
             yield Diagnostic("crossing traffic needs an intersection or T-intersection", f"{base}.heading",
                              value=actor.position.heading.value, severity=WARNING)
         if actor.position.heading == Heading.OPPOSITE_DIRECTION and s.road_network.number_of_ways == 1:
@@ -117,7 +125,7 @@ def _road_checks(s: Scenario) -> Iterator[Diagnostic]:
                          value=road.speed_limit_mph, severity=WARNING)
     referenced = {actor.position.reference for actor in s.actors.values()}
     for ref, sign in _SIGN_REFERENCES.items():
-        if sign in road.traffic_signs and ref not in referenced and road.road_type not in _JUNCTIONS:
+        if sign in road.traffic_signs and ref not in referenced and road.road_type not in JUNCTIONS:
             yield Diagnostic(f"a {sign.value} on a {road.road_type.value} road that no actor references "
                              f"controls nothing", "road_network.traffic_signs", value=sign.value,
                              severity=WARNING)

@@ -164,9 +164,3 @@ class EvalContext:
         if self.scenario is None or self.scenario.road_network.speed_limit_mph is None:
             return None
         return self.scenario.road_network.speed_limit_mph * MPH
-
-    def two_lane_two_way(self) -> bool:
-        if self.scenario is None:
-            return False
-        road = self.scenario.road_network
-        return road.number_of_ways == 2 and road.number_of_lanes <= 2

@@ -23,6 +23,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from crashscene.dsl.model import Actor, Scenario
 from crashscene.dsl.tokens import (
+    JUNCTIONS,
     OPPOSING_PASSES,
     Behavior,
     Heading,
@@ -34,13 +35,13 @@ from crashscene.dsl.tokens import (
     Weather,
 )
 from crashscene.monitor.rules import Disposition, dispositions_of
+from crashscene.monitor.rules.speed import unposted_limit
 from crashscene.render.errors import RenderError
 from crashscene.units import MPH
 
 # ---------------------------------------------------------------- defaults (the one table)
 
 HORIZON = 20.0  # [s] default simulation horizon; maps are long enough for it
-DEFAULT_SPEED = 10.0  # [m/s] reference pipeline default when the report is silent
 SPEED_SPREAD = 2.0  # [m/s] half-width of the speed range around the nominal speed (VerifaiRange(8, 12))
 SPEED_SPREAD_FRACTION = 0.1  # half-width as a fraction of a stated speed, when larger than SPEED_SPREAD
 MIN_MOVING_SPEED = 2.0  # [m/s] lower bound of any moving actor's speed range
@@ -234,7 +235,7 @@ def convert(scenario: Scenario, horizon: float = HORIZON) -> RenderPlan:
     rn = scenario.road_network
     env = scenario.environment
     topology = rn.road_type.value
-    junction = rn.road_type in (RoadType.INTERSECTION, RoadType.T_INTERSECTION)
+    junction = rn.road_type in JUNCTIONS
     notes: list[str] = []
     speed_limit = rn.speed_limit_mph * MPH if rn.speed_limit_mph else None
     dispositions: dict[str, list[str]] = {}
@@ -246,13 +247,14 @@ def convert(scenario: Scenario, horizon: float = HORIZON) -> RenderPlan:
         if name not in scenario.actors:
             notes.append(f"oracle names {name}, which is not an actor; its codes are not attributed")
 
-    actors = [_actor_plan(name, actor, scenario, junction, speed_limit, dispositions.get(name, []), notes)
+    basis = speed_basis(speed_limit, junction, rn.number_of_ways, rn.number_of_lanes)
+    actors = [_actor_plan(name, actor, scenario, junction, basis, dispositions.get(name, []), notes)
               for name, actor in scenario.actors.items()]
     _queue(actors)
     _standing_leads(actors, notes)
     _check_references(actors)
     _centre_lanes(actors, scenario)
-    plan_map = _map_spec(scenario, actors, speed_limit, horizon, notes)
+    plan_map = _map_spec(scenario, actors, speed_limit, basis, horizon, notes)
     for actor in actors:
         actor.controlled_by = plan_map.controls.get(_arm_of(actor)) if junction else None
     return RenderPlan(
@@ -275,20 +277,27 @@ def carla_weather(weather: Weather, time_of_day: TimeOfDay, surface: str = "not_
     return base + LIGHT_SUFFIX[time_of_day]
 
 
-def speed_range(actor: Actor, speed_limit: float | None, codes: list[str] | tuple[str, ...] = ()) -> Range:
-    """[m/s] stated speed +-SPEED_SPREAD (or 10 %); else DEFAULT_SPEED +-SPEED_SPREAD; else, with a posted limit,
-    up to the limit for a law-abiding actor ([limit - 2 spread, limit]) and around it for one the oracle charges
-    with a code whose rule injects speeding (CVC_22349, CVC_22350: `Rule.disposition`)."""
+def speed_basis(speed_limit: float | None, junction: bool, number_of_ways: int, number_of_lanes: int) -> float:
+    """[m/s] the limit unstated speeds are sampled by: the posted one, else the one the speed rules apply where
+    none is posted (`unposted_limit`: in the junction on a junction topology), so that the traffic a report is
+    silent about drives as fast as the monitor allows on that road (a rural two-lane road at 55 mph, not 22)."""
+    return speed_limit or unposted_limit(number_of_ways, number_of_lanes, in_junction=junction)
+
+
+def speed_range(actor: Actor, speed_limit: float, codes: list[str] | tuple[str, ...] = ()) -> Range:
+    """[m/s] stated speed +-SPEED_SPREAD (or 10 %); else, by the limit (`speed_basis`), up to it for a
+    law-abiding actor ([limit - 2 spread, limit]) and around it for one the oracle charges with a code whose rule
+    injects speeding (CVC_22349, CVC_22350: `Rule.disposition`)."""
     if actor.behavior in STANDING_BEHAVIORS:
         return Range(low=0.0, high=0.0)
-    nominal = actor.speed_mph * MPH if actor.speed_mph else (speed_limit or DEFAULT_SPEED)
+    nominal = actor.speed_mph * MPH if actor.speed_mph else speed_limit
     spread = max(SPEED_SPREAD, SPEED_SPREAD_FRACTION * nominal)
-    if speed_limit and not actor.speed_mph and Disposition.SPEEDING not in dispositions_of(codes):
+    if not actor.speed_mph and Disposition.SPEEDING not in dispositions_of(codes):
         return Range(low=round(max(MIN_MOVING_SPEED, speed_limit - 2 * spread), 3), high=round(speed_limit, 3))
     return Range(low=round(max(MIN_MOVING_SPEED, nominal - spread), 3), high=round(nominal + spread, 3))
 
 
-def _actor_plan(name: str, actor: Actor, scenario: Scenario, junction: bool, speed_limit: float | None,
+def _actor_plan(name: str, actor: Actor, scenario: Scenario, junction: bool, speed_limit: float,
                 codes: list[str], notes: list[str]) -> ActorPlan:
     pos = actor.position
     heading = pos.heading
@@ -461,7 +470,7 @@ def search_parameters(plan: RenderPlan, actor: ActorPlan, prefix: str,
         out.append((f"{prefix}_MODEL_INDEX", Range(low=0.0, high=float(len(actor.blueprints))),
                     "[-] vehicle model: the pool, smallest first, at the integer part of the value"))
     if is_ads and Sign.TRAFFIC_LIGHT.value in plan.traffic_signs \
-            and plan.topology in (RoadType.INTERSECTION.value, RoadType.T_INTERSECTION.value):
+            and plan.topology in JUNCTIONS:
         out.append(("SIGNAL_GREEN_REMAINING", Range(low=SIGNAL_GREEN[0], high=SIGNAL_GREEN[1]),
                     "[s] green left for the ADS's axis when it reaches the junction"))
     return out
@@ -494,8 +503,10 @@ def _arm_of(actor: ActorPlan) -> str:
             -1.5707963267948966: "left"}[actor.relative_heading]
 
 
-def _map_spec(scenario: Scenario, actors: list[ActorPlan], speed_limit: float | None, horizon: float,
+def _map_spec(scenario: Scenario, actors: list[ActorPlan], speed_limit: float | None, basis: float, horizon: float,
               notes: list[str]) -> MapSpec:
+    """The map: `speed_limit` the posted limit [m/s] it carries (None: none posted), `basis` the one speeds and the
+    curve's radius are chosen by (`speed_basis`)."""
     rn = scenario.road_network
     ways, lanes = rn.number_of_ways, rn.number_of_lanes
     forward = lanes if ways == 1 else max(1, (lanes + 1) // 2)
@@ -512,7 +523,7 @@ def _map_spec(scenario: Scenario, actors: list[ActorPlan], speed_limit: float | 
         notes.append("one-way roadway with an oncoming actor or a centre-line crossing; generated map adds the "
                      "opposing carriageway")
         backward = forward
-    v_max = max([a.speed.high for a in actors] + [speed_limit or DEFAULT_SPEED])
+    v_max = max([a.speed.high for a in actors] + [basis])
     run = v_max * horizon  # [m] distance one actor can cover in the horizon
     farthest = max([ONCOMING_DIST[1]] + [a.init_dist.high for a in actors])
     reach = farthest + SIDE_OFFSET[1] + 2 * INIT_DIST[1] + 20.0  # [m] furthest initial placement
@@ -524,13 +535,12 @@ def _map_spec(scenario: Scenario, actors: list[ActorPlan], speed_limit: float | 
             "center_mark": rn.road_marker.value, "speed_limit": speed_limit, "back_length": round(back, 1),
             "ahead_length": round(ahead, 1)}
     if rn.road_type is RoadType.CURVE:
-        limit = speed_limit or DEFAULT_SPEED
-        radius = min(max(limit ** 2 / CURVE_LATERAL_ACC, CURVE_RADIUS_RANGE[0]), CURVE_RADIUS_RANGE[1])
+        radius = min(max(basis ** 2 / CURVE_LATERAL_ACC, CURVE_RADIUS_RANGE[0]), CURVE_RADIUS_RANGE[1])
         direction = rn.curve_direction.value if rn.curve_direction else "left"
         if rn.curve_direction is None:
             notes.append("curve_direction not stated; left assumed")
         spec.update(curve_direction=direction, curve_radius=round(radius, 1), curve_angle=CURVE_ANGLE)
-    if rn.road_type in (RoadType.INTERSECTION, RoadType.T_INTERSECTION):
+    if rn.road_type in JUNCTIONS:
         spec.update(arms=_junction_arms(rn.road_type, actors, notes),
                     controls=_controls(scenario, actors), ahead_length=round(run + reach, 1),
                     back_length=round(max(back, run + reach), 1))

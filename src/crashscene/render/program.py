@@ -26,7 +26,7 @@ from typing import Any
 
 import jinja2
 
-from crashscene.dsl.tokens import LANE_CHANGES, OPPOSING_PASSES
+from crashscene.dsl.tokens import JUNCTIONS, LANE_CHANGES, OPPOSING_PASSES
 from crashscene.render.errors import RenderError
 from crashscene.render.plan import (
     BLUEPRINT_DIMS,
@@ -35,6 +35,7 @@ from crashscene.render.plan import (
     RenderPlan,
     model_pool,
     placement_order,
+    speed_basis,
 )
 from crashscene.render.plan import search_parameters as plan_search_parameters
 
@@ -258,5 +259,5 @@ def _cruise(actor, plan: RenderPlan) -> Range:
     """[m/s] speed a stopped actor proceeds at."""
     if actor.speed.high > 0:
         return actor.speed
-    limit = plan.speed_limit or 10.0
+    limit = speed_basis(plan.speed_limit, plan.topology in JUNCTIONS, plan.number_of_ways, plan.number_of_lanes)
     return Range(low=round(max(2.0, 0.5 * limit - 2.0), 3), high=round(0.5 * limit + 2.0, 3))

@@ -23,6 +23,8 @@ from crashscene.geometry import LANE_WIDTH
 from crashscene.simulate.backend import SimulationError
 
 ROUTE_DS = 0.5  # [m] spacing of route samples
+CHORD_RESOLVED = 2 * ROUTE_DS  # [m] a centre line with vertices this close has its bends read from its samples
+# heading (central differences over two samples); a longer chord is a straight piece between two turns
 GRID_RES = 0.5  # [m] raster cell size of the lane/junction lookup
 STOP_LINE_SETBACK = 1.0  # [m] stop line before the junction entry
 
@@ -423,6 +425,9 @@ class RoadMap:
         rxy = np.stack([rx, ry], axis=1)
         yaw = _smooth_yaw(rxy)
         curv = np.gradient(np.unwrap(yaw), ROUTE_DS) if len(yaw) > 2 else np.zeros_like(yaw)
+        chords = _chords(cum)[seg_idx - 1]
+        if chords.any():
+            curv = np.where(chords, _polyline_curvature(xy, cum, s), curv)
         junction = np.array([self.junction_by_uid[self.lanes[i].junction].index
                              if i >= 0 and self.lanes[i].junction else -1 for i in lane_idx], dtype=np.int32)
         offset = np.array([self.lanes[i].centerline_offset if i >= 0 else math.nan for i in lane_idx])
@@ -538,6 +543,35 @@ def _smooth_yaw(xy: np.ndarray) -> np.ndarray:
     fwd[0] = xy[1] - xy[0]
     fwd[-1] = xy[-1] - xy[-2]
     return np.arctan2(fwd[:, 1], fwd[:, 0])
+
+
+def _chords(cum: np.ndarray) -> np.ndarray:
+    """Which segments of a polyline whose vertices lie at stations cum (N,) are chords longer than the samples
+    that read its heading resolve (CHORD_RESOLVED), or a short step between two such chords (a joint of two
+    geometries): (N - 1,) bool."""
+    long = np.diff(cum) > CHORD_RESOLVED
+    between = np.zeros_like(long)
+    between[1:-1] = long[:-2] & long[2:]
+    return long | between
+
+
+def _polyline_curvature(xy: np.ndarray, cum: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """[1/m] signed curvature (left positive) at stations s of the polyline xy (N, 2), whose vertices lie at
+    stations cum: at each inner vertex that of the circle through it and its two neighbours (2 sin(turn) over
+    the chord between the neighbours, 1/R at every vertex of a polyline inscribed in a circle of radius R,
+    however far apart its vertices are), linear between vertices, 0 at the ends. Scenic's centre lines of
+    long bends are chords of their arcs (a 400 m radius in 28 m chords, each vertex turning 0.07 rad), and the
+    heading read off samples every ROUTE_DS holds still along a chord and jumps at a vertex: its derivative
+    read 0 along a chord and 30 times the bend's curvature at its vertices. A vertex where the line steps back
+    a few cm (a joint between a straight and an arc) turns by almost half a turn and adds no curvature."""
+    if len(xy) < 3:
+        return np.zeros(len(s))
+    step = np.diff(xy, axis=0)
+    heading = np.arctan2(step[:, 1], step[:, 0])
+    turn = np.remainder(np.diff(heading) + math.pi, math.tau) - math.pi
+    chord = np.hypot(*(xy[2:] - xy[:-2]).T)
+    inner = 2.0 * np.sin(turn) / np.maximum(chord, 1e-9)
+    return np.interp(s, cum, np.concatenate([[0.0], inner, [0.0]]))
 
 
 def _center_markers(path: Path) -> dict[str, str]:

@@ -24,13 +24,30 @@ from crashscene.units import G, MPH
 
 
 
+JUNCTION_LIMIT_MPH = 25.0  # [mph] where no limit is posted, in a junction (rules.md rule 7; CVC 22352 prima facie)
+TWO_LANE_LIMIT_MPH = 55.0  # [mph] where no limit is posted, on a two-lane two-way road (CVC 22349(b))
+ROAD_LIMIT_MPH = 65.0  # [mph] where no limit is posted, elsewhere (CVC 22349(a))
+
+
+def two_lane_two_way(number_of_ways: int, number_of_lanes: int) -> bool:
+    """A two-lane undivided road (CVC 22349(b)): two ways, at most two through lanes in all."""
+    return number_of_ways == 2 and number_of_lanes <= 2
+
+
+def unposted_limit(number_of_ways: int, number_of_lanes: int, in_junction: bool) -> float:
+    """[m/s] the limit the speed rules apply where none is posted, with their default parameters."""
+    if in_junction:
+        return JUNCTION_LIMIT_MPH * MPH
+    return (TWO_LANE_LIMIT_MPH if two_lane_two_way(number_of_ways, number_of_lanes) else ROAD_LIMIT_MPH) * MPH
+
+
 class LimitParams(RuleParams):
     limit_source: Literal["scenario", "trace"] = Field(
         default="scenario", description="which posted limit wins when both the DSL and the trace give one")
-    junction_limit_mph: float = Field(default=25, gt=0, le=100, description="[mph] default limit in junctions")
-    two_lane_limit_mph: float = Field(default=55, gt=0, le=100,
+    junction_limit_mph: float = Field(default=JUNCTION_LIMIT_MPH, gt=0, le=100, description="[mph] default limit in junctions")
+    two_lane_limit_mph: float = Field(default=TWO_LANE_LIMIT_MPH, gt=0, le=100,
                                       description="[mph] default limit on two-lane two-way roads")
-    default_limit_mph: float = Field(default=65, gt=0, le=100, description="[mph] default limit elsewhere")
+    default_limit_mph: float = Field(default=ROAD_LIMIT_MPH, gt=0, le=100, description="[mph] default limit elsewhere")
     start_grace: float = Field(default=2.0, ge=0, le=30, description="[s] from the start of a trace during which "
                                "an ADS's speed is the test's initial condition, not its choice")
 
@@ -39,7 +56,9 @@ def speed_limit(ctx: EvalContext, p: LimitParams) -> np.ndarray:
     """(V, A, T) applicable limit [m/s]."""
     a = ctx.arrays
     trace_limit = a.floats["speed_limit"]
-    road_default = (p.two_lane_limit_mph if ctx.two_lane_two_way() else p.default_limit_mph) * MPH
+    road = ctx.scenario.road_network if ctx.scenario is not None else None
+    two_lane = road is not None and two_lane_two_way(road.number_of_ways, road.number_of_lanes)
+    road_default = (p.two_lane_limit_mph if two_lane else p.default_limit_mph) * MPH
     default = np.where(a.flag("in_junction"), p.junction_limit_mph * MPH, road_default)
     scenario_limit = ctx.scenario_speed_limit()
     trace_ok = np.isfinite(trace_limit) & (trace_limit > 0)

@@ -14,7 +14,7 @@ import numpy as np
 from crashscene.simulate.embedded import cascade, clipahead, lockstep, swerve, timing
 from crashscene.simulate.embedded import skid as skid_plan
 from crashscene.simulate.embedded.meetings import later_terms, matches, place_third, pushed_meetings
-from crashscene.simulate.embedded.stations import relative_to_route
+from crashscene.simulate.embedded.stations import bent_frames, relative_to_route
 
 if TYPE_CHECKING:
     from crashscene.simulate.embedded.plan import VariationPlan
@@ -185,9 +185,10 @@ def _clip_then_meet(plan: VariationPlan, a: int, partner: int, gap: float, conta
         for scale, timed, _ in tried])
     slid = [(scale, timed, shifted, slide) for (scale, timed, shifted), slide in zip(tried, slides)
             if slide is not None]
-    # where each slide starts: the striker's route at the clip's step
-    px, py, pyaw = arrays.point(np.full(len(slid), plan.route[a]),
-                                np.array([plan.s0[a] + plan.speeds[a] * timed.t_step for _, timed, _, _ in slid]))
+    # where each slide starts: the striker's route at the clip's step (on a bend, turned to where they touch)
+    px, py, pyaw = bent_frames(arrays, plan.route[a],
+                               np.array([plan.s0[a] + plan.speeds[a] * timed.t_step for _, timed, _, _ in slid]),
+                               np.array([float(slide[1][0][0]) for *_, slide in slid]))
     meetings = pushed_meetings(plan, a, third, [slide[1] for *_, slide in slid],
                                [(float(x), float(y), float(yaw)) for x, y, yaw in zip(px, py, pyaw)], later)
     for (scale, timed, shifted, (t_touch, _)), meeting in zip(slid, meetings):

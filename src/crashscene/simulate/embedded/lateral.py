@@ -17,7 +17,7 @@ from crashscene.simulate.drivers.behaviors import SPIN_RATE
 from crashscene.simulate.embedded import skid as skid_plan
 from crashscene.simulate.embedded import timing
 from crashscene.simulate.embedded.clip import clip
-from crashscene.simulate.embedded.stations import relative_to_route
+from crashscene.simulate.embedded.stations import relative_to_route, route_bend
 
 if TYPE_CHECKING:
     from crashscene.simulate.embedded.plan import PlanContext, VariationPlan
@@ -141,12 +141,29 @@ def _plan_skid(plan: VariationPlan, a: int, partner: int, contact: str | None, g
     rotation = plan.param(a, ("SKID_ROTATION",), plan.draws.rotation[a])  # sampled in a search, else drawn
     wanted = skid_plan.Wanted(contact, plan.contact_area(a, partner), plan.contact_area(partner, a),
                               skidder_first=a < partner)
-    skid = skid_plan.plan(plan.ctx.skid_paths.get(plan.speeds[a]), plan.speeds[a], gap, plan.speeds[partner],
-                          opposite, lateral - plan.d0[a],
-                          skid_plan.Body(float(plan.length[a]), float(plan.width[a])),
-                          skid_plan.Body(float(plan.length[partner]), float(plan.width[partner])),
-                          skid_plan.rotation_for(contact, opposite, rotation), wanted,
-                          plan.ctx.skid_paths.dt, _centre_line(plan, a) if opposite else None)
+    speed, across = float(plan.speeds[a]), lateral - plan.d0[a]
+
+    def planned(bend: float) -> skid_plan.Skid | None:
+        # on a bend the partner's lane, `across` from mine, is as much longer or shorter than my path
+        along = 1.0 - bend * across
+        # the candidate skids veer left, mirrored toward a partner on the right: so is the bend they are read on
+        side = 1.0 if across >= 0 else -1.0
+        return skid_plan.plan(skid_plan.along_road(plan.ctx.skid_paths.get(speed), side * bend), speed, gap,
+                              plan.speeds[partner] / along, opposite, across,
+                              skid_plan.Body(float(plan.length[a]), float(plan.width[a])),
+                              skid_plan.Body(float(plan.length[partner]), float(plan.width[partner])),
+                              skid_plan.rotation_for(contact, opposite, rotation), wanted,
+                              plan.ctx.skid_paths.dt, _centre_line(plan, a) if opposite else None)
+
+    # the skid is planned on the bend of the stretch it covers: that of the road within its horizon first,
+    # then that of the planned skid's own stretch, from the loss of control to the contact
+    s0 = float(plan.s0[a])
+    bend = _path_bend(plan, a, s0, s0 + speed * skid_plan.HORIZON)
+    skid = planned(bend)
+    if skid is not None and bend != 0.0:
+        start = s0 + speed * skid.trigger
+        again = planned(_path_bend(plan, a, start, start + speed * skid.t_meet))
+        skid = again if again is not None else skid
     if skid is not None and skid.partner_shift:
         placed = plan.shift_start(partner, skid.partner_shift)
         if placed is None:
@@ -159,6 +176,15 @@ def _plan_skid(plan: VariationPlan, a: int, partner: int, contact: str | None, g
     plan.skids[a] = (skid.spin_rate, skid.drift, skid.hold)
     plan.trigger[a] = skid.trigger
     return True
+
+
+def _path_bend(plan: VariationPlan, a: int, s_from: float, s_to: float) -> float:
+    """[1/m] the mean curvature (left positive) of actor a's path, at its offset from its route, from station
+    s_from to s_to of the route; 0.0 on a straight (stations.route_bend)."""
+    bend = route_bend(plan.ctx.arrays, int(plan.route[a]), s_from, s_to)
+    if bend == 0.0:
+        return 0.0
+    return bend / (1.0 - bend * float(plan.d0[a]))  # a path offset to the inside of the bend turns tighter
 
 
 def _centre_line(plan: VariationPlan, a: int) -> float:

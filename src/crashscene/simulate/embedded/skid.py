@@ -105,6 +105,23 @@ def trajectories(speeds: np.ndarray, friction: float, dt: float) -> tuple[np.nda
     return out[0], out[1], out[2]
 
 
+def along_road(paths: tuple[np.ndarray, np.ndarray, np.ndarray], curvature: float
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The skids `paths` (x, y, yaw: along and across the road where the car loses control, and its turn) as a
+    road bending at a constant `curvature` [1/m] (left positive) sees them: the station along the car's path
+    round the bend, the offset across it (left positive) and the yaw off the road's direction there (the
+    Frenet frame of a circular arc). A car out of control keeps its course in the world while its partner
+    follows its lane round the bend: on a bend to the left a skid that goes straight on ends up on the road's
+    right. The paths as they are on a straight road (curvature 0.0, as stations.route_bend gives it)."""
+    if curvature == 0.0:
+        return paths
+    x, y, yaw = paths
+    k = float(curvature)
+    ahead, inward = k * x, 1.0 - k * y  # [-] scaled by the radius: the centre of the bend at (0, 1)
+    station = np.arctan2(ahead, inward) / k
+    return station, (1.0 - np.hypot(ahead, inward)) / k, yaw - k * station
+
+
 @dataclass
 class SkidPaths:
     """The candidate skids by speed at the loss of control, for one friction and simulator step; a batch's are

@@ -20,6 +20,7 @@ if TYPE_CHECKING:
 START_MARGIN = 5.0  # [m] an actor moved back along its route stays this far from the route's start
 END_MARGIN = 100.0  # [m] ...and one moved on, this far from its end (room to drive through the crash)
 START_GAP = 4.0  # [m] bumper gap a moved start keeps from another car of its lane
+STRAIGHT_CURVATURE = 1e-5  # [1/m] a route bending less (a radius over 100 km) is straight for a plan's geometry
 STOP_DECEL = 4.0  # [m/s2] a stopping driver's braking (drivers.behaviors.DECELERATE_RATE)
 
 
@@ -72,6 +73,34 @@ def start_back(arrays: RouteArrays, a: int, route: np.ndarray, s0: np.ndarray, d
                                            or (new < s0[b] < s0[a] and b not in passing)):
             return None
     return float(new)
+
+
+def route_bend(arrays: RouteArrays, r: int, s_from: float, s_to: float) -> float:
+    """[1/m] the mean curvature of route r from station s_from to s_to (left positive): its turn over the
+    distance; 0.0 on a straight (bending less than STRAIGHT_CURVATURE); the stations are kept on the route."""
+    k0, _ = arrays.index(np.array(min(s_from, s_to)))
+    k1, _ = arrays.index(np.array(max(s_from, s_to)))
+    if k1 <= k0:
+        return 0.0
+    turn = float(arrays.yaw[r, k1] - arrays.yaw[r, k0])
+    bend = math.remainder(turn, math.tau) / (float(k1 - k0) * ROUTE_DS)
+    return bend if abs(bend) >= STRAIGHT_CURVATURE else 0.0
+
+
+def bent_frames(arrays: RouteArrays, r: int, s: np.ndarray, along: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Poses (x, y, yaw) (N,) of the frames in which paths planned along a straight road from stations s (N,)
+    of route r are read: the route's pose at s; where the route bends between s and s + along, the frame
+    turned and moved so that its point `along` [m] ahead (where the path matters: a contact) lies on the route
+    at s + along, heading with it. A lane-keeping driver's offset across the lane and turn from it are the
+    straight road's there; what follows that point (a slide) moves as the world has it."""
+    x, y, yaw = arrays.point(np.full(len(s), r), s)
+    bent = np.array([route_bend(arrays, r, a, a + b) != 0.0 for a, b in zip(s, along)], dtype=bool)
+    if bent.any():
+        ahead = along[bent]
+        cx, cy, x_yaw = arrays.point(np.full(len(ahead), r), s[bent] + ahead)
+        x[bent], y[bent], yaw[bent] = cx - np.cos(x_yaw) * ahead, cy - np.sin(x_yaw) * ahead, x_yaw
+    return x, y, yaw
 
 
 def relative_to_route(arrays: RouteArrays, r: int, s: float, x: float, y: float, exact: bool = False
