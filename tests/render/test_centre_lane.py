@@ -39,6 +39,14 @@ THROUGH_FOLLOWER = (
     "  npc2: {type: car, behavior: cross_centerline, position: {reference: ego, relation: front, "
     "heading: opposite_direction}}\n",
     "  - {striking: npc2, struck: npc1, striking_area: front, struck_area: front, class: head_on}\n")
+# a skid across the centre line (no crossing behaviour): the two still meet across it
+SKID = ("  npc1: {type: car, behavior: lose_control, position: {reference: ego, relation: front, "
+        "heading: opposite_direction}}\n",
+        "  - {striking: npc1, struck: ego, striking_area: front, struck_area: front, class: head_on}\n")
+# a left turn across the ego's path crosses it from any lane
+TURN = ("  npc1: {type: car, behavior: turn_left, position: {reference: ego, relation: front, "
+        "heading: opposite_direction}}\n",
+        "  - {striking: ego, struck: npc1, striking_area: front, struck_area: right, class: angle}\n")
 REAR_END = ("  npc1: {type: car, behavior: static, position: {reference: ego, relation: front, "
             "heading: same_direction}}\n",
             "  - {striking: ego, struck: npc1, striking_area: front, struck_area: rear, class: rear_end}\n")
@@ -47,9 +55,11 @@ REAR_END = ("  npc1: {type: car, behavior: static, position: {reference: ego, re
 @pytest.mark.parametrize("written,expected", [
     (OVERTAKE, {"ego": True, "npc1": True}),
     (THROUGH_FOLLOWER, {"ego": True, "npc1": True, "npc2": True}),
+    (SKID, {"ego": True, "npc1": True}),
+    (TURN, {"ego": False, "npc1": False}),
     (REAR_END, {"ego": False, "npc1": False}),
 ])
-def test_the_crosser_and_what_it_meets_from_the_other_way_start_beside_the_centre_line(written, expected):
+def test_the_crosser_and_what_meets_from_the_other_way_start_beside_the_centre_line(written, expected):
     plan = convert(loads(scenario(3, *written)))
     assert {a.role: a.centre_lane for a in plan.actors} == expected
 

@@ -17,6 +17,7 @@ ROADS = {
     "four_way_wide": "road_type: intersection\n  number_of_ways: 2\n  number_of_lanes: 4\n  road_marker: double_solid_line",
     "four_way_six": "road_type: intersection\n  number_of_ways: 2\n  number_of_lanes: 6\n  road_marker: double_solid_line",
     "tee": "road_type: t_intersection\n  number_of_ways: 2\n  number_of_lanes: 2\n  road_marker: double_solid_line",
+    "tee_six": "road_type: t_intersection\n  number_of_ways: 2\n  number_of_lanes: 6\n  road_marker: double_solid_line",
     "two_way": "road_type: straight\n  number_of_ways: 2\n  number_of_lanes: 2\n  road_marker: broken_line",
     "two_way_three": "road_type: straight\n  number_of_ways: 2\n  number_of_lanes: 3\n  road_marker: broken_line",
     "two_way_four": "road_type: straight\n  number_of_ways: 2\n  number_of_lanes: 4\n  road_marker: broken_line",
@@ -232,6 +233,18 @@ LATER_CONTACTS = {  # cascades planned from a predicted slide: (scenario, least 
         contact("ego", "npc1", "right", "rear", "sideswipe") + contact("ego", "npc2", "front", "left", "angle"))
         .replace("weather: clear, time_of_day: daytime, road_surface: dry",
                  "weather: rainy, time_of_day: daytime, road_surface: wet"), 0.8),
+    # a car standing at a junction on a six-lane road is pushed by a rear-end into an oncoming car's path: the two
+    # meet across the centre line, so both start in the lanes beside it (render.plan._centre_lanes; 0.6 of 20 when
+    # the standing car took any of its three lanes, 1.0 of 20 beside the centre line)
+    "a_rear_end_pushes_the_standing_car_into_an_oncoming_one": (scenario(
+        "tee_six", "speed_limit_sign", 50,
+        actor("ego", "stop", "reference: intersection, relation: behind")
+        + actor("npc1", "go_forward", "reference: ego, relation: behind, heading: same_direction")
+        + actor("npc2", "go_forward", "reference: ego, relation: front, heading: opposite_direction"),
+        oracle("CVC_22350", "unsafe_speed", "npc1"),
+        contact("npc1", "ego", "front", "rear", "rear_end") + contact("npc2", "ego", "front", "right", "angle"))
+        .replace("weather: clear, time_of_day: daytime, road_surface: dry",
+                 "weather: rainy, time_of_day: nighttime, road_surface: wet"), 0.9),
     # a truck knocks the slowing car ahead of it aside and runs on into the next one: the plan chooses the corner
     # that takes the knocked car out of the lane soonest and starts the cars ahead far enough on for it to leave
     # before it reaches them (0.65 of 20 when the corner was fixed and the cars ahead were where sampled: the knocked

@@ -126,6 +126,8 @@ HEADING_ANGLE: dict[Heading, float] = {
     Heading.SAME_DIRECTION: 0.0, Heading.FROM_RIGHT: 1.5707963267948966,
     Heading.OPPOSITE_DIRECTION: 3.141592653589793, Heading.FROM_LEFT: -1.5707963267948966,
 }
+OPPOSITE_COS = -0.5  # [-] cosine of the relative heading below which two actors travel in opposite directions
+# (beyond 120 deg: HEADING_ANGLE's opposite_direction, not a crossing from the left or right)
 JUNCTION_ELEMENTS = {RoadElement.INTERSECTION, RoadElement.STOP_SIGN, RoadElement.YIELD_SIGN,
                      RoadElement.TRAFFIC_LIGHT}
 
@@ -408,20 +410,21 @@ def _standing_leads(actors: list[ActorPlan], notes: list[str]) -> None:
 def _centre_lanes(actors: list[ActorPlan], scenario: Scenario) -> None:
     """Mark the actors that start in the lane beside the centre line (`centre_lane`). A driver crosses the centre
     line from the lane next to it, into the nearest opposing lane (dsl.md: `cross_centerline` enters the opposing
-    lanes, `overtake` passes through the opposing lane); so a vehicle written as meeting such a driver head-on or
-    from the opposite direction travels in that lane too. Without this, a road with more lanes than two may start
-    either in an outer lane, one or more lanes away from where the crossing happens. A follower shares its
-    reference's lane, so the reference takes the mark as well. Only a preference: `scenic_support.candidates`
-    drops it where no placement can honour it (e.g. an actor written beside another on its left)."""
+    lanes, `overtake` passes through the opposing lane); and two vehicles travelling in opposite directions, neither
+    turning, meet only across the centre line (one crosses it, or is pushed or skids over it), so both of a written
+    contact between them travel in the lanes beside it, the fewest lanes apart. Without this, a road with more lanes
+    than two may start either in an outer lane, one or more lanes away from where the crossing happens. A follower
+    shares its reference's lane, so the reference takes the mark as well. Only a preference:
+    `scenic_support.candidates` drops it where no placement can honour it (e.g. an actor written beside another on
+    its left)."""
     by_role = {a.role: a for a in actors}
-    crossers = {a.role for a in actors if a.behavior in OPPOSING_PASSES}
-    centre = set(crossers)
+    centre = {a.role for a in actors if a.behavior in OPPOSING_PASSES}
     for contact in scenario.collisions or ():
-        pair = (contact.striking, contact.struck)
-        for one, other in (pair, pair[::-1]):
-            if one in crossers and other in by_role and math.cos(
-                    by_role[one].relative_heading - by_role[other].relative_heading) < 0.0:
-                centre.add(other)
+        one, other = by_role.get(contact.striking), by_role.get(contact.struck)
+        if one is None or other is None or one.behavior in MANEUVER or other.behavior in MANEUVER:
+            continue  # a turn at a junction crosses the other's path from any lane (setup._choose_crossing_lanes)
+        if math.cos(one.relative_heading - other.relative_heading) < OPPOSITE_COS:
+            centre |= {one.role, other.role}
     grown = True
     while grown:
         followed = {a.placement_ref for a in actors if a.role in centre and a.placement is Placement.FOLLOW}
