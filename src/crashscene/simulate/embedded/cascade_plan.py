@@ -18,7 +18,7 @@ from crashscene.simulate.embedded import cascade, followon, lockstep, timing
 from crashscene.simulate.embedded.clip import pull_out_path
 from crashscene.simulate.embedded.lateral import DRIFT_BEHAVIORS
 from crashscene.simulate.embedded.meetings import SIDE_ALONG, later_terms, matches, place_third, pushed_meetings
-from crashscene.simulate.embedded.stations import STOP_DECEL, relative_to_route
+from crashscene.simulate.embedded.stations import STOP_DECEL, relative_to_route, start_clear
 
 if TYPE_CHECKING:
     from crashscene.simulate.embedded.plan import VariationPlan
@@ -123,6 +123,12 @@ def _plan_cascade(plan: VariationPlan, found: tuple[int, int, int, int, str, tup
     moving = (fwd, left, yaw) if mover == ti else striker
     meetings = pushed_meetings(plan, mover, xi, [tuple(q[j] for q in moving) for j in range(len(offsets))],
                                [(px, py, pyaw)] * len(offsets), later)
+    # a corner the striker would have to start beside another vehicle's body for (a wide truck drifting into the
+    # corner of a car on the shoulder, the next lane's car alongside) is not taken while another corner is clear
+    clear = [start_clear(plan, si, _start_lateral(plan, si, t1, lat_s + o * plan.width[ti], head_on))
+             for o in offsets]
+    if any(clear):
+        meetings = [meeting if ok else None for meeting, ok in zip(meetings, clear)]
     # a striker drifting out of the lane ahead of it is no obstacle to a start behind it
     passing = (si,) if plan.ctx.columns[si].behavior in LATERAL_BEHAVIORS else ()
     if nxt is not None:
@@ -171,6 +177,18 @@ def _plan_cascade(plan: VariationPlan, found: tuple[int, int, int, int, str, tup
     if nxt is not None:  # the fourth actor, in the lane and at the time the chosen contact sends the car into
         followon.place(plan, nxt, choice)
     return choice.key if choice is not None else None
+
+
+def _start_lateral(plan: VariationPlan, a: int, t1: float, target: float, head_on: bool) -> float:
+    """[m] where across its route the striker a starts when it is to strike a corner `target` [m] off its route at
+    t1 [s] (as `_plan_cascade` places it): a drifting one where its drift into it starts (`_drift_into`), one
+    steering across to a head-on, or coming head-on, where it is; else on the corner's line."""
+    if head_on:
+        return float(plan.d0[a])
+    if plan.ctx.columns[a].behavior in LATERAL_BEHAVIORS:
+        k, rows, sign = _drift_lead(plan, a, t1, target)
+        return target - sign * (float(np.abs(rows[1][0])[k]) if k >= 0 else 0.0)
+    return target
 
 
 def _touch_time(plan: VariationPlan, si: int, ti: int, t1: float, point: tuple[float, float], head_on: bool) -> float:

@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from crashscene.geometry import footprints_overlap
 from crashscene.simulate.drivers.behaviors import DECELERATE_RATE, DECELERATE_TO
 from crashscene.simulate.embedded.world import RouteArrays
 from crashscene.simulate.roads import ROUTE_DS
@@ -113,3 +114,32 @@ def relative_to_route(arrays: RouteArrays, r: int, s: float, x: float, y: float,
     lateral = -math.sin(yaw) * dx + math.cos(yaw) * dy
     along = math.cos(yaw) * dx + math.sin(yaw) * dy if exact else 0.0
     return k * ROUTE_DS + along - s, lateral
+
+
+def start_pose(plan: VariationPlan, a: int, lateral: float | None = None) -> tuple[float, float, float]:
+    """World pose [m, m, rad] actor a starts at, as the simulator places it (setup._apply_plan_moves): moved along
+    its route, the route's point at its start, `lateral` [m] off it when that is a planned offset (over 1 m, or
+    drifted), else on it; otherwise its sampled pose shifted across its route by how far the plan drifted it.
+    `lateral`: the start offset a plan step would give it instead of its present one (`plan.d0`)."""
+    d0 = float(plan.d0[a])
+    lateral = d0 if lateral is None else float(lateral)
+    drifted = float(plan.drifted[a]) + lateral - d0
+    px, py, pyaw = (float(q[0]) for q in plan.ctx.arrays.point(np.array([plan.route[a]]),
+                                                              np.array([float(plan.s0[a])])))
+    if plan.moved[a]:
+        lateral = lateral if abs(lateral) > 1.0 or drifted != 0.0 else 0.0
+        return px - math.sin(pyaw) * lateral, py + math.cos(pyaw) * lateral, pyaw
+    actor = plan.scene.actors[a]
+    return actor.x - math.sin(pyaw) * drifted, actor.y + math.cos(pyaw) * drifted, actor.yaw
+
+
+def start_clear(plan: VariationPlan, a: int, lateral: float | None = None) -> bool:
+    """Whether actor a's body at its start (`start_pose`, `lateral` [m] off its route) is clear of every other
+    actor's body at its own: two bodies that overlap at t = 0 make the variation invalid (a spawn overlap)."""
+    xa, ya, yawa = start_pose(plan, a, lateral)
+    others = [b for b in range(len(plan.ctx.columns)) if b != a]
+    if not others:
+        return True
+    xb, yb, yawb = (np.array(q) for q in zip(*(start_pose(plan, b) for b in others)))
+    return not footprints_overlap(xa, ya, yawa, plan.length[a], plan.width[a], xb, yb, yawb, plan.length[others],
+                                  plan.width[others]).any()
