@@ -448,6 +448,16 @@ def _dedupe(pts: np.ndarray) -> np.ndarray:
     return pts[keep]
 
 
+def _centre_line(lane: Lane) -> tuple[shapely.LineString, np.ndarray]:
+    """The lane's centre line as a shapely line and the distance along it of each of its points [m] (cached)."""
+    cached = getattr(lane, "_line", None)
+    if cached is None:
+        along = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(lane.points, axis=0).T))])
+        cached = (shapely.LineString(lane.points), along)
+        object.__setattr__(lane, "_line", cached)
+    return cached
+
+
 def _lane_polygon(lane: Lane) -> shapely.Geometry:
     cached = getattr(lane, "_poly", None)
     if cached is None:
@@ -461,8 +471,8 @@ def heading_near(lane: Lane, x: float, y: float) -> float:
     HEADING_SPAN behind that point to HEADING_SPAN ahead of it: Scenic's centre lines carry tiny backward kinks (a
     few cm) at geometry joints, and the one segment nearest such a joint points backwards."""
     pts = lane.points
-    along = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(pts, axis=0).T))])
-    s = float(locate_on_line(pts, x, y))
+    line, along = _centre_line(lane)
+    s = float(shapely.line_locate_point(line, shapely.Point(x, y)))  # locate_on_line's floats, for one point
     a, b = max(s - HEADING_SPAN, 0.0), min(s + HEADING_SPAN, along[-1])
     if b <= a:
         return math.atan2(pts[-1, 1] - pts[0, 1], pts[-1, 0] - pts[0, 0])
