@@ -94,6 +94,21 @@ def test_unstated_speed_is_up_to_the_limit_the_speed_rules_apply_where_none_is_p
     assert unposted_limit(ways, lanes, road_type in ("intersection", "t_intersection")) == pytest.approx(mph * MPH)
 
 
+def test_an_actor_charged_with_speeding_at_an_unposted_junction_is_sampled_by_its_approachs_limit():
+    """The monitor judges a speeder on its approach by the road's default (55 mph on a two-lane two-way road), not
+    the junction's 25 mph: sampled around 25 mph it could not speed there (3-C2-2018-008 with its limit unstated:
+    a rear-end on the approach, 0 of 20 reproduced). A law-abiding actor keeps to the junction's limit."""
+    s = BASE % {"road_type": "t_intersection", "ways": 2, "lanes": 2, "signs": "", "ego_behavior": "stop",
+                "ego_ref": "intersection", "npcs": "  npc1: {type: car, behavior: go_forward, position: "
+                "{reference: ego, relation: behind, heading: same_direction}}"}
+    s = s.replace("oracle: []", "oracle:\n  - {code: CVC_22350, violation: unsafe_speed, actor: npc1}")
+    plan = convert(loads(s))
+    speeder = next(a for a in plan.actors if a.role == "npc1")
+    assert speeder.speed.low < 55 * MPH < speeder.speed.high
+    calm = convert(loads(s.replace("actor: npc1", "actor: ego").replace("behavior: stop", "behavior: go_forward")))
+    assert next(a for a in calm.actors if a.role == "npc1").speed.high == pytest.approx(25 * MPH, abs=1e-3)
+
+
 def test_stated_speed_and_limit_set_the_nominal_speed():
     s = scenario(npcs="  npc1: {type: car, behavior: go_forward, speed_mph: 40, "
                       "position: {reference: ego, relation: front, heading: same_direction}}")

@@ -250,7 +250,11 @@ def convert(scenario: Scenario, horizon: float = HORIZON) -> RenderPlan:
             notes.append(f"oracle names {name}, which is not an actor; its codes are not attributed")
 
     basis = speed_basis(speed_limit, junction, rn.number_of_ways, rn.number_of_lanes)
-    actors = [_actor_plan(name, actor, scenario, junction, basis, dispositions.get(name, []), notes)
+    # an actor charged with speeding is judged on its approach too, where no junction limit applies
+    approach = speed_basis(speed_limit, False, rn.number_of_ways, rn.number_of_lanes)
+    actors = [_actor_plan(name, actor, scenario, junction,
+                          approach if Disposition.SPEEDING in dispositions_of(dispositions.get(name, [])) else basis,
+                          dispositions.get(name, []), notes)
               for name, actor in scenario.actors.items()]
     _queue(actors)
     _standing_leads(actors, notes)
@@ -281,8 +285,8 @@ def carla_weather(weather: Weather, time_of_day: TimeOfDay, surface: str = "not_
 
 def speed_basis(speed_limit: float | None, junction: bool, number_of_ways: int, number_of_lanes: int) -> float:
     """[m/s] the limit unstated speeds are sampled by: the posted one, else the one the speed rules apply where
-    none is posted (`unposted_limit`: in the junction on a junction topology), so that the traffic a report is
-    silent about drives as fast as the monitor allows on that road (a rural two-lane road at 55 mph, not 22)."""
+    none is posted (`unposted_limit`: in the junction when `junction`), so that the traffic a report is silent
+    about drives as fast as the monitor allows on that road (a rural two-lane road at 55 mph, not 22)."""
     return speed_limit or unposted_limit(number_of_ways, number_of_lanes, in_junction=junction)
 
 
