@@ -250,11 +250,8 @@ def convert(scenario: Scenario, horizon: float = HORIZON) -> RenderPlan:
             notes.append(f"oracle names {name}, which is not an actor; its codes are not attributed")
 
     basis = speed_basis(speed_limit, junction, rn.number_of_ways, rn.number_of_lanes)
-    # an actor charged with speeding is judged on its approach too, where no junction limit applies
     approach = speed_basis(speed_limit, False, rn.number_of_ways, rn.number_of_lanes)
-    actors = [_actor_plan(name, actor, scenario, junction,
-                          approach if Disposition.SPEEDING in dispositions_of(dispositions.get(name, [])) else basis,
-                          dispositions.get(name, []), notes)
+    actors = [_actor_plan(name, actor, scenario, junction, (basis, approach), dispositions.get(name, []), notes)
               for name, actor in scenario.actors.items()]
     _queue(actors)
     _standing_leads(actors, notes)
@@ -290,20 +287,23 @@ def speed_basis(speed_limit: float | None, junction: bool, number_of_ways: int, 
     return speed_limit or unposted_limit(number_of_ways, number_of_lanes, in_junction=junction)
 
 
-def speed_range(actor: Actor, speed_limit: float, codes: list[str] | tuple[str, ...] = ()) -> Range:
-    """[m/s] stated speed +-SPEED_SPREAD (or 10 %); else, by the limit (`speed_basis`), up to it for a
-    law-abiding actor ([limit - 2 spread, limit]) and around it for one the oracle charges with a code whose rule
-    injects speeding (CVC_22349, CVC_22350: `Rule.disposition`)."""
+def speed_range(actor: Actor, limits: tuple[float, float], codes: list[str] | tuple[str, ...] = ()) -> Range:
+    """[m/s] stated speed +-SPEED_SPREAD (or 10 %); else, by the limits (`speed_basis`: where the actor drives, and
+    on its approach), up to the first for a law-abiding actor ([limit - 2 spread, limit]) and around the second for
+    one the oracle charges with a code whose rule injects speeding (CVC_22349, CVC_22350: `Rule.disposition`): a
+    speeder is judged on its approach too, where no junction limit applies."""
     if actor.behavior in STANDING_BEHAVIORS:
         return Range(low=0.0, high=0.0)
+    speeding = Disposition.SPEEDING in dispositions_of(codes)
+    speed_limit = limits[1] if speeding else limits[0]
     nominal = actor.speed_mph * MPH if actor.speed_mph else speed_limit
     spread = max(SPEED_SPREAD, SPEED_SPREAD_FRACTION * nominal)
-    if not actor.speed_mph and Disposition.SPEEDING not in dispositions_of(codes):
+    if not actor.speed_mph and not speeding:
         return Range(low=round(max(MIN_MOVING_SPEED, speed_limit - 2 * spread), 3), high=round(speed_limit, 3))
     return Range(low=round(max(MIN_MOVING_SPEED, nominal - spread), 3), high=round(nominal + spread, 3))
 
 
-def _actor_plan(name: str, actor: Actor, scenario: Scenario, junction: bool, speed_limit: float,
+def _actor_plan(name: str, actor: Actor, scenario: Scenario, junction: bool, limits: tuple[float, float],
                 codes: list[str], notes: list[str]) -> ActorPlan:
     pos = actor.position
     heading = pos.heading
@@ -327,7 +327,7 @@ def _actor_plan(name: str, actor: Actor, scenario: Scenario, junction: bool, spe
         heading_relation=pos.heading.value if pos.heading else None, placement=placement, placement_ref=ref,
         along=_along(name, pos.relation),
         relative_heading=HEADING_ANGLE[heading] if heading else 0.0, maneuver=maneuver,
-        route_intent=ROUTE_INTENT[actor.behavior], speed=speed_range(actor, speed_limit, codes),
+        route_intent=ROUTE_INTENT[actor.behavior], speed=speed_range(actor, limits, codes),
         init_dist=Range(low=dist[0], high=dist[1]), side_offset=Range(low=SIDE_OFFSET[0], high=SIDE_OFFSET[1]),
         arrival_offset=arrival, maneuver_time=Range(low=MANEUVER_TIME[0], high=MANEUVER_TIME[1]),
         stop_duration=Range(low=STOP_DURATION[0], high=STOP_DURATION[1]), dispositions=codes)

@@ -44,7 +44,8 @@ def unposted_limit(number_of_ways: int, number_of_lanes: int, in_junction: bool)
 class LimitParams(RuleParams):
     limit_source: Literal["scenario", "trace"] = Field(
         default="scenario", description="which posted limit wins when both the DSL and the trace give one")
-    junction_limit_mph: float = Field(default=JUNCTION_LIMIT_MPH, gt=0, le=100, description="[mph] default limit in junctions")
+    junction_limit_mph: float = Field(default=JUNCTION_LIMIT_MPH, gt=0, le=100,
+                                      description="[mph] default limit in junctions")
     two_lane_limit_mph: float = Field(default=TWO_LANE_LIMIT_MPH, gt=0, le=100,
                                       description="[mph] default limit on two-lane two-way roads")
     default_limit_mph: float = Field(default=ROAD_LIMIT_MPH, gt=0, le=100, description="[mph] default limit elsewhere")
